@@ -1,0 +1,201 @@
+"""Generate small micro-ROS-shaped colcon workspaces for the integration tests.
+
+The packages are plain CMake packages (colcon's `cmake` build type) with package.xml
+dependencies, ROS-2-style nested include trees (include/<pkg>/<pkg>/...), and the archive traps
+the merge must survive: the same source file name in two packages, and two same-named objects in
+one library (src/a/common.c and src/b/common.c).
+"""
+
+from __future__ import annotations
+
+import textwrap
+from pathlib import Path
+
+
+def _write(path: Path, text: str) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(textwrap.dedent(text).lstrip(), encoding="utf-8")
+
+
+def _package_xml(name: str, deps: list[str]) -> str:
+    dep_lines = "\n".join(f"  <depend>{d}</depend>" for d in deps)
+    return f"""\
+<?xml version="1.0"?>
+<package format="3">
+  <name>{name}</name>
+  <version>0.1.0</version>
+  <description>uros test fixture {name}</description>
+  <maintainer email="dev@example.com">uros tests</maintainer>
+  <license>Apache-2.0</license>
+{dep_lines}
+  <export>
+    <build_type>cmake</build_type>
+  </export>
+</package>
+"""
+
+
+def _cmake(name: str, sources: list[str], deps: list[str], nested: bool = True, extra: str = "") -> str:
+    finds = "\n".join(f"find_package({d} REQUIRED)" for d in deps)
+    links = " ".join(f"{d}::{d}" for d in deps)
+    inc_dest = f"include/{name}" if nested else "include"
+    return f"""\
+cmake_minimum_required(VERSION 3.16)
+project({name} C)
+{finds}
+{extra}
+add_library({name} STATIC {" ".join(sources)})
+target_include_directories({name} PUBLIC
+  $<BUILD_INTERFACE:${{CMAKE_CURRENT_SOURCE_DIR}}/include>
+  $<INSTALL_INTERFACE:{inc_dest}>)
+{f"target_link_libraries({name} PUBLIC {links})" if deps else ""}
+install(TARGETS {name} EXPORT {name}Targets ARCHIVE DESTINATION lib)
+install(DIRECTORY include/ DESTINATION {inc_dest})
+install(EXPORT {name}Targets NAMESPACE {name}:: DESTINATION share/{name}/cmake)
+file(WRITE ${{CMAKE_CURRENT_BINARY_DIR}}/{name}Config.cmake
+  "include(CMakeFindDependencyMacro)\\n{"".join(f"find_dependency({d})" + chr(92) + "n" for d in deps)}include(\\${{CMAKE_CURRENT_LIST_DIR}}/cmake/{name}Targets.cmake)\\n")
+install(FILES ${{CMAKE_CURRENT_BINARY_DIR}}/{name}Config.cmake DESTINATION share/{name})
+"""
+
+
+def make_fixture_workspace(root: Path) -> Path:
+    """Create <root>/mcu_ws with five packages; return root."""
+    src = root / "mcu_ws" / "src"
+
+    # fx_core: nested headers, a util.c (the same file name as fx_util's)
+    core = src / "fx_core"
+    _write(core / "package.xml", _package_xml("fx_core", []))
+    _write(
+        core / "CMakeLists.txt",
+        _cmake(
+            "fx_core",
+            ["src/core.c", "src/util.c"],
+            [],
+            # FX_SLOW: a configure step that takes long enough to interrupt (tests of Ctrl-C).
+            extra='option(FX_SLOW "" OFF)\nif(FX_SLOW)\n  execute_process(COMMAND ${CMAKE_COMMAND} -E sleep 60)\nendif()',
+        ),
+    )
+    _write(
+        core / "include/fx_core/core.h",
+        """
+        #ifndef FX_CORE_CORE_H
+        #define FX_CORE_CORE_H
+        int fx_core_add(int a, int b);
+        int fx_core_util(void);
+        #endif
+    """,
+    )
+    _write(core / "include/fx_core/detail/version.h", "#define FX_CORE_VERSION 1\n")
+    _write(
+        core / "src/core.c", '#include "fx_core/core.h"\nint fx_core_add(int a, int b) { return a + b; }\n'
+    )
+    _write(core / "src/util.c", '#include "fx_core/core.h"\nint fx_core_util(void) { return 1; }\n')
+
+    # fx_util: depends on fx_core, has its own util.c -> util.c.obj in two archives
+    util = src / "fx_util"
+    _write(util / "package.xml", _package_xml("fx_util", ["fx_core"]))
+    _write(util / "CMakeLists.txt", _cmake("fx_util", ["src/util.c", "src/scale.c"], ["fx_core"]))
+    _write(util / "include/fx_util/util.h", "int fx_util_twice(int x);\ndouble fx_util_scale(double x);\n")
+    _write(
+        util / "src/util.c",
+        """
+        #include <fx_core/core.h>
+        #include "fx_util/util.h"
+        int fx_util_twice(int x) { return fx_core_add(x, x); }
+    """,
+    )
+    _write(
+        util / "src/scale.c",
+        '#include "fx_util/util.h"\ndouble fx_util_scale(double x) { return x * 1.5; }\n',
+    )
+
+    # fx_dup: two same-named objects (common.c.obj) inside one archive
+    dup = src / "fx_dup"
+    _write(dup / "package.xml", _package_xml("fx_dup", []))
+    _write(dup / "CMakeLists.txt", _cmake("fx_dup", ["src/a/common.c", "src/b/common.c"], []))
+    _write(dup / "include/fx_dup/dup.h", "int fx_dup_a(void);\nint fx_dup_b(void);\n")
+    _write(dup / "src/a/common.c", "int fx_dup_a(void) { return 'a'; }\n")
+    _write(dup / "src/b/common.c", "int fx_dup_b(void) { return 'b'; }\n")
+
+    # fx_time: what rcutils does on newlib: needs CLOCK_MONOTONIC defined and clock_gettime
+    # declared (implicit declarations are errors here, as in GCC >= 14), and a meta option.
+    tm = src / "fx_time"
+    _write(tm / "package.xml", _package_xml("fx_time", ["fx_core"]))
+    _write(
+        tm / "CMakeLists.txt",
+        _cmake(
+            "fx_time",
+            ["src/time.c"],
+            ["fx_core"],
+            extra=textwrap.dedent("""
+            option(FX_TIME_ENABLE "set by colcon.meta" OFF)
+            if(NOT FX_TIME_ENABLE)
+              message(FATAL_ERROR "FX_TIME_ENABLE is OFF: the colcon.meta did not reach fx_time")
+            endif()
+            add_compile_options(-Werror=implicit-function-declaration)
+        """),
+        ),
+    )
+    _write(tm / "include/fx_time/time_now.h", "long long fx_time_now_ns(void);\n")
+    _write(
+        tm / "src/time.c",
+        """
+        #include <time.h>
+        #include "fx_time/time_now.h"
+        #ifndef CLOCK_MONOTONIC
+        #error "CLOCK_MONOTONIC is not defined: the micro-ROS-only flags did not reach this package"
+        #endif
+        long long fx_time_now_ns(void) {
+          struct timespec ts;
+          clock_gettime(CLOCK_MONOTONIC, &ts);
+          return (long long)ts.tv_sec * 1000000000LL + ts.tv_nsec;
+        }
+    """,
+    )
+
+    # fx_flat: a flat include layout (like Micro-CDR's include/ucdr/)
+    flat = src / "fx_flat"
+    _write(flat / "package.xml", _package_xml("fx_flat", ["fx_util", "fx_dup"]))
+    _write(flat / "CMakeLists.txt", _cmake("fx_flat", ["src/flat.c"], ["fx_util", "fx_dup"], nested=False))
+    _write(flat / "include/fxflat/flat.h", "int fx_flat_sum(void);\n")
+    _write(
+        flat / "src/flat.c",
+        """
+        #include <fx_util/util.h>
+        #include <fx_dup/dup.h>
+        #include "fxflat/flat.h"
+        int fx_flat_sum(void) { return fx_util_twice(fx_dup_a()) + fx_dup_b(); }
+    """,
+    )
+
+    # fx_skip_cpp: matched by --packages-ignore-regex=.*_cpp; it would fail if built.
+    skip = src / "fx_skip_cpp"
+    _write(skip / "package.xml", _package_xml("fx_skip_cpp", []))
+    _write(
+        skip / "CMakeLists.txt",
+        "cmake_minimum_required(VERSION 3.16)\nproject(fx_skip_cpp C)\n"
+        'message(FATAL_ERROR "packages ending in _cpp must be ignored")\n',
+    )
+
+    _write(
+        root / "fixture.meta",
+        """
+        {"names": {"fx_time": {"cmake-args": ["-DFX_TIME_ENABLE=ON"]}}}
+    """,
+    )
+    return root
+
+
+# Expected facts of the fixture build
+FIXTURE_LIBRARIES = ("libfx_core.a", "libfx_dup.a", "libfx_flat.a", "libfx_time.a", "libfx_util.a")
+FIXTURE_MEMBERS = 8  # core.c, util.c | common.c x2 | flat.c | time.c | util.c, scale.c
+FIXTURE_SYMBOLS = (
+    "fx_core_add",
+    "fx_core_util",
+    "fx_dup_a",
+    "fx_dup_b",
+    "fx_flat_sum",
+    "fx_time_now_ns",
+    "fx_util_twice",
+    "fx_util_scale",
+)

@@ -1,0 +1,233 @@
+"""The core pipeline end to end: real uros CLI, real colcon, real CMake, real arm-none-eabi-gcc."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from collections import Counter
+from pathlib import Path
+
+import pytest
+from fixture_ws import FIXTURE_LIBRARIES, FIXTURE_MEMBERS, FIXTURE_SYMBOLS, make_fixture_workspace
+from uros_helpers import run_uros
+
+pytestmark = pytest.mark.integration
+
+
+def _members(lib: Path) -> list[str]:
+    out = subprocess.run(
+        ["arm-none-eabi-ar", "t", str(lib)], capture_output=True, text=True, check=True
+    ).stdout
+    return out.split()
+
+
+def _defined_globals(lib: Path) -> Counter[str]:
+    out = subprocess.run(
+        ["arm-none-eabi-nm", "-g", "--defined-only", "--format=posix", str(lib)],
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout
+    return Counter(line.split()[0] for line in out.splitlines() if line and not line.endswith(":"))
+
+
+def _sha(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def test_library_keeps_every_member_and_symbol(m7_build: Path) -> None:
+    out = m7_build / "build" / "cortex-m7"
+    lib = out / "libmicroros.a"
+    members = _members(lib)
+    assert len(members) == FIXTURE_MEMBERS
+    # the two same-named common.c.obj of one archive are both there, under distinct names
+    assert sum("common.c" in m for m in members) == 2
+    assert sum("util.c" in m for m in members) == 2  # fx_core's and fx_util's util.c
+    assert len(set(members)) == len(members)
+    assert _defined_globals(lib) == Counter(FIXTURE_SYMBOLS)
+    # the inputs add up to the same
+    install_lib = m7_build / ".uros" / "targets" / "cortex-m7" / "install" / "lib"
+    assert sorted(p.name for p in install_lib.glob("*.a")) == list(FIXTURE_LIBRARIES)
+    assert sum(len(_members(p)) for p in install_lib.glob("*.a")) == FIXTURE_MEMBERS
+
+
+def test_include_tree_is_flattened_headers_only(m7_build: Path) -> None:
+    inc = m7_build / "build" / "cortex-m7" / "include"
+    files = sorted(str(p.relative_to(inc)) for p in inc.rglob("*") if p.is_file())
+    assert files == [
+        "fx_core/core.h",
+        "fx_core/detail/version.h",
+        "fx_dup/dup.h",
+        "fx_time/time_now.h",
+        "fx_util/util.h",
+        "fxflat/flat.h",
+    ]
+
+
+def test_build_info(m7_build: Path) -> None:
+    out = m7_build / "build" / "cortex-m7"
+    info = json.loads((out / "build-info.json").read_text())
+    assert info["target"] == "cortex-m7"
+    assert info["flags"]["cpu"] == ["-mcpu=cortex-m7", "-mthumb", "-mfpu=fpv5-d16", "-mfloat-abi=hard"]
+    assert info["flags"]["micro_ros_only"][0] == "-DCLOCK_MONOTONIC=0"
+    assert info["compiler"]["path"].endswith("arm-none-eabi-gcc") and info["compiler"]["version"]
+    assert info["packages"] == ["fx_core", "fx_dup", "fx_flat", "fx_time", "fx_util"]
+    assert info["library"]["members"] == FIXTURE_MEMBERS
+    assert info["library"]["defined_global_symbols"] == len(FIXTURE_SYMBOLS)
+    assert info["library"]["sha256"] == _sha(out / "libmicroros.a")
+    assert info["library"]["size"]["text"] > 0
+    assert info["transport"] == "custom"
+    assert info["include"]["files"] == 6
+    # sorted keys, deterministic
+    text = (out / "build-info.json").read_text()
+    assert text == json.dumps(json.loads(text), indent=2, sort_keys=True) + "\n"
+
+
+def test_profile_optimisation_applies_not_O3(m7_build: Path) -> None:
+    cc = m7_build / ".uros" / "targets" / "cortex-m7" / "build" / "fx_core" / "compile_commands.json"
+    commands = [entry["command"] for entry in json.loads(cc.read_text())]
+    assert commands and all(" -Os " in c and "-O3" not in c for c in commands)
+    assert all("-DCLOCK_MONOTONIC=0" in c for c in commands)
+
+
+def test_second_build_reuses_trees_and_is_reproducible(m7_build: Path) -> None:
+    out = m7_build / "build" / "cortex-m7"
+    before = _sha(out / "libmicroros.a")
+    cache = m7_build / ".uros" / "targets" / "cortex-m7" / "build" / "fx_core" / "CMakeCache.txt"
+    cache_mtime = cache.stat().st_mtime_ns
+    proc = run_uros(
+        "build",
+        "--toolchain",
+        "cortex-m7",
+        "--workspace",
+        str(m7_build),
+        "--meta",
+        str(m7_build / "fixture.meta"),
+        "--verbose",
+    )
+    assert cache.stat().st_mtime_ns == cache_mtime  # not reconfigured from scratch
+    assert "no work to do" in proc.stderr  # ninja had nothing to compile
+    assert _sha(out / "libmicroros.a") == before
+
+
+def test_failed_build_leaves_previous_output(m7_build: Path, tmp_path: Path) -> None:
+    ws = make_fixture_workspace(tmp_path / "ws")
+    args = ["build", "--toolchain", "cortex-m7", "--workspace", str(ws), "--meta", str(ws / "fixture.meta")]
+    run_uros(*args)
+    out = ws / "build" / "cortex-m7"
+    good = _sha(out / "libmicroros.a")
+    (ws / "mcu_ws/src/fx_util/src/scale.c").write_text("double fx_util_scale(double x) { return x * ; }\n")
+    proc = run_uros(*args, check=False)
+    assert proc.returncode == 4
+    error_line = next(line for line in proc.stderr.splitlines() if line.startswith("error:"))
+    assert "scale.c" in error_line and "colcon build failed" in error_line
+    assert "log" in proc.stderr and ".uros/log/" in proc.stderr
+    assert _sha(out / "libmicroros.a") == good
+    assert not [p for p in (ws / "build").iterdir() if "staging" in p.name]
+
+
+def test_interrupted_build_leaves_previous_output(m7_build: Path, tmp_path: Path) -> None:
+    ws = make_fixture_workspace(tmp_path / "ws")
+    base = ["build", "--toolchain", "cortex-m7", "--workspace", str(ws), "--meta", str(ws / "fixture.meta")]
+    run_uros(*base)
+    out = ws / "build" / "cortex-m7"
+    good = _sha(out / "libmicroros.a")
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "uros_build", *base, "--set", "fx_core.FX_SLOW=ON"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    time.sleep(4)  # inside fx_core's 60 s configure step
+    os.kill(proc.pid, signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err
+    assert "interrupted" in err
+    assert _sha(out / "libmicroros.a") == good
+    assert not [p for p in (ws / "build").iterdir() if "staging" in p.name]
+
+
+def test_two_targets_in_one_workspace_and_user_toolchain_file(m7_build: Path, tmp_path: Path) -> None:
+    # A user's own toolchain file, used unchanged (here rendered by uros, then treated as foreign).
+    tc = tmp_path / "my_board.cmake"
+    run_uros("toolchain", "render", "cortex-m7", "--for", "micro-ros", "-o", str(tc))
+    m7_lib = m7_build / "build" / "cortex-m7" / "libmicroros.a"
+    before = _sha(m7_lib)
+    run_uros(
+        "build",
+        "--toolchain",
+        str(tc),
+        "--workspace",
+        str(m7_build),
+        "--meta",
+        str(m7_build / "fixture.meta"),
+    )
+    other = m7_build / "build" / "my_board" / "libmicroros.a"
+    assert len(_members(other)) == FIXTURE_MEMBERS
+    assert (m7_build / ".uros" / "targets" / "my_board" / "install").is_dir()
+    assert _sha(m7_lib) == before  # the first target's output is untouched
+
+
+def test_bad_input_is_one_line_and_nonzero(m7_build: Path, tmp_path: Path) -> None:
+    cases = [
+        (
+            ["build", "--toolchain", "cortex-m99", "--workspace", str(m7_build)],
+            2,
+            "unknown target 'cortex-m99'",
+        ),
+        (["build", "--toolchain", "cortex-m7", "--workspace", str(tmp_path / "nope")], 2, "no such folder"),
+        (["build", "--toolchain", "cortex-m7", "--workspace", str(tmp_path)], 2, "no package.xml found"),
+        (
+            ["build", "--toolchain", "cortex-m7", "--workspace", str(m7_build), "--meta", "missing.meta"],
+            2,
+            "--meta missing.meta: no such file",
+        ),
+        (
+            ["build", "--toolchain", "cortex-m7", "--workspace", str(m7_build), "--set", "oops"],
+            2,
+            "--set 'oops'",
+        ),
+        (["meta", "write", "--transport", "pigeon"], 2, "unknown transport 'pigeon'"),
+    ]
+    for args, code, text in cases:
+        proc = run_uros(*args, check=False)
+        assert proc.returncode == code, (args, proc.stderr)
+        errors = [line for line in proc.stderr.splitlines() if line.startswith("error:")]
+        assert len(errors) == 1 and text in errors[0], (args, proc.stderr)
+        assert "Traceback" not in proc.stderr
+
+
+def test_output_folder_of_the_user_is_not_replaced(m7_build: Path, tmp_path: Path) -> None:
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "notes.txt").write_text("keep me")
+    proc = run_uros(
+        "build",
+        "--toolchain",
+        "cortex-m7",
+        "--workspace",
+        str(m7_build),
+        "--output",
+        str(mine),
+        "--meta",
+        str(m7_build / "fixture.meta"),
+        check=False,
+    )
+    assert proc.returncode == 2 and "--force" in proc.stderr
+    assert (mine / "notes.txt").read_text() == "keep me"
+
+
+def test_export_cmake_rewrites_and_copies(m7_build: Path, tmp_path: Path) -> None:
+    out = m7_build / "build" / "cortex-m7"
+    (out / "microros.cmake").unlink()
+    run_uros("export", "cmake", "--output", str(out))
+    assert (out / "microros.cmake").is_file()
+    dest = tmp_path / "pkg"
+    run_uros("export", "cmake", "--from", str(out), "--output", str(dest))
+    assert (dest / "libmicroros.a").is_file() and (dest / "include" / "fx_core" / "core.h").is_file()
+    assert "CLOCK_MONOTONIC" not in (dest / "microros.cmake").read_text()

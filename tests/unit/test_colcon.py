@@ -1,0 +1,72 @@
+from __future__ import annotations
+
+from pathlib import Path
+
+from golden import check_golden
+
+from uros_build.colcon import ColconPlan, build_env, colcon_argv
+
+
+def _plan(**kw: object) -> ColconPlan:
+    base = dict(
+        base_paths=(Path("/ws/mcu_ws"),),
+        build_base=Path("/ws/.uros/targets/cortex-m7/build"),
+        install_base=Path("/ws/.uros/targets/cortex-m7/install"),
+        log_base=Path("/ws/.uros/targets/cortex-m7/log"),
+        metas=(Path("/ws/.uros/targets/cortex-m7/colcon.meta"),),
+        toolchain_file=Path("/ws/.uros/targets/cortex-m7/toolchain.cmake"),
+        python="/venv/bin/python3",
+    )
+    base.update(kw)
+    return ColconPlan(**base)  # type: ignore[arg-type]
+
+
+def test_colcon_argv_golden() -> None:
+    argv = colcon_argv(_plan())
+    check_golden("colcon-argv.txt", "\n".join(argv) + "\n")
+    # generate_lib's essentials
+    assert "--merge-install" in argv and "--packages-ignore-regex=.*_cpp" in argv
+    assert "--ignore-user-meta" in argv
+    cmake_args = argv[argv.index("--cmake-args") + 1 :]
+    for arg in (
+        "-DBUILD_SHARED_LIBS=OFF",
+        "-DBUILD_TESTING=OFF",
+        "-DCMAKE_POSITION_INDEPENDENT_CODE:BOOL=OFF",
+        "-DCMAKE_TOOLCHAIN_FILE=/ws/.uros/targets/cortex-m7/toolchain.cmake",
+        "-DPython3_EXECUTABLE=/venv/bin/python3",
+    ):
+        assert arg in cmake_args
+
+
+def test_host_build_has_no_toolchain() -> None:
+    argv = colcon_argv(_plan(toolchain_file=None, ignore_regex=None, packages_up_to=("ament_cmake",)))
+    assert not any(a.startswith("-DCMAKE_TOOLCHAIN_FILE") for a in argv)
+    assert argv[argv.index("--packages-up-to") + 1] == "ament_cmake"
+
+
+def test_env_scrubs_sourced_ros() -> None:
+    base = {
+        "PATH": "/opt/ros/humble/bin:/usr/bin:/home/u/ws/install/bin",
+        "PYTHONPATH": "/opt/ros/humble/lib/python3.10/site-packages:/home/u/lib",
+        "AMENT_PREFIX_PATH": "/opt/ros/humble:/home/u/ws/install",
+        "CMAKE_PREFIX_PATH": "/opt/ros/humble",
+        "ROS_DISTRO": "humble",
+        "CFLAGS": "-march=native",
+        "HOME": "/home/u",
+    }
+    env, scrubbed = build_env(base, python_bin_dir="/venv/bin", cmake_major=4)
+    assert env["PATH"] == "/venv/bin:/usr/bin"
+    assert env["PYTHONPATH"] == "/home/u/lib"
+    for name in ("AMENT_PREFIX_PATH", "CMAKE_PREFIX_PATH", "ROS_DISTRO", "CFLAGS"):
+        assert name not in env
+    assert env["HOME"] == "/home/u"
+    assert env["CMAKE_POLICY_VERSION_MINIMUM"] == "3.5"
+    assert "AMENT_PREFIX_PATH" in scrubbed and "PATH (ROS entries)" in scrubbed
+
+
+def test_env_git_insteadof() -> None:
+    env, _ = build_env({}, python_bin_dir="/b", git_config={"url./m/x.insteadOf": "https://github.com/x"})
+    assert env["GIT_CONFIG_COUNT"] == "1"
+    assert env["GIT_CONFIG_KEY_0"] == "url./m/x.insteadOf"
+    assert env["GIT_CONFIG_VALUE_0"] == "https://github.com/x"
+    assert "CMAKE_POLICY_VERSION_MINIMUM" not in env

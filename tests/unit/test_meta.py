@@ -1,0 +1,65 @@
+from __future__ import annotations
+
+import json
+
+import pytest
+from golden import check_golden
+
+from uros_build import meta
+from uros_build.errors import ConfigError
+from uros_build.profiles import find_profile
+
+
+def test_default_cortex_m7_meta_golden() -> None:
+    m = meta.build_meta(
+        meta.load_preset("default"), meta.target_fragments(find_profile("cortex-m7"), None), []
+    )
+    text = meta.dump_meta(m)
+    check_golden("cortex-m7.colcon.meta", text)
+    names = json.loads(text)["names"]
+    client = names["microxrcedds_client"]["cmake-args"]
+    assert "-DUCLIENT_PROFILE_CUSTOM_TRANSPORT=ON" in client
+    assert "-DUCLIENT_PROFILE_UDP=OFF" in client
+    assert "-DRMW_UXRCE_TRANSPORT=custom" in names["rmw_microxrcedds"]["cmake-args"]
+    assert "-DRCUTILS_NO_64_ATOMIC=ON" in names["rcutils"]["cmake-args"]
+
+
+def test_later_define_replaces_earlier_in_place() -> None:
+    base = meta.parse_meta('{"names": {"p": {"cmake-args": ["-DA=1", "-DB=2", "-Wx"]}}}', "base")
+    top = meta.parse_meta('{"names": {"p": {"cmake-args": ["-DA:BOOL=0", "-DC=3", "-Wx"]}}}', "top")
+    merged = meta.merge([base, top])
+    assert merged.names["p"]["cmake-args"] == ("-DA:BOOL=0", "-DB=2", "-Wx", "-DC=3")
+
+
+def test_set_option() -> None:
+    m = meta.build_meta(meta.Meta(), [], [], ["rmw_microxrcedds.RMW_UXRCE_MAX_NODES=2"])
+    assert m.names["rmw_microxrcedds"]["cmake-args"] == ("-DRMW_UXRCE_MAX_NODES=2",)
+    with pytest.raises(ConfigError, match=r"PACKAGE\.OPTION=VALUE"):
+        meta.parse_set("nodot=1")
+
+
+def test_dump_is_deterministic_and_sorted() -> None:
+    a = meta.parse_meta('{"names": {"b": {"cmake-args": ["-DX=1"]}, "a": {"x": true}}}', "m")
+    b = meta.parse_meta('{"names": {"a": {"x": true}, "b": {"cmake-args": ["-DX=1"]}}}', "m")
+    assert meta.dump_meta(a) == meta.dump_meta(b)
+    assert meta.dump_meta(a).index('"a"') < meta.dump_meta(a).index('"b"')
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [
+        ('{"names": {"a": {"cmake-args": ["-DX=1"],}}}', r"m.meta:1:\d+: not valid JSON"),
+        ('{\n"names": {\n"a": 1}}', "names.a must be an object"),
+        ('{"nmes": {}}', "unsupported top-level key 'nmes'"),
+        ('{"names": {"a": {"cmake-args": [1]}}}', "must be a list of strings"),
+        ('{"names": {"a": {}, "a": {}}}', "duplicate key 'a'"),
+    ],
+)
+def test_bad_meta_names_file_and_problem(text: str, expected: str) -> None:
+    with pytest.raises(ConfigError, match=expected):
+        meta.parse_meta(text, "m.meta")
+
+
+def test_unknown_transport() -> None:
+    with pytest.raises(ConfigError, match="unknown transport 'carrier-pigeon'"):
+        meta.target_fragments(None, "carrier-pigeon")

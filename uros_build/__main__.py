@@ -1,0 +1,3 @@
+from uros_build.cli import main
+
+main()

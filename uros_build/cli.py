@@ -1,0 +1,173 @@
+"""The `uros` command line. Callbacks parse options and call one pipeline function; no logic here."""
+
+from __future__ import annotations
+
+import json
+import sys
+import traceback
+from pathlib import Path
+
+import click
+
+from uros_build import __version__, console, pipeline
+from uros_build.errors import Interrupted, UrosError
+
+_PATH = click.Path(path_type=Path)
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
+@click.version_option(__version__, prog_name="uros")
+@click.option("--debug", is_flag=True, help="Show Python tracebacks on errors.")
+@click.pass_context
+def cli(ctx: click.Context, debug: bool) -> None:
+    """Cross-compile micro-ROS into libmicroros.a, its include tree and a CMake package."""
+    ctx.obj = {"debug": debug}
+
+
+@cli.command()
+@click.option("--json", "as_json", is_flag=True, help="Print the table as JSON.")
+def targets(as_json: bool) -> None:
+    """List the shipped target profiles (toolchains/*.yaml)."""
+    rows = pipeline.targets_table()
+    if as_json:
+        click.echo(json.dumps(rows, indent=2, sort_keys=True))
+        return
+    width = max(len(r["name"]) for r in rows)
+    for r in rows:
+        click.echo(f"{r['name']:<{width}}  {r['compiler']:<24} {r['description']}")
+
+
+@cli.group()
+def toolchain() -> None:
+    """CMake toolchain files."""
+
+
+@toolchain.command("render")
+@click.argument("target")
+@click.option("-o", "--output", type=_PATH, help="Write here instead of standard output.")
+@click.option(
+    "--for",
+    "purpose",
+    type=click.Choice(["firmware", "micro-ros"]),
+    default="firmware",
+    show_default=True,
+    help="firmware: no micro-ROS-only flags; micro-ros: with them (what `uros build` uses).",
+)
+@click.option("--gcc-major", type=int, help="The cross GCC's major version (decides GCC<6 workarounds).")
+def toolchain_render(target: str, output: Path | None, purpose: str, gcc_major: int | None) -> None:
+    """Render the CMake toolchain file of TARGET (a target name or a profile .yaml)."""
+    pipeline.render_toolchain_file(target, output, micro_ros=purpose == "micro-ros", gcc_major=gcc_major)
+
+
+@cli.group()
+def meta() -> None:
+    """colcon.meta files."""
+
+
+@meta.command("write")
+@click.option("--preset", default="default", show_default=True, help="Starting point (meta/presets/).")
+@click.option("--target", "target", help="Add what this target needs (transport, atomics).")
+@click.option("--transport", help="XRCE-DDS transport: custom, udp or serial (default: the target's).")
+@click.option("--meta", "metas", multiple=True, type=_PATH, help="A colcon.meta merged on top (repeatable).")
+@click.option(
+    "--set", "sets", multiple=True, metavar="PKG.OPTION=VALUE", help="Set a CMake option of a package."
+)
+@click.option("-o", "--output", type=_PATH, help="Write here instead of standard output.")
+def meta_write(
+    preset: str,
+    target: str | None,
+    transport: str | None,
+    metas: tuple[Path, ...],
+    sets: tuple[str, ...],
+    output: Path | None,
+) -> None:
+    """Write a colcon.meta (JSON, sorted keys)."""
+    from uros_build import meta as meta_mod
+
+    resolved = pipeline.resolve_target(target, None) if target else None
+    merged = pipeline.meta_for(preset, resolved, transport, list(metas), list(sets))
+    pipeline.write_output_file(output, meta_mod.dump_meta(merged, f"uros meta write --preset {preset}"))
+
+
+@cli.command()
+@click.option("--toolchain", help="A target name (see `uros targets`) or your own CMake toolchain file.")
+@click.option("--profile", type=_PATH, help="Your own target profile (.yaml, as in toolchains/).")
+@click.option("--workspace", type=_PATH, default=Path("."), show_default=True, help="The firmware workspace.")
+@click.option("--meta", "metas", multiple=True, type=_PATH, help="A colcon.meta merged on top (repeatable).")
+@click.option(
+    "--set", "sets", multiple=True, metavar="PKG.OPTION=VALUE", help="Set a CMake option of a package."
+)
+@click.option("--preset", default="default", show_default=True, help="colcon.meta starting point.")
+@click.option("--transport", help="XRCE-DDS transport: custom, udp or serial (default: the target's).")
+@click.option("--output", type=_PATH, help="Output folder (default: <workspace>/build/<target>).")
+@click.option("--packages-up-to", multiple=True, help="Build only these packages and their dependencies.")
+@click.option("-j", "--jobs", type=int, help="Packages built in parallel (colcon --parallel-workers).")
+@click.option("--force", is_flag=True, help="Replace an --output folder that is not a uros output.")
+@click.option("-v", "--verbose", is_flag=True, help="Stream colcon's and the compilers' output.")
+def build(
+    toolchain: str | None,
+    profile: Path | None,
+    workspace: Path,
+    metas: tuple[Path, ...],
+    sets: tuple[str, ...],
+    preset: str,
+    transport: str | None,
+    output: Path | None,
+    packages_up_to: tuple[str, ...],
+    jobs: int | None,
+    force: bool,
+    verbose: bool,
+) -> None:
+    """Build libmicroros.a, its include tree and a CMake package for one target."""
+    pipeline.build(
+        pipeline.BuildOptions(
+            workspace=workspace,
+            toolchain=toolchain,
+            profile=profile,
+            metas=metas,
+            sets=sets,
+            preset=preset,
+            transport=transport,
+            output=output,
+            verbose=verbose,
+            force=force,
+            packages_up_to=packages_up_to,
+            jobs=jobs,
+        )
+    )
+
+
+@cli.group()
+def export() -> None:
+    """Packages for firmware build systems."""
+
+
+@export.command("cmake")
+@click.option("--output", type=_PATH, required=True, help="Folder of the CMake package.")
+@click.option(
+    "--from", "source", type=_PATH, help="A `uros build` output to copy (default: --output itself)."
+)
+def export_cmake(output: Path, source: Path | None) -> None:
+    """Write microrosConfig.cmake (find_package) and microros.cmake (include) for a build output."""
+    pipeline.export_cmake(source, output)
+
+
+def main(argv: list[str] | None = None) -> None:
+    debug = "--debug" in (argv if argv is not None else sys.argv[1:])
+    try:
+        cli.main(args=argv, prog_name="uros", standalone_mode=False)
+    except click.exceptions.Abort:
+        console.error("interrupted", "the previous output was left untouched")
+        sys.exit(Interrupted.exit_code)
+    except click.ClickException as exc:
+        exc.show()
+        sys.exit(exc.exit_code)
+    except UrosError as exc:
+        if debug:
+            traceback.print_exc()
+        console.error(exc.message, exc.hint)
+        sys.exit(exc.exit_code)
+    except KeyboardInterrupt:
+        console.error("interrupted", "the previous output was left untouched")
+        sys.exit(Interrupted.exit_code)
+    sys.exit(0)

@@ -1,0 +1,132 @@
+"""colcon command lines and build environments (pure functions)."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+
+# Variables of a sourced ROS 2 (or other colcon) environment that would make the cross build pick
+# host packages instead of the workspace's own, plus host compiler flags that CMake would read
+# into the cross compiler's flags ($ENV{CFLAGS} in CMakeCInformation.cmake).
+SCRUBBED_VARIABLES = (
+    "AMENT_PREFIX_PATH",
+    "CMAKE_PREFIX_PATH",
+    "COLCON_PREFIX_PATH",
+    "ROS_DISTRO",
+    "ROS_VERSION",
+    "ROS_PYTHON_VERSION",
+    "ROS_PACKAGE_PATH",
+    "CC",
+    "CXX",
+    "CFLAGS",
+    "CXXFLAGS",
+    "CPPFLAGS",
+    "LDFLAGS",
+)
+_ROS_ROOT = "/opt/ros/"
+_PATH_LISTS = ("PATH", "PYTHONPATH", "LD_LIBRARY_PATH")
+
+
+@dataclass(frozen=True)
+class ColconPlan:
+    base_paths: tuple[Path, ...]
+    build_base: Path
+    install_base: Path
+    log_base: Path
+    metas: tuple[Path, ...]
+    toolchain_file: Path | None  # None: a host build (the dev workspace)
+    python: str
+    generator: str | None = "Ninja"
+    verbose: bool = False
+    parallel_workers: int | None = None
+    packages_up_to: tuple[str, ...] = ()
+    ignore_regex: str | None = ".*_cpp"
+
+
+def colcon_argv(plan: ColconPlan, colcon: str = "colcon") -> list[str]:
+    """micro_ros_setup's generate_lib colcon invocation, made explicit and per target.
+
+    build_firmware.sh (humble, config/generate_lib/generic/build.sh) runs
+    colcon build --merge-install --packages-ignore-regex=.*_cpp --metas $META
+    --cmake-args -DCMAKE_POSITION_INDEPENDENT_CODE:BOOL=OFF -DTHIRDPARTY=ON -DBUILD_SHARED_LIBS=OFF
+    -DBUILD_TESTING=OFF -DCMAKE_BUILD_TYPE=Release -DCMAKE_TOOLCHAIN_FILE=$TOOLCHAIN
+    uros adds separate build/install/log bases per target (so targets never clobber each other and
+    a rebuild is incremental), --ignore-user-meta (a ~/.colcon meta must not change a firmware
+    library), the Python that has the rosidl generators' modules, and compile_commands.json.
+    """
+    argv = [colcon, "--log-base", str(plan.log_base), "build"]
+    argv += ["--base-paths", *map(str, plan.base_paths)]
+    argv += ["--build-base", str(plan.build_base), "--install-base", str(plan.install_base)]
+    argv += ["--merge-install", "--ignore-user-meta"]
+    if plan.metas:
+        argv += ["--metas", *map(str, plan.metas)]
+    if plan.ignore_regex:
+        argv.append(f"--packages-ignore-regex={plan.ignore_regex}")
+    if plan.packages_up_to:
+        argv += ["--packages-up-to", *plan.packages_up_to]
+    if plan.parallel_workers:
+        argv += ["--parallel-workers", str(plan.parallel_workers)]
+    argv += ["--event-handlers", "console_direct+" if plan.verbose else "console_cohesion+"]
+    cmake_args = ["--no-warn-unused-cli", "-DBUILD_TESTING=OFF", "-DCMAKE_BUILD_TYPE=Release"]
+    cmake_args.append(f"-DPython3_EXECUTABLE={plan.python}")
+    cmake_args.append("-DCMAKE_EXPORT_COMPILE_COMMANDS=ON")
+    if plan.toolchain_file is not None:
+        cmake_args += [
+            f"-DCMAKE_TOOLCHAIN_FILE={plan.toolchain_file}",
+            "-DCMAKE_POSITION_INDEPENDENT_CODE:BOOL=OFF",
+            "-DTHIRDPARTY=ON",
+            "-DBUILD_SHARED_LIBS=OFF",
+        ]
+    if plan.generator:
+        cmake_args.append(f"-G{plan.generator}")
+    # Last: colcon reads every following word as a CMake argument.
+    argv += ["--cmake-args", *cmake_args]
+    return argv
+
+
+def build_env(
+    base: Mapping[str, str],
+    *,
+    python_bin_dir: str,
+    cmake_major: int | None = None,
+    git_config: Mapping[str, str] | None = None,
+) -> tuple[dict[str, str], list[str]]:
+    """The environment for colcon: a sourced ROS 2 removed, uros's Python first on PATH.
+
+    Returns the environment and the names of what was scrubbed (for one notice to the user).
+    """
+    env = {k: v for k, v in base.items() if k not in SCRUBBED_VARIABLES}
+    scrubbed = sorted(k for k in base if k in SCRUBBED_VARIABLES and k not in ("CC", "CXX"))
+    # Prefixes of a sourced ROS 2 install or colcon overlay: their bin/, lib/ and site-packages
+    # entries go too.
+    prefixes = [_ROS_ROOT] + [
+        p.rstrip("/") + "/"
+        for var in ("AMENT_PREFIX_PATH", "COLCON_PREFIX_PATH")
+        for p in base.get(var, "").split(os.pathsep)
+        if p
+    ]
+    for name in _PATH_LISTS:
+        if name not in env:
+            continue
+        parts = env[name].split(os.pathsep)
+        kept = [p for p in parts if p and not any((p.rstrip("/") + "/").startswith(m) for m in prefixes)]
+        if len(kept) != len([p for p in parts if p]):
+            scrubbed.append(f"{name} (ROS entries)")
+        env[name] = os.pathsep.join(kept)
+    path = env.get("PATH", "")
+    env["PATH"] = python_bin_dir + (os.pathsep + path if path else "")
+    if cmake_major is not None and cmake_major >= 4:
+        # CMake 4 refuses cmake_minimum_required(VERSION < 3.5), as in the vendored libyaml and
+        # uncrustify; this is CMake's documented escape hatch.
+        env["CMAKE_POLICY_VERSION_MINIMUM"] = "3.5"
+    if git_config:
+        # git's environment configuration (git >= 2.31) carries url.<mirror>.insteadOf into the
+        # clones CMake ExternalProject makes during the build.
+        items = sorted(git_config.items())
+        env["GIT_CONFIG_COUNT"] = str(len(items))
+        for i, (key, value) in enumerate(items):
+            env[f"GIT_CONFIG_KEY_{i}"] = key
+            env[f"GIT_CONFIG_VALUE_{i}"] = value
+    return env, scrubbed

@@ -1,0 +1,177 @@
+"""colcon.meta: strict loading, merging and deterministic writing (pure but for reading files).
+
+colcon itself reads ``names`` and ``paths`` and silently ignores anything else it does not
+understand, and a ``--metas`` path that does not exist. uros refuses both, naming file and line.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from uros_build import __version__, resources
+from uros_build.errors import ConfigError
+from uros_build.profiles import TargetProfile
+
+MetaValue = tuple[str, ...] | str | bool | int | float
+_LIST_KEYS_MERGED_BY_DEFINE = ("cmake-args",)
+
+
+@dataclass(frozen=True)
+class Meta:
+    """``names``: package -> colcon option (``cmake-args``, ...) -> value."""
+
+    names: Mapping[str, Mapping[str, MetaValue]] = field(default_factory=dict)
+    source: str = ""
+
+
+def _reject_duplicates(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    seen: dict[str, Any] = {}
+    for key, value in pairs:
+        if key in seen:
+            raise ValueError(f"duplicate key {key!r}")
+        seen[key] = value
+    return seen
+
+
+def parse_meta(text: str, source: str) -> Meta:
+    try:
+        data = json.loads(text, object_pairs_hook=_reject_duplicates)
+    except json.JSONDecodeError as exc:
+        raise ConfigError(
+            f"{source}:{exc.lineno}:{exc.colno}: not valid JSON: {exc.msg}",
+            "colcon.meta is JSON: check for trailing commas and unquoted names",
+        ) from exc
+    except ValueError as exc:
+        raise ConfigError(f"{source}: {exc}", "each package and option may appear once") from exc
+    hint = 'expected {"names": {"<package>": {"cmake-args": ["-DOPTION=VALUE", ...]}}}'
+    if not isinstance(data, dict):
+        raise ConfigError(f"{source}: the top level must be a JSON object", hint)
+    for key in data:
+        if key != "names" and not key.startswith(("_", "//")):
+            raise ConfigError(f"{source}: unsupported top-level key {key!r} (colcon would ignore it)", hint)
+    names = data.get("names", {})
+    if not isinstance(names, dict):
+        raise ConfigError(f"{source}: 'names' must be an object", hint)
+    out: dict[str, dict[str, MetaValue]] = {}
+    for pkg, options in names.items():
+        if not isinstance(options, dict):
+            raise ConfigError(f"{source}: names.{pkg} must be an object of colcon options", hint)
+        out[pkg] = {}
+        for opt, value in options.items():
+            if isinstance(value, list):
+                if not all(isinstance(v, str) for v in value):
+                    raise ConfigError(f"{source}: names.{pkg}.{opt} must be a list of strings", hint)
+                out[pkg][opt] = tuple(value)
+            elif isinstance(value, str | bool | int | float):
+                out[pkg][opt] = value
+            else:
+                raise ConfigError(f"{source}: names.{pkg}.{opt} has an unsupported value {value!r}", hint)
+    return Meta(names=out, source=source)
+
+
+def load_meta_file(path: Path, flag: str = "--meta") -> Meta:
+    if not path.is_file():
+        raise ConfigError(f"{flag} {path}: no such file", "pass the path of an existing colcon.meta file")
+    return parse_meta(path.read_text(encoding="utf-8"), str(path))
+
+
+def load_shipped(relative: str) -> Meta:
+    path = resources.meta_dir() / relative
+    return load_meta_file(path, flag="(shipped meta)")
+
+
+def presets() -> list[str]:
+    return sorted(p.stem for p in (resources.meta_dir() / "presets").glob("*.json"))
+
+
+def load_preset(name: str) -> Meta:
+    if name not in presets():
+        raise ConfigError(f"--preset: unknown preset {name!r}", f"known presets: {', '.join(presets())}")
+    return load_shipped(f"presets/{name}.json")
+
+
+def _define_name(arg: str) -> str | None:
+    """'-DNAME=VALUE' / '-DNAME:BOOL=VALUE' -> 'NAME'; anything else -> None."""
+    if arg.startswith("-D") and "=" in arg:
+        return arg[2:].split("=", 1)[0].split(":", 1)[0]
+    return None
+
+
+def _merge_args(base: tuple[str, ...], overlay: tuple[str, ...]) -> tuple[str, ...]:
+    """Later -DNAME=... replaces an earlier setting of NAME in place; other args are appended once."""
+    result = list(base)
+    for arg in overlay:
+        name = _define_name(arg)
+        index = next((i for i, a in enumerate(result) if name is not None and _define_name(a) == name), None)
+        if index is not None:
+            result[index] = arg
+        elif arg not in result:
+            result.append(arg)
+    return tuple(result)
+
+
+def merge(metas: Iterable[Meta]) -> Meta:
+    names: dict[str, dict[str, MetaValue]] = {}
+    for meta in metas:
+        for pkg, options in meta.names.items():
+            target = names.setdefault(pkg, {})
+            for opt, value in options.items():
+                old = target.get(opt)
+                if opt in _LIST_KEYS_MERGED_BY_DEFINE and isinstance(old, tuple) and isinstance(value, tuple):
+                    target[opt] = _merge_args(old, value)
+                else:
+                    target[opt] = value
+    return Meta(names=names, source="(merged)")
+
+
+def parse_set(item: str) -> Meta:
+    """``--set PKG.NAME=VALUE`` -> cmake-arg ``-DNAME=VALUE`` for PKG."""
+    pkg, dot, rest = item.partition(".")
+    name, eq, value = rest.partition("=")
+    if not (pkg and dot and name and eq):
+        raise ConfigError(
+            f"--set {item!r}: expected PACKAGE.OPTION=VALUE",
+            "for example --set rmw_microxrcedds.RMW_UXRCE_MAX_NODES=2",
+        )
+    return Meta(names={pkg: {"cmake-args": (f"-D{name}={value}",)}}, source=f"--set {item}")
+
+
+def transports() -> list[str]:
+    return sorted(p.stem for p in (resources.meta_dir() / "transports").glob("*.json"))
+
+
+def target_fragments(profile: TargetProfile | None, transport: str | None) -> list[Meta]:
+    """What a target needs on top of the preset: its transport and, where the core lacks them,
+    rcutils' own 64-bit atomics (else the firmware link fails on __atomic_*_8)."""
+    chosen = transport or (profile.transport if profile else None)
+    frags = []
+    if chosen is not None:
+        if chosen not in transports():
+            raise ConfigError(
+                f"--transport: unknown transport {chosen!r}", f"known: {', '.join(transports())}"
+            )
+        frags.append(load_shipped(f"transports/{chosen}.json"))
+    if profile is not None and not profile.native_64bit_atomics:
+        frags.append(load_shipped("fragments/no-64bit-atomics.json"))
+    return frags
+
+
+def build_meta(
+    preset: Meta, fragments: Iterable[Meta], user: Iterable[Meta], sets: Iterable[str] = ()
+) -> Meta:
+    return merge([preset, *fragments, *user, *(parse_set(s) for s in sets)])
+
+
+def dump_meta(meta: Meta, generated_by: str = "") -> str:
+    data: dict[str, Any] = {
+        "_generated_by": f"uros {__version__}" + (f": {generated_by}" if generated_by else ""),
+        "names": {
+            pkg: {opt: list(v) if isinstance(v, tuple) else v for opt, v in options.items()}
+            for pkg, options in meta.names.items()
+        },
+    }
+    return json.dumps(data, indent=2, sort_keys=True) + "\n"

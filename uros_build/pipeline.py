@@ -1,0 +1,408 @@
+"""The ordered steps of each uros command. Builders are pure; the runner is the only process user."""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import shutil
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from uros_build import __version__, console, export, includes
+from uros_build import colcon as colcon_mod
+from uros_build import meta as meta_mod
+from uros_build.archive import BinTools, merge_archives
+from uros_build.errors import ConfigError, StepFailed, UrosError
+from uros_build.proc import Runner
+from uros_build.profiles import TargetProfile, find_profile, load_profile_file, shipped_profiles
+from uros_build.toolchain import (
+    CLOCK_HEADER_NAME,
+    CLOCK_HEADER_TEXT,
+    ToolchainRequest,
+    microros_flags,
+    render_toolchain,
+)
+from uros_build.workspace import Workspace, locked, target_key, write_if_changed
+
+
+@dataclass(frozen=True)
+class Target:
+    key: str
+    profile: TargetProfile | None  # None: the user's own toolchain file, used unchanged
+    toolchain_file: Path | None = None
+
+
+def resolve_target(toolchain: str | None, profile_path: Path | None) -> Target:
+    if profile_path is not None:
+        if toolchain is not None:
+            raise ConfigError("--toolchain and --profile name a target twice", "pass only one of them")
+        profile = load_profile_file(profile_path)
+        return Target(target_key(profile.name), profile)
+    if toolchain is None:
+        raise ConfigError("no target given", f"pass --toolchain with one of: {', '.join(shipped_profiles())}")
+    if toolchain.endswith(".cmake") or "/" in toolchain:
+        path = Path(toolchain).resolve()
+        if not path.is_file():
+            raise ConfigError(
+                f"--toolchain {toolchain}: no such file", "pass a target name or an existing .cmake file"
+            )
+        return Target(target_key(path.stem), None, path)
+    profile = find_profile(toolchain)
+    return Target(profile.name, profile)
+
+
+# ---------------------------------------------------------------------------------------------
+# uros targets / toolchain render / meta write
+
+
+def targets_table() -> list[dict[str, Any]]:
+    return [
+        {
+            "name": p.name,
+            "description": p.description,
+            "compiler": p.tool("gcc"),
+            "cpu_flags": list(p.cpu_flags),
+            "transport": p.transport,
+            "file": Path(p.source).name,
+        }
+        for p in shipped_profiles().values()
+    ]
+
+
+def render_toolchain_file(target: str, output: Path | None, micro_ros: bool, gcc_major: int | None) -> None:
+    """`uros toolchain render`: a target name or a profile .yaml -> toolchain text.
+
+    For micro-ROS with an output file, the clock_gettime declaration header the profile may need
+    is written beside it and referenced by absolute path, so the file works on its own.
+    """
+    profile = load_profile_file(Path(target)) if target.endswith((".yaml", ".yml")) else find_profile(target)
+    header: Path | None = None
+    if micro_ros and output is not None and profile.micro_ros.declare_clock_gettime:
+        header = output.resolve().with_name(CLOCK_HEADER_NAME)
+        write_if_changed(header, CLOCK_HEADER_TEXT)
+    command = f"uros toolchain render {target}" + (" --for micro-ros" if micro_ros else "")
+    req = ToolchainRequest(
+        profile,
+        micro_ros=micro_ros,
+        gcc_major=gcc_major,
+        clock_header=str(header) if header else None,
+        command=command,
+    )
+    write_output_file(output, render_toolchain(req))
+
+
+def write_output_file(path: Path | None, text: str) -> None:
+    if path is None:
+        sys.stdout.write(text)
+        return
+    write_if_changed(path, text)
+    console.info(f"wrote {path}")
+
+
+def meta_for(
+    preset: str, target: Target | None, transport: str | None, user_metas: list[Path], sets: list[str]
+) -> meta_mod.Meta:
+    return meta_mod.build_meta(
+        meta_mod.load_preset(preset),
+        meta_mod.target_fragments(target.profile if target else None, transport),
+        [meta_mod.load_meta_file(p) for p in user_metas],
+        sets,
+    )
+
+
+# ---------------------------------------------------------------------------------------------
+# uros build
+
+
+@dataclass(frozen=True)
+class BuildOptions:
+    workspace: Path
+    toolchain: str | None
+    profile: Path | None = None
+    metas: tuple[Path, ...] = ()
+    sets: tuple[str, ...] = ()
+    preset: str = "default"
+    transport: str | None = None
+    output: Path | None = None
+    verbose: bool = False
+    force: bool = False
+    packages_up_to: tuple[str, ...] = ()
+    jobs: int | None = None
+
+
+@dataclass
+class _Facts:
+    gcc: str = ""
+    gcc_version: str = ""
+    cmake_version: str = ""
+    extra: dict[str, Any] = field(default_factory=dict)
+
+
+def _first_version(lines: list[str]) -> str:
+    for line in lines:
+        for word in line.split():
+            if word[:1].isdigit() and "." in word:
+                return word
+    return lines[0].strip() if lines else ""
+
+
+def _major(version: str) -> int | None:
+    head = version.split(".", 1)[0]
+    return int(head) if head.isdigit() else None
+
+
+def _colcon_program() -> str:
+    beside = Path(sys.executable).parent / "colcon"
+    return str(beside) if beside.is_file() else "colcon"
+
+
+def _check_output_dir(out: Path, force: bool) -> None:
+    if out.exists() and any(out.iterdir()) and not (out / export.BUILD_INFO).is_file() and not force:
+        raise ConfigError(
+            f"--output {out}: the folder exists and is not a uros build output",
+            "choose a new or empty folder, or pass --force to replace its contents",
+        )
+
+
+def _swap_into_place(staging: Path, out: Path) -> None:
+    """Replace ``out`` by ``staging`` with renames only, so ``out`` is never half-written."""
+    out.parent.mkdir(parents=True, exist_ok=True)
+    old = out.with_name(f".{out.name}.old-{os.getpid()}")
+    if out.exists():
+        out.rename(old)
+    staging.rename(out)
+    if old.exists():
+        shutil.rmtree(old)
+
+
+def _size_totals(runner: Runner, size_tool: str, library: Path) -> dict[str, int]:
+    lines = runner.run([size_tool, "-t", str(library)], step="measure libmicroros.a", quiet=True)
+    for line in reversed(lines):
+        parts = line.split()
+        if "(TOTALS)" in line and len(parts) >= 3 and all(p.isdigit() for p in parts[:3]):
+            return {"text": int(parts[0]), "data": int(parts[1]), "bss": int(parts[2])}
+    return {}
+
+
+def _built_packages(install: Path) -> list[str]:
+    # colcon records every package it installed into a merged prefix here.
+    marker = install / "share" / "colcon-core" / "packages"
+    return sorted(p.name for p in marker.iterdir()) if marker.is_dir() else []
+
+
+def _sha256(path: Path) -> str:
+    digest = hashlib.sha256()
+    with path.open("rb") as handle:
+        for chunk in iter(lambda: handle.read(1 << 20), b""):
+            digest.update(chunk)
+    return digest.hexdigest()
+
+
+def build(opts: BuildOptions) -> Path:
+    ws = Workspace.open(opts.workspace)
+    target = resolve_target(opts.toolchain, opts.profile)
+    out = (opts.output or ws.default_output(target.key)).resolve()
+    _check_output_dir(out, opts.force)
+    ws.mark_ignored()
+    runner = Runner(ws.new_log("build", target.key), verbose=opts.verbose)
+    console.step(f"uros build: target {target.key}, workspace {ws.root}")
+    console.info(f"log: {runner.log_path}")
+
+    facts = _Facts()
+    cmake = runner.which("cmake")
+    facts.cmake_version = _first_version(runner.run([cmake, "--version"], step="cmake --version", quiet=True))
+    colcon_prog = runner.which(_colcon_program())
+    profile = target.profile
+    if profile is not None:
+        facts.gcc = runner.which(profile.tool("gcc"), profile.install_hint or None)
+        for tool in ("g++", "ar", "ranlib", "nm", "size"):
+            runner.which(profile.tool(tool), profile.install_hint or None)
+        facts.gcc_version = runner.run([facts.gcc, "-dumpversion"], step="gcc -dumpversion", quiet=True)[
+            0
+        ].strip()
+
+    tdir = ws.target_dir(target.key)
+    with locked(tdir):
+        started = time.monotonic()
+        toolchain_file = _prepare_toolchain(tdir, target, facts)
+        meta = meta_for(opts.preset, target, opts.transport, list(opts.metas), list(opts.sets))
+        meta_path = tdir / "colcon.meta"
+        write_if_changed(meta_path, meta_mod.dump_meta(meta, f"uros build --toolchain {target.key}"))
+        env, scrubbed = colcon_mod.build_env(
+            os.environ,
+            python_bin_dir=str(Path(sys.executable).parent),
+            cmake_major=_major(facts.cmake_version),
+        )
+        if scrubbed:
+            console.warn(f"ignoring the sourced environment for this build: {', '.join(scrubbed)}")
+        plan = colcon_mod.ColconPlan(
+            base_paths=(ws.source_dir,),
+            build_base=tdir / "build",
+            install_base=tdir / "install",
+            log_base=tdir / "log",
+            metas=(meta_path,),
+            toolchain_file=toolchain_file,
+            python=sys.executable,
+            generator="Ninja" if shutil.which("ninja", path=env["PATH"]) else None,
+            verbose=opts.verbose,
+            packages_up_to=opts.packages_up_to,
+            parallel_workers=opts.jobs,
+        )
+        console.step("colcon build")
+        runner.run(
+            colcon_mod.colcon_argv(plan, colcon_prog),
+            step="colcon build",
+            cwd=ws.root,
+            env=env,
+            hint=f"the first error is above; the full output is in {runner.log_path}",
+        )
+        staging = out.with_name(f".{out.name}.staging-{os.getpid()}")
+        try:
+            info = _stage_output(runner, ws, target, tdir, staging, facts, meta_path)
+            (staging / export.BUILD_INFO).write_text(export.dump_json(info), encoding="utf-8")
+            _swap_into_place(staging, out)
+        except BaseException:
+            shutil.rmtree(staging, ignore_errors=True)
+            raise
+    lib = out / "libmicroros.a"
+    console.step(
+        f"built {lib} ({lib.stat().st_size:,} bytes, {info['library']['members']} objects) "
+        f"and {info['include']['files']} headers in {out / 'include'} ({time.monotonic() - started:.1f} s)"
+    )
+    return out
+
+
+def _prepare_toolchain(tdir: Path, target: Target, facts: _Facts) -> Path:
+    if target.profile is None:
+        assert target.toolchain_file is not None
+        return target.toolchain_file
+    header = tdir / CLOCK_HEADER_NAME
+    if target.profile.micro_ros.declare_clock_gettime:
+        write_if_changed(header, CLOCK_HEADER_TEXT)
+    req = ToolchainRequest(
+        target.profile,
+        micro_ros=True,
+        gcc_major=_major(facts.gcc_version),
+        clock_header=str(header) if target.profile.micro_ros.declare_clock_gettime else None,
+        command=f"uros build --toolchain {target.profile.name}",
+    )
+    path = tdir / "toolchain.cmake"
+    write_if_changed(path, render_toolchain(req))
+    return path
+
+
+def _bintools_for(target: Target, tdir: Path) -> BinTools:
+    if target.profile is not None:
+        p = target.profile
+        return BinTools(ar=p.tool("ar"), ranlib=p.tool("ranlib"), nm=p.tool("nm"))
+    # A user toolchain file: use the archiver CMake recorded for it (the target's); the host
+    # binutils read foreign ELF archives too, as a fallback.
+    return _bintools_from_build(tdir) or BinTools(ar="ar", ranlib="ranlib", nm="nm")
+
+
+def _stage_output(
+    runner: Runner, ws: Workspace, target: Target, tdir: Path, staging: Path, facts: _Facts, meta_path: Path
+) -> dict[str, Any]:
+    install = tdir / "install"
+    libs = sorted((install / "lib").glob("*.a"))
+    if not libs:
+        raise StepFailed(
+            f"colcon built no static library into {install / 'lib'}",
+            "check that the packages install their libraries: install(TARGETS ... ARCHIVE DESTINATION lib)",
+        )
+    if staging.exists():
+        shutil.rmtree(staging)
+    staging.mkdir(parents=True)
+    tools = _bintools_for(target, tdir)
+    console.step(f"merging {len(libs)} libraries into libmicroros.a")
+    library = staging / "libmicroros.a"
+    report = merge_archives(runner, tools, libs, library, tdir / "merge")
+    inc = includes.flatten_includes(install / "include", staging / "include")
+    profile = target.profile
+    info: dict[str, Any] = {
+        "generated_by": f"uros {__version__}",
+        "target": target.key,
+        "profile": Path(profile.source).name if profile else None,
+        "toolchain_file": str(target.toolchain_file) if target.toolchain_file else None,
+        "compiler": {"path": facts.gcc, "version": facts.gcc_version} if profile else None,
+        "cmake_version": facts.cmake_version,
+        "flags": {
+            "cpu": list(profile.cpu_flags) if profile else [],
+            "c": list(profile.c_flags) if profile else [],
+            "cxx": list(profile.cxx_flags) if profile else [],
+            "optimization": profile.optimization if profile else None,
+            "micro_ros_only": list(_microros_flags(profile, facts)) if profile else [],
+        },
+        "transport": meta_transport(meta_path),
+        "packages": _built_packages(install),
+        "library": {
+            "file": "libmicroros.a",
+            "bytes": library.stat().st_size,
+            "sha256": _sha256(library),
+            "members": report.members,
+            "defined_global_symbols": report.symbols,
+            "renamed_duplicate_members": report.renamed_duplicates,
+            "inputs": list(report.inputs),
+        },
+        "include": {"dir": "include", "files": inc.files, "bytes": inc.bytes, "packages": inc.packages},
+    }
+    if profile is not None:
+        info["library"]["size"] = _size_totals(runner, profile.tool("size"), library)
+        firmware_tc = render_toolchain(
+            ToolchainRequest(profile, micro_ros=False, command=f"uros toolchain render {profile.name}")
+        )
+        (staging / "toolchain.cmake").write_text(firmware_tc, encoding="utf-8")
+    export.write_cmake_package(staging, info)
+    return info
+
+
+def _bintools_from_build(tdir: Path) -> BinTools | None:
+    for cache in sorted((tdir / "build").glob("*/CMakeCache.txt")):
+        values: dict[str, str] = {}
+        for line in cache.read_text(encoding="utf-8", errors="replace").splitlines():
+            for key in ("CMAKE_AR", "CMAKE_RANLIB", "CMAKE_NM"):
+                if line.startswith(f"{key}:"):
+                    values[key] = line.split("=", 1)[1]
+        if values.get("CMAKE_AR") and values.get("CMAKE_NM"):
+            return BinTools(
+                ar=values["CMAKE_AR"], ranlib=values.get("CMAKE_RANLIB") or "ranlib", nm=values["CMAKE_NM"]
+            )
+    return None
+
+
+def _microros_flags(profile: TargetProfile, facts: _Facts) -> list[str]:
+    req = ToolchainRequest(
+        profile, micro_ros=True, gcc_major=_major(facts.gcc_version), clock_header=CLOCK_HEADER_NAME
+    )
+    return microros_flags(req)
+
+
+def meta_transport(meta_path: Path) -> str | None:
+    meta = meta_mod.load_meta_file(meta_path)
+    args = meta.names.get("rmw_microxrcedds", {}).get("cmake-args", ())
+    for arg in args if isinstance(args, tuple) else ():
+        if arg.startswith("-DRMW_UXRCE_TRANSPORT="):
+            return arg.split("=", 1)[1]
+    return None
+
+
+# ---------------------------------------------------------------------------------------------
+# uros export cmake
+
+
+def export_cmake(source: Path | None, output: Path) -> Path:
+    src = (source or output).resolve()
+    info = export.read_build_info(src, "--from" if source else "--output")
+    out = output.resolve()
+    if src != out:
+        _check_output_dir(out, force=False)
+        export.copy_build_output(src, out)
+    written = export.write_cmake_package(out, info)
+    console.step(f"wrote {', '.join(p.name for p in written)} in {out}")
+    return out
+
+
+__all__ = ["BuildOptions", "UrosError", "build", "export_cmake", "resolve_target"]
