@@ -6,6 +6,7 @@ import json
 import sys
 import traceback
 from pathlib import Path
+from typing import Any
 
 import click
 
@@ -13,6 +14,17 @@ from uros_build import __version__, console, pipeline
 from uros_build.errors import Interrupted, UrosError
 
 _PATH = click.Path(path_type=Path)
+
+
+def _table(rows: list[dict[str, Any]], as_json: bool, columns: tuple[str, ...]) -> None:
+    """Rows as JSON (sorted keys) or as aligned text columns."""
+    if as_json:
+        click.echo(json.dumps(rows, indent=2, sort_keys=True))
+        return
+    widths = [max(len(str(r[c])) for r in rows) for c in columns[:-1]]
+    for r in rows:
+        cells = [f"{r[c]!s:<{w}}" for c, w in zip(columns, widths, strict=False)]
+        click.echo("  ".join([*cells, str(r[columns[-1]])]))
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
@@ -28,13 +40,7 @@ def cli(ctx: click.Context, debug: bool) -> None:
 @click.option("--json", "as_json", is_flag=True, help="Print the table as JSON.")
 def targets(as_json: bool) -> None:
     """List the shipped target profiles (toolchains/*.yaml)."""
-    rows = pipeline.targets_table()
-    if as_json:
-        click.echo(json.dumps(rows, indent=2, sort_keys=True))
-        return
-    width = max(len(r["name"]) for r in rows)
-    for r in rows:
-        click.echo(f"{r['name']:<{width}}  {r['compiler']:<24} {r['description']}")
+    _table(pipeline.targets_table(), as_json, ("name", "compiler", "description"))
 
 
 @cli.group()
@@ -150,6 +156,121 @@ def export() -> None:
 def export_cmake(output: Path, source: Path | None) -> None:
     """Write microrosConfig.cmake (find_package) and microros.cmake (include) for a build output."""
     pipeline.export_cmake(source, output)
+
+
+@cli.command()
+@click.option("--json", "as_json", is_flag=True, help="Print the table as JSON.")
+def distros(as_json: bool) -> None:
+    """List the micro-ROS distro manifests (meta/distros/)."""
+    _table(pipeline.distros_table(), as_json, ("name", "status", "dev_repositories", "mcu_repositories"))
+
+
+@cli.command("create-firmware")
+@click.argument("platform", default="generate_lib")
+@click.option("--distro", default="humble", show_default=True, help="micro-ROS distro (see `uros distros`).")
+@click.option(
+    "--dir", "directory", type=_PATH, default=Path("firmware"), show_default=True, help="Workspace folder."
+)
+@click.option(
+    "--mirror",
+    "mirrors",
+    multiple=True,
+    metavar="UPSTREAM=LOCAL",
+    help="Rewrite URLs, e.g. 'https://github.com/{owner}/{repo}=/srv/mirror/{owner}+{repo}/repo'.",
+)
+@click.option(
+    "--mirror-override",
+    "overrides",
+    multiple=True,
+    metavar="REPO=URL[@VERSION]",
+    help="One repository from elsewhere (REPO: workspace path like uros/rclc, or owner/repo).",
+)
+@click.option("--config", type=_PATH, help="A uros.yaml with a mirror: section (rules, overrides).")
+@click.option("--locked", is_flag=True, help="Clone exactly the commits in <dir>/uros.lock.")
+@click.option("--lock-file", type=_PATH, help="Clone exactly the commits in this lock file.")
+@click.option(
+    "--extra-package",
+    "extra_packages",
+    multiple=True,
+    type=_PATH,
+    help="A package folder (e.g. custom interfaces) to build with micro-ROS (repeatable).",
+)
+@click.option(
+    "--force", is_flag=True, help="Re-create an existing workspace's sources (keeps your meta and extras)."
+)
+@click.option("--keep-partial", is_flag=True, help="Keep what was created when a step fails.")
+@click.option(
+    "--no-dev-build", is_flag=True, help="Do not build the host tools now (the first `uros build` will)."
+)
+@click.option("-j", "--jobs", type=int, default=4, show_default=True, help="Parallel clones.")
+@click.option("-v", "--verbose", is_flag=True, help="Stream the tools' output.")
+def create_firmware(
+    platform: str,
+    distro: str,
+    directory: Path,
+    mirrors: tuple[str, ...],
+    overrides: tuple[str, ...],
+    config: Path | None,
+    locked: bool,
+    lock_file: Path | None,
+    extra_packages: tuple[Path, ...],
+    force: bool,
+    keep_partial: bool,
+    no_dev_build: bool,
+    jobs: int,
+    verbose: bool,
+) -> None:
+    """Create a micro-ROS firmware workspace (PLATFORM: generate_lib, a library for any MCU)."""
+    from uros_build.firmware import CreateOptions
+
+    pipeline.create_firmware(
+        CreateOptions(
+            directory=directory,
+            distro=distro,
+            platform=platform,
+            mirrors=mirrors,
+            overrides=overrides,
+            config=config,
+            locked=locked,
+            lock_file=lock_file,
+            extra_packages=extra_packages,
+            force=force,
+            keep_partial=keep_partial,
+            build_dev=not no_dev_build,
+            jobs=jobs,
+            verbose=verbose,
+        )
+    )
+
+
+@cli.command("add-package")
+@click.argument("source")
+@click.option(
+    "--workspace", type=_PATH, default=Path("firmware"), show_default=True, help="Firmware workspace."
+)
+@click.option("--version", help="Branch or tag, for a git URL.")
+@click.option("-v", "--verbose", is_flag=True, help="Stream git's output.")
+def add_package(source: str, workspace: Path, version: str | None, verbose: bool) -> None:
+    """Add a package (a folder, kept in sync at every build, or a git URL) to the MCU workspace."""
+    pipeline.add_package(source, workspace, version, verbose)
+
+
+@cli.group()
+def interface() -> None:
+    """Custom interface packages (.msg, .srv)."""
+
+
+@interface.command("new")
+@click.argument("name")
+@click.option("--msg", "msgs", multiple=True, type=_PATH, help="A .msg file (repeatable).")
+@click.option("--srv", "srvs", multiple=True, type=_PATH, help="A .srv file (repeatable).")
+@click.option("--output", type=_PATH, help="Package folder (default: ./NAME).")
+@click.option("--force", is_flag=True, help="Write into an existing folder.")
+def interface_new(
+    name: str, msgs: tuple[Path, ...], srvs: tuple[Path, ...], output: Path | None, force: bool
+) -> None:
+    """Scaffold an interface package NAME from .msg/.srv files (package.xml, CMakeLists.txt)."""
+    pipeline.interface_new(name, list(msgs), list(srvs), output, force)
 
 
 def main(argv: list[str] | None = None) -> None:

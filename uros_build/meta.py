@@ -88,9 +88,17 @@ def presets() -> list[str]:
     return sorted(p.stem for p in (resources.meta_dir() / "presets").glob("*.json"))
 
 
-def load_preset(name: str) -> Meta:
+DEFAULT_PRESET = "humble"
+
+
+def load_preset(name: str, distro_preset: str | None = None) -> Meta:
+    """``default`` means the workspace distro's preset, else humble's (both seeds use humble)."""
+    if name == "default":
+        name = distro_preset or DEFAULT_PRESET
     if name not in presets():
-        raise ConfigError(f"--preset: unknown preset {name!r}", f"known presets: {', '.join(presets())}")
+        raise ConfigError(
+            f"--preset: unknown preset {name!r}", f"known presets: default, {', '.join(presets())}"
+        )
     return load_shipped(f"presets/{name}.json")
 
 

@@ -11,11 +11,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from uros_build import __version__, console, export, includes
+from uros_build import __version__, console, export, firmware, includes, interfaces
 from uros_build import colcon as colcon_mod
+from uros_build import distros as distros_mod
 from uros_build import meta as meta_mod
 from uros_build.archive import BinTools, merge_archives
-from uros_build.errors import ConfigError, StepFailed, UrosError
+from uros_build.errors import ConfigError, MissingToolError, StepFailed, UrosError
 from uros_build.proc import Runner
 from uros_build.profiles import TargetProfile, find_profile, load_profile_file, shipped_profiles
 from uros_build.toolchain import (
@@ -103,10 +104,15 @@ def write_output_file(path: Path | None, text: str) -> None:
 
 
 def meta_for(
-    preset: str, target: Target | None, transport: str | None, user_metas: list[Path], sets: list[str]
+    preset: str,
+    target: Target | None,
+    transport: str | None,
+    user_metas: list[Path],
+    sets: list[str],
+    distro_preset: str | None = None,
 ) -> meta_mod.Meta:
     return meta_mod.build_meta(
-        meta_mod.load_preset(preset),
+        meta_mod.load_preset(preset, distro_preset),
         meta_mod.target_fragments(target.profile if target else None, transport),
         [meta_mod.load_meta_file(p) for p in user_metas],
         sets,
@@ -201,9 +207,87 @@ def _sha256(path: Path) -> str:
     return digest.hexdigest()
 
 
+def _host_env(
+    root: Path, cfg: firmware.FirmwareConfig | None, cmake_version: str, with_dev: bool = True
+) -> tuple[dict[str, str], list[str]]:
+    """The environment colcon runs in: sourced ROS 2 scrubbed, uros's Python first, and for a
+    firmware workspace its dev_ws (as if sourced) and git redirects for build-time clones."""
+    git_config = None
+    if cfg is not None:
+        distro = distros_mod.load_distro(cfg.distro)
+        git_config = distros_mod.insteadof(distro.build_time_clones, cfg.mirror)
+    env, scrubbed = colcon_mod.build_env(
+        os.environ,
+        python_bin_dir=str(Path(sys.executable).parent),
+        cmake_major=_major(cmake_version),
+        git_config=git_config,
+    )
+    if cfg is not None and with_dev:
+        env = firmware.dev_env(env, firmware.dev_install(root))
+    return env, scrubbed
+
+
+def build_dev_workspace(root: Path, runner: Runner, verbose: bool, jobs: int | None = None) -> None:
+    """Build dev_ws (ament and friends) for the host, once; every target reuses it."""
+    cfg = firmware.load_config(root)
+    if cfg is None:
+        raise ConfigError(f"{root}: no {firmware.CONFIG}", "create the workspace with `uros create-firmware`")
+    cmake = runner.which("cmake")
+    cmake_version = _first_version(runner.run([cmake, "--version"], step="cmake --version", quiet=True))
+    env, _ = _host_env(root, cfg, cmake_version, with_dev=False)
+    console.step("building the host tools workspace (dev_ws)")
+    plan = firmware.dev_build_plan(root, verbose, jobs)
+    runner.run(
+        colcon_mod.colcon_argv(plan, runner.which(_colcon_program())),
+        step="colcon build (dev_ws)",
+        cwd=root / "dev_ws",
+        env=env,
+    )
+    (firmware.dev_install(root) / firmware.DEV_MARKER).write_text(
+        (root / firmware.LOCK).read_text(encoding="utf-8") if (root / firmware.LOCK).is_file() else "",
+        "utf-8",
+    )
+
+
+def create_firmware(opts: firmware.CreateOptions) -> Path:
+    return firmware.create_firmware(
+        opts, lambda root, runner, verbose: build_dev_workspace(root, runner, verbose)
+    )
+
+
+def _check_target_prerequisites(runner: Runner, profile: TargetProfile, tdir: Path) -> None:
+    """Real micro-ROS needs the target's C library and C++ headers (humble's rosidl_typesupport_c
+    has .cpp sources): say which package is missing before a long build fails on it."""
+    hint = profile.install_hint or None
+    libc = runner.run(
+        [profile.tool("gcc"), *profile.cpu_flags, "-print-file-name=libc.a"], step="find libc", quiet=True
+    )
+    if not libc or not Path(libc[-1].strip()).is_absolute():
+        raise MissingToolError(f"{profile.tool('gcc')} has no C library (libc.a) for {profile.name}", hint)
+    probe = tdir / "uros_cxx_probe.cpp"
+    probe.parent.mkdir(parents=True, exist_ok=True)
+    probe.write_text("#include <cstdint>\nstd::uint8_t uros_probe;\n", encoding="utf-8")
+    try:
+        runner.run(
+            [profile.tool("g++"), *profile.cpu_flags, "-fsyntax-only", str(probe)],
+            step="find C++ headers",
+            quiet=True,
+        )
+    except StepFailed:
+        message = f"{profile.tool('g++')} has no C++ standard headers for {profile.name}"
+        raise MissingToolError(message, hint) from None
+
+
 def build(opts: BuildOptions) -> Path:
     ws = Workspace.open(opts.workspace)
     target = resolve_target(opts.toolchain, opts.profile)
+    cfg = firmware.load_config(ws.root)
+    distro_preset = distros_mod.load_distro(cfg.distro).preset if cfg else None
+    user_metas = list(opts.metas)
+    if cfg is not None and (ws.root / firmware.USER_META).is_file():
+        user_metas.insert(0, ws.root / firmware.USER_META)
+    # Validate every input before anything runs.
+    meta = meta_for(opts.preset, target, opts.transport, user_metas, list(opts.sets), distro_preset)
     out = (opts.output or ws.default_output(target.key)).resolve()
     _check_output_dir(out, opts.force)
     ws.mark_ignored()
@@ -216,26 +300,27 @@ def build(opts: BuildOptions) -> Path:
     facts.cmake_version = _first_version(runner.run([cmake, "--version"], step="cmake --version", quiet=True))
     colcon_prog = runner.which(_colcon_program())
     profile = target.profile
+    tdir = ws.target_dir(target.key)
     if profile is not None:
         facts.gcc = runner.which(profile.tool("gcc"), profile.install_hint or None)
         for tool in ("g++", "ar", "ranlib", "nm", "size"):
             runner.which(profile.tool(tool), profile.install_hint or None)
-        facts.gcc_version = runner.run([facts.gcc, "-dumpversion"], step="gcc -dumpversion", quiet=True)[
-            0
-        ].strip()
+        version = runner.run([facts.gcc, "-dumpversion"], step="gcc -dumpversion", quiet=True)
+        facts.gcc_version = version[0].strip()
+        if cfg is not None:
+            _check_target_prerequisites(runner, profile, tdir)
 
-    tdir = ws.target_dir(target.key)
+    if cfg is not None:
+        firmware.sync_extra_packages(ws.root, cfg)
+        if not (firmware.dev_install(ws.root) / firmware.DEV_MARKER).is_file():
+            build_dev_workspace(ws.root, runner, opts.verbose, opts.jobs)
+
     with locked(tdir):
         started = time.monotonic()
         toolchain_file = _prepare_toolchain(tdir, target, facts)
-        meta = meta_for(opts.preset, target, opts.transport, list(opts.metas), list(opts.sets))
         meta_path = tdir / "colcon.meta"
         write_if_changed(meta_path, meta_mod.dump_meta(meta, f"uros build --toolchain {target.key}"))
-        env, scrubbed = colcon_mod.build_env(
-            os.environ,
-            python_bin_dir=str(Path(sys.executable).parent),
-            cmake_major=_major(facts.cmake_version),
-        )
+        env, scrubbed = _host_env(ws.root, cfg, facts.cmake_version)
         if scrubbed:
             console.warn(f"ignoring the sourced environment for this build: {', '.join(scrubbed)}")
         plan = colcon_mod.ColconPlan(
@@ -406,3 +491,77 @@ def export_cmake(source: Path | None, output: Path) -> Path:
 
 
 __all__ = ["BuildOptions", "UrosError", "build", "export_cmake", "resolve_target"]
+
+
+# ---------------------------------------------------------------------------------------------
+# uros distros / add-package / interface new
+
+
+def distros_table() -> list[dict[str, Any]]:
+    rows = []
+    for name in distros_mod.known_distros():
+        d = distros_mod.load_distro(name)
+        rows.append(
+            {
+                "name": d.name,
+                "status": d.status,
+                "dev_repositories": len(d.dev),
+                "mcu_repositories": len(d.mcu),
+            }
+        )
+    return rows
+
+
+def add_package(source: str, workspace: Path, version: str | None, verbose: bool) -> Path:
+    root = workspace.resolve()
+    cfg = firmware.load_config(root)
+    if cfg is None:
+        raise ConfigError(
+            f"--workspace {workspace}: not a firmware workspace (no {firmware.CONFIG})",
+            "create one with `uros create-firmware generate_lib`, or copy the package into your workspace",
+        )
+    extra = root / "mcu_ws" / firmware.EXTRA
+    if "://" in source or source.startswith("git@"):
+        name = source.rstrip("/").rsplit("/", 1)[-1].removesuffix(".git")
+        dest = extra / name
+        if dest.exists():
+            raise ConfigError(f"add-package: {dest} already exists", "remove it first to clone it again")
+        runner = Runner(root / ".uros" / "log" / f"add-package-{os.getpid()}.log", verbose=verbose)
+        argv = [runner.which("git"), "clone", "--quiet", *(["--branch", version] if version else []), source]
+        try:
+            runner.run([*argv, str(dest)], step=f"clone {source}")
+        except StepFailed:
+            shutil.rmtree(dest, ignore_errors=True)
+            raise
+        if not list(dest.rglob("package.xml")):
+            shutil.rmtree(dest)
+            raise ConfigError(
+                f"add-package {source}: the repository holds no package.xml", "pass a ROS 2 package"
+            )
+        console.step(f"cloned {source} into {dest}")
+        return dest
+    path = Path(source).resolve()
+    name = firmware.check_extra_package(path, "add-package")
+    entries = list(cfg.extra_packages)
+    if str(path) not in entries:
+        entries.append(str(path))
+    firmware.save_config(root, firmware.FirmwareConfig(cfg.distro, cfg.platform, cfg.mirror, tuple(entries)))
+    dest = extra / name
+    firmware.sync_tree(path, dest)
+    console.step(f"added {name}: {path} is synced into {dest} at every `uros build`")
+    return dest
+
+
+def interface_new(name: str, msgs: list[Path], srvs: list[Path], output: Path | None, force: bool) -> Path:
+    files = [interfaces.read_interface(p, "msg") for p in msgs] + [
+        interfaces.read_interface(p, "srv") for p in srvs
+    ]
+    texts = interfaces.package_files(name, files)
+    dest = (output or Path(name)).resolve()
+    if dest.exists() and any(dest.iterdir()) and not force:
+        raise ConfigError(f"interface new: {dest} already exists", "choose another --output, or pass --force")
+    for rel, text in texts.items():
+        (dest / rel).parent.mkdir(parents=True, exist_ok=True)
+        (dest / rel).write_text(text, encoding="utf-8")
+    console.step(f"wrote interface package {name} in {dest}; add it with `uros add-package {dest}`")
+    return dest

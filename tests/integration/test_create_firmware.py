@@ -1,0 +1,194 @@
+"""`uros create-firmware` on real git repositories served from file paths (as west's tests do):
+a fake upstream for every repository of the humble manifest, reached through --mirror."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+from pathlib import Path
+
+import pytest
+import yaml
+from uros_helpers import run_uros
+
+from uros_build import distros
+
+pytestmark = pytest.mark.integration
+
+
+def _git(*args: str, cwd: Path) -> str:
+    return subprocess.run(
+        ["git", *args],
+        cwd=cwd,
+        check=True,
+        capture_output=True,
+        text=True,
+        env={
+            "GIT_AUTHOR_NAME": "t",
+            "GIT_AUTHOR_EMAIL": "t@t",
+            "GIT_COMMITTER_NAME": "t",
+            "GIT_COMMITTER_EMAIL": "t@t",
+            "PATH": "/usr/bin:/bin",
+        },
+    ).stdout.strip()
+
+
+def _commit(repo: Path, message: str) -> str:
+    (repo / "HISTORY").write_text(
+        (repo / "HISTORY").read_text() + message + "\n" if (repo / "HISTORY").exists() else message + "\n"
+    )
+    _git("add", "-A", cwd=repo)
+    _git("commit", "-q", "-m", message, cwd=repo)
+    return _git("rev-parse", "HEAD", cwd=repo)
+
+
+@pytest.fixture(scope="module")
+def upstream(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """<root>/<owner>+<repo>: a git repo with the branch the humble manifest asks for."""
+    root = tmp_path_factory.mktemp("upstream")
+    d = distros.load_distro("humble")
+    for repo in (*d.dev, *d.mcu):
+        key = distros.owner_repo(repo.url)
+        assert key
+        path = root / key.replace("/", "+")
+        if path.exists():
+            continue
+        path.mkdir()
+        _git("init", "-q", "-b", repo.version, cwd=path)
+        (path / "README").write_text(f"fake {key}\n")
+        _commit(path, "initial")
+    return root
+
+
+def _mirror(upstream: Path) -> list[str]:
+    return [
+        "--mirror",
+        f"https://github.com/{{owner}}/{{repo}}={upstream}/{{owner}}+{{repo}}",
+        "--mirror-override",
+        f"uros/tracetools={upstream}/ros_tracing+ros2_tracing",
+    ]
+
+
+def _interface_pkg(tmp_path: Path) -> Path:
+    msg = tmp_path / "CmdVel.msg"
+    msg.write_text("int32 left_rpm\nint32 right_rpm\n")
+    srv = tmp_path / "GetTime.srv"
+    srv.write_text("int64 time_ms_req\n---\nint64 time_ms_res\n")
+    out = tmp_path / "eic_demo_interface"
+    run_uros(
+        "interface", "new", "eic_demo_interface", "--msg", str(msg), "--srv", str(srv), "--output", str(out)
+    )
+    return out
+
+
+def test_create_lock_force_and_locked(upstream: Path, tmp_path: Path) -> None:
+    pkg = _interface_pkg(tmp_path)
+    fw = tmp_path / "firmware"
+    base = [
+        "create-firmware",
+        "generate_lib",
+        "--distro",
+        "humble",
+        "--dir",
+        str(fw),
+        "--no-dev-build",
+        *_mirror(upstream),
+    ]
+    run_uros(*base, "--extra-package", str(pkg))
+
+    lock = json.loads((fw / "uros.lock").read_text())
+    assert lock["distro"] == "humble" and len(lock["repositories"]) == 32
+    rcl = lock["repositories"]["mcu_ws/uros/rcl"]
+    assert rcl["url"] == "https://github.com/micro-ROS/rcl" and len(rcl["commit"]) == 40
+    assert (fw / "mcu_ws/uros/rclc/README").is_file() and (fw / "dev_ws/ament/ament_cmake/README").is_file()
+    assert (fw / "mcu_ws/extra_packages/eic_demo_interface/msg/CmdVel.msg").is_file()
+    cfg = yaml.safe_load((fw / "uros.yaml").read_text())
+    assert cfg["distro"] == "humble" and cfg["extra_packages"] == [str(pkg)]
+    meta = json.loads((fw / "colcon.meta").read_text())
+    assert "-DRCL_LOGGING_ENABLED=OFF" in meta["names"]["rcl"]["cmake-args"]
+
+    # an existing workspace is an error naming --force; nothing changes
+    (fw / "colcon.meta").write_text('{"names": {"rcl": {"cmake-args": ["-DMINE=1"]}}}\n')
+    proc = run_uros(*base, check=False)
+    assert proc.returncode == 2 and "--force" in proc.stderr
+
+    # upstream moves on; --force re-creates at the new commit and keeps the user's meta and extras
+    new_head = _commit(upstream / "micro-ROS+rcl", "moved on")
+    run_uros(*base, "--force")
+    assert json.loads((fw / "uros.lock").read_text())["repositories"]["mcu_ws/uros/rcl"]["commit"] == new_head
+    assert "-DMINE=1" in (fw / "colcon.meta").read_text()
+    assert (fw / "mcu_ws/extra_packages/eic_demo_interface/package.xml").is_file()
+
+    # --lock-file re-creates exactly the commits of the first lock
+    old_lock = tmp_path / "old.lock"
+    old_lock.write_text(json.dumps(lock))
+    run_uros(*base, "--force", "--lock-file", str(old_lock))
+    head = _git("rev-parse", "HEAD", cwd=fw / "mcu_ws/uros/rcl")
+    assert head == rcl["commit"] != new_head
+
+
+def test_missing_branch_names_repo_and_cleans_up(upstream: Path, tmp_path: Path) -> None:
+    fw = tmp_path / "fw"
+    proc = run_uros(
+        "create-firmware",
+        "--dir",
+        str(fw),
+        "--no-dev-build",
+        *_mirror(upstream),
+        "--mirror-override",
+        "uros/rclc=@no-such-branch",
+        check=False,
+    )
+    assert proc.returncode == 4, proc.stderr
+    line = next(x for x in proc.stderr.splitlines() if x.startswith("error:"))
+    assert "mcu_ws/uros/rclc" in line and "no-such-branch" in line
+    assert "--mirror-override uros/rclc=" in proc.stderr
+    assert not fw.exists()  # no half-created workspace
+    proc = run_uros(
+        "create-firmware",
+        "--dir",
+        str(fw),
+        "--no-dev-build",
+        *_mirror(upstream),
+        "--mirror-override",
+        "uros/rclc=@no-such-branch",
+        "--keep-partial",
+        check=False,
+    )
+    assert proc.returncode == 4 and fw.is_dir()
+
+
+@pytest.mark.parametrize(
+    ("args", "expected"),
+    [
+        (["--distro", "ardent"], "unknown distro 'ardent'"),
+        (["--mirror", "https://github.com/{owner}/{repo}=/nonexistent/{owner}+{repo}"], "/nonexistent/"),
+        (["--extra-package", "/"], "no package.xml"),
+        (["--mirror", "nonsense"], "expected UPSTREAM=LOCAL"),
+    ],
+)
+def test_bad_input(tmp_path: Path, args: list[str], expected: str) -> None:
+    fw = tmp_path / "fw"
+    proc = run_uros("create-firmware", "--dir", str(fw), "--no-dev-build", *args, check=False)
+    assert proc.returncode == 2, proc.stderr
+    errors = [x for x in proc.stderr.splitlines() if x.startswith("error:")]
+    assert len(errors) == 1 and expected in errors[0]
+    assert not fw.exists()
+
+
+def test_add_package_keeps_in_sync(upstream: Path, tmp_path: Path) -> None:
+    fw = tmp_path / "firmware"
+    run_uros("create-firmware", "--dir", str(fw), "--no-dev-build", *_mirror(upstream))
+    pkg = _interface_pkg(tmp_path)
+    run_uros("add-package", str(pkg), "--workspace", str(fw))
+    copy = fw / "mcu_ws/extra_packages/eic_demo_interface"
+    assert (copy / "srv/GetTime.srv").is_file()
+    (pkg / "msg/CmdVel.msg").write_text("int32 left_rpm\nint32 right_rpm\nint32 lift\n")
+    from uros_build import firmware
+
+    cfg = firmware.load_config(fw)
+    assert cfg is not None
+    firmware.sync_extra_packages(fw, cfg)  # what `uros build` does first
+    assert "lift" in (copy / "msg/CmdVel.msg").read_text()
+    proc = run_uros("add-package", str(tmp_path), "--workspace", str(fw), check=False)
+    assert proc.returncode == 2 and "no package.xml" in proc.stderr

@@ -1,0 +1,64 @@
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from uros_build import interfaces
+from uros_build.errors import ConfigError
+
+
+def _file(tmp_path: Path, name: str, text: str) -> Path:
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+def test_seed_interfaces_scaffold(tmp_path: Path) -> None:
+    cmd_vel = _file(tmp_path, "CmdVel.msg", "# wheel speeds\nint32 left_rpm\nint32 right_rpm\n")
+    get_time = _file(tmp_path, "GetTime.srv", "int64 time_ms_req\n---\nint64 time_ms_res\n")
+    hsb = _file(
+        tmp_path, "Hsb.msg", "float32 hue\nfloat32 saturation\nfloat32 brightness\nuint8 MAX_LEVEL=255\n"
+    )
+    files = [
+        interfaces.read_interface(cmd_vel, "msg"),
+        interfaces.read_interface(hsb, "msg"),
+        interfaces.read_interface(get_time, "srv"),
+    ]
+    out = interfaces.package_files("eic_demo_interface", files)
+    assert set(out) == {"package.xml", "CMakeLists.txt", "msg/CmdVel.msg", "msg/Hsb.msg", "srv/GetTime.srv"}
+    assert "<member_of_group>rosidl_interface_packages</member_of_group>" in out["package.xml"]
+    assert '"msg/CmdVel.msg"\n  "msg/Hsb.msg"\n  "srv/GetTime.srv"' in out["CMakeLists.txt"]
+
+
+def test_dependencies_become_depends(tmp_path: Path) -> None:
+    stamped = _file(tmp_path, "Stamped.msg", "std_msgs/Header header\ngeometry_msgs/Twist twist\n")
+    out = interfaces.package_files("my_msgs", [interfaces.read_interface(stamped, "msg")])
+    assert (
+        "<depend>geometry_msgs</depend>" in out["package.xml"]
+        and "<depend>std_msgs</depend>" in out["package.xml"]
+    )
+    assert "DEPENDENCIES geometry_msgs std_msgs" in out["CMakeLists.txt"]
+
+
+@pytest.mark.parametrize(
+    ("name", "text", "expected"),
+    [
+        ("Bad.msg", "int32 LeftRpm\n", r"Bad.msg:1: field name 'LeftRpm' is invalid"),
+        ("Bad.msg", "int32\n", r"Bad.msg:1: expected 'TYPE NAME'"),
+        ("Bad.msg", "int32 a\nin+t b\n", r"Bad.msg:2: 'in\+t' is not a valid field type"),
+        ("Bad.msg", "int32 a\nfloat32 b__c\n", r"Bad.msg:2: field name 'b__c'"),
+        ("Bad.msg", "uint8 max=3\n", r"constant 'max' must be UPPER_CASE"),
+        ("bad_name.msg", "int32 a\n", r"'bad_name' is not a valid type name"),
+        ("Bad.srv", "int32 a\n", r"needs one '---' line"),
+    ],
+)
+def test_bad_interface_files(tmp_path: Path, name: str, text: str, expected: str) -> None:
+    kind = name.rsplit(".", 1)[1]
+    with pytest.raises(ConfigError, match=expected):
+        interfaces.read_interface(_file(tmp_path, name, text), kind)
+
+
+def test_bad_package_name() -> None:
+    with pytest.raises(ConfigError, match="not a valid package name"):
+        interfaces.package_files("MyMsgs", [interfaces.InterfaceFile("msg", "A", "int32 a\n", ())])
