@@ -1,0 +1,129 @@
+"""Real micro-ROS Humble from a local mirror of the upstream repositories, end to end.
+
+Runs when UROS_MIRROR names a folder of clones laid out as <owner>+<repo>/repo (what the project's
+fetch tool produces); skipped otherwise (CI has no mirror). Takes about five minutes on 2 cores.
+The overrides are the substitutions such a mirror needs for humble (docs/real-humble.md).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+from uros_helpers import REPO, run_uros
+
+pytestmark = [pytest.mark.integration, pytest.mark.realsources]
+
+MIRROR = os.environ.get("UROS_MIRROR")
+EXAMPLE = REPO / "examples" / "stm32h7-custom-interfaces"
+
+
+def humble_mirror_args(mirror: str) -> list[str]:
+    def git_dir(name: str) -> str:
+        base = Path(mirror) / name / "repo"
+        return str(base / ".git") if (base / ".git").is_dir() else str(base)
+
+    return [
+        "--mirror",
+        f"https://github.com/{{owner}}/{{repo}}={mirror}/{{owner}}+{{repo}}/repo",
+        # humble branch missing from ament/googletest: its ros2 branch stands in
+        "--mirror-override",
+        f"ament/googletest={git_dir('ament+googletest')}@ros2",
+        # micro-ROS' humble fork of rosidl_typesupport, as carried by fictionlab's clone
+        "--mirror-override",
+        f"uros/rosidl_typesupport={git_dir('fictionlab+rosidl_typesupport')}",
+        # the gitlab fork of tracetools is not mirrored: upstream ros2_tracing's humble branch
+        "--mirror-override",
+        f"uros/tracetools={git_dir('ros2+ros2_tracing')}",
+    ]
+
+
+@pytest.mark.skipif(not MIRROR, reason="set UROS_MIRROR to a folder of upstream clones (<owner>+<repo>/repo)")
+def test_real_humble_library_links_the_stm32h7_example(tmp_path: Path) -> None:
+    assert MIRROR
+    if shutil.which("arm-none-eabi-gcc") is None:
+        pytest.skip("arm-none-eabi-gcc is not installed")
+    pkg = tmp_path / "eic_demo_interface"
+    run_uros(
+        "interface",
+        "new",
+        "eic_demo_interface",
+        "--msg",
+        str(EXAMPLE / "interfaces" / "CmdVel.msg"),
+        "--srv",
+        str(EXAMPLE / "interfaces" / "GetTime.srv"),
+        "--output",
+        str(pkg),
+    )
+    fw = tmp_path / "firmware"
+    run_uros(
+        "create-firmware",
+        "generate_lib",
+        "--distro",
+        "humble",
+        "--dir",
+        str(fw),
+        "--extra-package",
+        str(pkg),
+        *humble_mirror_args(MIRROR),
+    )
+    run_uros("build", "--toolchain", "cortex-m7", "--workspace", str(fw))
+
+    out = fw / "build" / "cortex-m7"
+    info = json.loads((out / "build-info.json").read_text())
+    assert info["transport"] == "custom"
+    assert info["library"]["members"] > 1000
+    for pkg_name in (
+        "rcl",
+        "rclc",
+        "rmw_microxrcedds",
+        "microxrcedds_client",
+        "microcdr",
+        "eic_demo_interface",
+    ):
+        assert pkg_name in info["packages"]
+    for header in (
+        "rcl/rcl.h",
+        "rclc/rclc.h",
+        "uxr/client/client.h",
+        "ucdr/microcdr.h",
+        "eic_demo_interface/msg/cmd_vel.h",
+        "eic_demo_interface/srv/get_time.h",
+    ):
+        assert (out / "include" / header).is_file(), header
+
+    build = tmp_path / "fw-build"
+    subprocess.run(
+        [
+            "cmake",
+            "-S",
+            str(EXAMPLE),
+            "-B",
+            str(build),
+            "-G",
+            "Ninja",
+            f"-DCMAKE_TOOLCHAIN_FILE={out / 'toolchain.cmake'}",
+            f"-DCMAKE_PREFIX_PATH={out}",
+            "-DCMAKE_BUILD_TYPE=Release",
+            "-DCMAKE_EXPORT_COMPILE_COMMANDS=ON",
+        ],
+        check=True,
+        capture_output=True,
+        text=True,
+    )
+    done = subprocess.run(["cmake", "--build", str(build)], capture_output=True, text=True)
+    assert done.returncode == 0, done.stdout + done.stderr
+    elf = build / "firmware.elf"
+    attrs = subprocess.run(["readelf", "-A", str(elf)], check=True, capture_output=True, text=True).stdout
+    assert "Tag_ABI_VFP_args: VFP registers" in attrs
+    commands = " ".join(e["command"] for e in json.loads((build / "compile_commands.json").read_text()))
+    assert "CLOCK_MONOTONIC" not in commands
+    syms = subprocess.run(["arm-none-eabi-nm", str(elf)], check=True, capture_output=True, text=True).stdout
+    assert " rclc_publisher_init_default\n" in syms and " uxr_create_session\n" in syms
+
+    # a second build of the same target reuses colcon's trees
+    run_uros("build", "--toolchain", "cortex-m7", "--workspace", str(fw))
