@@ -154,7 +154,8 @@ def _validate(profile: TargetProfile, source: Path | str) -> TargetProfile:
         raise _fail(source, "transport", f"{profile.transport!r} is not one of {', '.join(TRANSPORTS)}")
     if not profile.optimization.startswith("-O"):
         raise _fail(source, "optimization", f"{profile.optimization!r} is not a -O flag")
-    if not re.fullmatch(r"[A-Za-z0-9_.+-]*-", profile.compiler_prefix):
+    # A triplet prefix, optionally with its folder (/opt/arm-gnu-toolchain/bin/arm-none-eabi-).
+    if not re.fullmatch(r"[^\n\r\0]*/?[A-Za-z0-9_.+-]+-", profile.compiler_prefix):
         raise _fail(
             source, "compiler_prefix", f"{profile.compiler_prefix!r} is not a prefix like 'arm-none-eabi-'"
         )
@@ -206,13 +207,14 @@ def derive_profile(
             raise ConfigError(
                 "--cflags without a target", "pass --toolchain NAME or --compiler-prefix PREFIX as well"
             )
-        arch = next((a for a in _PREFIX_ARCH if compiler_prefix.startswith(a[0])), None)
+        triplet = compiler_prefix.rsplit("/", 1)[-1]
+        arch = next((a for a in _PREFIX_ARCH if triplet.startswith(a[0])), None)
         if arch is None:
             raise ConfigError(
                 f"--compiler-prefix {compiler_prefix}: cannot tell the architecture from the prefix",
                 "derive from a target (--toolchain NAME) or write a profile file (--profile my-board.yaml)",
             )
-        name = f"custom-{compiler_prefix.rstrip('-')}"
+        name = f"custom-{triplet.rstrip('-')}"
         profile = TargetProfile(
             name=name,
             description=f"from the command line: {compiler_prefix}gcc {' '.join(cflags)}".rstrip(),
