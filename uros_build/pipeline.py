@@ -342,8 +342,19 @@ def _prepare_toolchain(tdir: Path, target: Target, facts: _Facts) -> Path:
         command=f"uros build --toolchain {target.profile.name}",
     )
     path = tdir / "toolchain.cmake"
-    write_if_changed(path, render_toolchain(req))
+    if write_if_changed(path, render_toolchain(req)):
+        _forget_configured_flags(tdir / "build")
     return path
+
+
+def _forget_configured_flags(build_base: Path) -> None:
+    """A changed toolchain file must reach the compiles: CMake reads CMAKE_<LANG>_FLAGS_INIT only
+    when it creates the CMAKE_<LANG>_FLAGS cache entry, on the first configure
+    (https://cmake.org/cmake/help/latest/variable/CMAKE_LANG_FLAGS_INIT.html), so a reconfigure
+    would keep compiling with the old flags. Dropping each package's CMakeCache.txt makes colcon
+    configure afresh in the same folder; ninja then recompiles what the new flags change."""
+    for cache in sorted(build_base.glob("*/CMakeCache.txt")):
+        cache.unlink()
 
 
 def _bintools_for(target: Target, tdir: Path, tool_dir: str | None) -> BinTools:
