@@ -199,3 +199,21 @@ FIXTURE_SYMBOLS = (
     "fx_util_twice",
     "fx_util_scale",
 )
+
+
+def add_board_package(root: Path) -> None:
+    """fx_board: compiles only when BOARD_NAME arrives as one intact define (tests of --cflags)."""
+    board = root / "mcu_ws" / "src" / "fx_board"
+    _write(board / "package.xml", _package_xml("fx_board", []))
+    _write(board / "CMakeLists.txt", _cmake("fx_board", ["src/board.c"], []))
+    _write(board / "include/fx_board/board.h", "extern const char fx_board_name[];\n")
+    _write(
+        board / "src/board.c",
+        """
+        #include "fx_board/board.h"
+        #ifndef BOARD_NAME
+        #error "BOARD_NAME is not defined: --cflags did not reach the compiler"
+        #endif
+        const char fx_board_name[] = BOARD_NAME;
+    """,
+    )

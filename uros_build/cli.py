@@ -108,6 +108,16 @@ def meta_write(
 @click.option("--output", type=_PATH, help="Output folder (default: <workspace>/build/<target>).")
 @click.option("--packages-up-to", multiple=True, help="Build only these packages and their dependencies.")
 @click.option("-j", "--jobs", type=int, help="Packages built in parallel (colcon --parallel-workers).")
+@click.option(
+    "--compiler-prefix",
+    help="Derive a target: this compiler prefix (e.g. arm-none-eabi-) instead of the profile's.",
+)
+@click.option(
+    "--cflags",
+    multiple=True,
+    metavar="FLAG",
+    help="Derive a target: one more compiler flag (repeatable; one flag each, never split).",
+)
 @click.option("--force", is_flag=True, help="Replace an --output folder that is not a uros output.")
 @click.option("-v", "--verbose", is_flag=True, help="Stream colcon's and the compilers' output.")
 def build(
@@ -121,6 +131,8 @@ def build(
     output: Path | None,
     packages_up_to: tuple[str, ...],
     jobs: int | None,
+    compiler_prefix: str | None,
+    cflags: tuple[str, ...],
     force: bool,
     verbose: bool,
 ) -> None:
@@ -139,8 +151,20 @@ def build(
             force=force,
             packages_up_to=packages_up_to,
             jobs=jobs,
+            compiler_prefix=compiler_prefix,
+            cflags=cflags,
         )
     )
+
+
+@cli.command()
+@click.argument("library", type=_PATH)
+@click.option("--target", help="The target the library must fit (see `uros targets`).")
+@click.option("--profile", type=_PATH, help="Or your own target profile (.yaml).")
+@click.option("-v", "--verbose", is_flag=True, help="Stream readelf's output.")
+def check(library: Path, target: str | None, profile: Path | None, verbose: bool) -> None:
+    """Check that every object in LIBRARY has the ELF facts of a target (exit 5 if not)."""
+    pipeline.check_library(library, target, profile, verbose)
 
 
 @cli.group()
@@ -148,11 +172,15 @@ def export() -> None:
     """Packages for firmware build systems."""
 
 
-@export.command("cmake")
-@click.option("--output", type=_PATH, required=True, help="Folder of the CMake package.")
-@click.option(
+# `--from` names the build output to copy; without it, --output is that output, rewritten in place.
+_FROM = click.option(
     "--from", "source", type=_PATH, help="A `uros build` output to copy (default: --output itself)."
 )
+
+
+@export.command("cmake")
+@click.option("--output", type=_PATH, required=True, help="Folder of the CMake package.")
+@_FROM
 def export_cmake(output: Path, source: Path | None) -> None:
     """Write microrosConfig.cmake (find_package) and microros.cmake (include) for a build output."""
     pipeline.export_cmake(source, output)
@@ -271,6 +299,14 @@ def interface_new(
 ) -> None:
     """Scaffold an interface package NAME from .msg/.srv files (package.xml, CMakeLists.txt)."""
     pipeline.interface_new(name, list(msgs), list(srvs), output, force)
+
+
+@export.command("esp-idf")
+@click.option("--output", type=_PATH, required=True, help="Folder of the ESP-IDF component.")
+@_FROM
+def export_esp_idf(output: Path, source: Path | None) -> None:
+    """Write an ESP-IDF component (CMakeLists.txt, libmicroros.a, include/) for an ESP32 build."""
+    pipeline.export_esp_idf(source, output)
 
 
 def main(argv: list[str] | None = None) -> None:

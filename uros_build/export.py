@@ -45,6 +45,33 @@ def write_cmake_package(out: Path, info: Mapping[str, Any]) -> list[Path]:
     return written
 
 
+ESP_IDF_COMPONENT_FILE = "CMakeLists.txt"
+
+
+def esp_idf_component_files(info: Mapping[str, Any]) -> dict[str, str]:
+    """File name -> text of the ESP-IDF component around a build output (pure)."""
+    transport = info.get("transport")
+    # XRCE-DDS' UDP transport on FreeRTOS calls lwIP's sockets; custom transports need nothing.
+    requires = ["lwip"] if transport in ("udp", "tcp") else []
+    text = templating.render(
+        "esp-idf-component.cmake.j2",
+        version=__version__,
+        target=str(info["target"]),
+        idf_target=str(info["idf_target"]),
+        transport=transport or "custom",
+        requires=requires,
+    )
+    return {ESP_IDF_COMPONENT_FILE: text}
+
+
+def write_esp_idf_component(out: Path, info: Mapping[str, Any]) -> list[Path]:
+    written = []
+    for name, text in esp_idf_component_files(info).items():
+        (out / name).write_text(text, encoding="utf-8")
+        written.append(out / name)
+    return written
+
+
 def copy_build_output(src: Path, dst: Path) -> None:
     """Copy library, headers and build-info from one output folder to another."""
     dst.mkdir(parents=True, exist_ok=True)

@@ -6,25 +6,33 @@ import hashlib
 import os
 import shutil
 import sys
+import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from uros_build import __version__, console, export, firmware, includes, interfaces
+from uros_build import __version__, abi, console, export, firmware, includes, interfaces, toolsearch
 from uros_build import colcon as colcon_mod
 from uros_build import distros as distros_mod
 from uros_build import meta as meta_mod
 from uros_build.archive import BinTools, merge_archives
 from uros_build.errors import ConfigError, MissingToolError, StepFailed, UrosError
 from uros_build.proc import Runner
-from uros_build.profiles import TargetProfile, find_profile, load_profile_file, shipped_profiles
+from uros_build.profiles import (
+    TargetProfile,
+    derive_profile,
+    find_profile,
+    load_profile_file,
+    shipped_profiles,
+)
 from uros_build.toolchain import (
     CLOCK_HEADER_NAME,
     CLOCK_HEADER_TEXT,
     ToolchainRequest,
     microros_flags,
     render_toolchain,
+    tool_paths,
 )
 from uros_build.workspace import Workspace, locked, target_key, write_if_changed
 
@@ -36,15 +44,31 @@ class Target:
     toolchain_file: Path | None = None
 
 
-def resolve_target(toolchain: str | None, profile_path: Path | None) -> Target:
+def resolve_target(
+    toolchain: str | None,
+    profile_path: Path | None,
+    compiler_prefix: str | None = None,
+    cflags: tuple[str, ...] = (),
+) -> Target:
+    derive = compiler_prefix is not None or bool(cflags)
     if profile_path is not None:
         if toolchain is not None:
             raise ConfigError("--toolchain and --profile name a target twice", "pass only one of them")
         profile = load_profile_file(profile_path)
+        if derive:
+            profile = derive_profile(profile, compiler_prefix, cflags)
         return Target(target_key(profile.name), profile)
     if toolchain is None:
+        if derive:
+            profile = derive_profile(None, compiler_prefix, cflags)
+            return Target(target_key(profile.name), profile)
         raise ConfigError("no target given", f"pass --toolchain with one of: {', '.join(shipped_profiles())}")
     if toolchain.endswith(".cmake") or "/" in toolchain:
+        if derive:
+            raise ConfigError(
+                f"--compiler-prefix/--cflags cannot change your own toolchain file {toolchain}",
+                "edit the file, or derive from a target name or a profile (--profile my-board.yaml)",
+            )
         path = Path(toolchain).resolve()
         if not path.is_file():
             raise ConfigError(
@@ -52,6 +76,9 @@ def resolve_target(toolchain: str | None, profile_path: Path | None) -> Target:
             )
         return Target(target_key(path.stem), None, path)
     profile = find_profile(toolchain)
+    if derive:
+        profile = derive_profile(profile, compiler_prefix, cflags)
+        return Target(target_key(profile.name), profile)
     return Target(profile.name, profile)
 
 
@@ -137,12 +164,15 @@ class BuildOptions:
     force: bool = False
     packages_up_to: tuple[str, ...] = ()
     jobs: int | None = None
+    compiler_prefix: str | None = None
+    cflags: tuple[str, ...] = ()
 
 
 @dataclass
 class _Facts:
     gcc: str = ""
     gcc_version: str = ""
+    tool_dir: str | None = None  # where the target's tools are when not on PATH (ESP-IDF install)
     cmake_version: str = ""
     extra: dict[str, Any] = field(default_factory=dict)
 
@@ -255,12 +285,16 @@ def create_firmware(opts: firmware.CreateOptions) -> Path:
     )
 
 
-def _check_target_prerequisites(runner: Runner, profile: TargetProfile, tdir: Path) -> None:
+def _check_target_prerequisites(
+    runner: Runner, profile: TargetProfile, tools: dict[str, str], tdir: Path
+) -> None:
     """Real micro-ROS needs the target's C library and C++ headers (humble's rosidl_typesupport_c
     has .cpp sources): say which package is missing before a long build fails on it."""
     hint = profile.install_hint or None
     libc = runner.run(
-        [profile.tool("gcc"), *profile.cpu_flags, "-print-file-name=libc.a"], step="find libc", quiet=True
+        [tools["gcc"], *profile.cpu_flags, *profile.libc_flags, "-print-file-name=libc.a"],
+        step="find libc",
+        quiet=True,
     )
     if not libc or not Path(libc[-1].strip()).is_absolute():
         raise MissingToolError(f"{profile.tool('gcc')} has no C library (libc.a) for {profile.name}", hint)
@@ -269,7 +303,7 @@ def _check_target_prerequisites(runner: Runner, profile: TargetProfile, tdir: Pa
     probe.write_text("#include <cstdint>\nstd::uint8_t uros_probe;\n", encoding="utf-8")
     try:
         runner.run(
-            [profile.tool("g++"), *profile.cpu_flags, "-fsyntax-only", str(probe)],
+            [tools["g++"], *profile.cpu_flags, *profile.libc_flags, "-fsyntax-only", str(probe)],
             step="find C++ headers",
             quiet=True,
         )
@@ -280,7 +314,7 @@ def _check_target_prerequisites(runner: Runner, profile: TargetProfile, tdir: Pa
 
 def build(opts: BuildOptions) -> Path:
     ws = Workspace.open(opts.workspace)
-    target = resolve_target(opts.toolchain, opts.profile)
+    target = resolve_target(opts.toolchain, opts.profile, opts.compiler_prefix, opts.cflags)
     cfg = firmware.load_config(ws.root)
     distro_preset = distros_mod.load_distro(cfg.distro).preset if cfg else None
     user_metas = list(opts.metas)
@@ -302,13 +336,15 @@ def build(opts: BuildOptions) -> Path:
     profile = target.profile
     tdir = ws.target_dir(target.key)
     if profile is not None:
-        facts.gcc = runner.which(profile.tool("gcc"), profile.install_hint or None)
+        facts.tool_dir = locate_compiler(runner, profile)
+        tools = tool_paths(profile, facts.tool_dir)
+        facts.gcc = runner.which(tools["gcc"], profile.install_hint or None)
         for tool in ("g++", "ar", "ranlib", "nm", "size"):
-            runner.which(profile.tool(tool), profile.install_hint or None)
+            runner.which(tools[tool], profile.install_hint or None)
         version = runner.run([facts.gcc, "-dumpversion"], step="gcc -dumpversion", quiet=True)
         facts.gcc_version = version[0].strip()
         if cfg is not None:
-            _check_target_prerequisites(runner, profile, tdir)
+            _check_target_prerequisites(runner, profile, tools, tdir)
 
     if cfg is not None:
         firmware.sync_extra_packages(ws.root, cfg)
@@ -360,6 +396,25 @@ def build(opts: BuildOptions) -> Path:
     return out
 
 
+def locate_compiler(runner: Runner, profile: TargetProfile) -> str | None:
+    """None when <prefix>gcc is on PATH, else the profile's compiler_search folder holding it."""
+    gcc = profile.tool("gcc")
+    try:
+        runner.which(gcc, profile.install_hint or None)
+        return None
+    except MissingToolError:
+        if not profile.compiler_search:
+            raise
+    found = toolsearch.search_compiler(profile, os.environ, Path.home())
+    if found is None:
+        places = toolsearch.searched_places(profile, os.environ, Path.home())
+        raise MissingToolError(
+            f"'{gcc}' was found neither on PATH nor in {' or '.join(places)}", profile.install_hint or None
+        )
+    console.info(f"using {found / gcc} (not on PATH)")
+    return str(found)
+
+
 def _prepare_toolchain(tdir: Path, target: Target, facts: _Facts) -> Path:
     if target.profile is None:
         assert target.toolchain_file is not None
@@ -372,17 +427,29 @@ def _prepare_toolchain(tdir: Path, target: Target, facts: _Facts) -> Path:
         micro_ros=True,
         gcc_major=_major(facts.gcc_version),
         clock_header=str(header) if target.profile.micro_ros.declare_clock_gettime else None,
+        tool_dir=facts.tool_dir,
         command=f"uros build --toolchain {target.profile.name}",
     )
     path = tdir / "toolchain.cmake"
-    write_if_changed(path, render_toolchain(req))
+    if write_if_changed(path, render_toolchain(req)):
+        _forget_configured_flags(tdir / "build")
     return path
 
 
-def _bintools_for(target: Target, tdir: Path) -> BinTools:
+def _forget_configured_flags(build_base: Path) -> None:
+    """A changed toolchain file must reach the compiles: CMake reads CMAKE_<LANG>_FLAGS_INIT only
+    when it creates the CMAKE_<LANG>_FLAGS cache entry, on the first configure
+    (https://cmake.org/cmake/help/latest/variable/CMAKE_LANG_FLAGS_INIT.html), so a reconfigure
+    would keep compiling with the old flags. Dropping each package's CMakeCache.txt makes colcon
+    configure afresh in the same folder; ninja then recompiles what the new flags change."""
+    for cache in sorted(build_base.glob("*/CMakeCache.txt")):
+        cache.unlink()
+
+
+def _bintools_for(target: Target, tdir: Path, tool_dir: str | None) -> BinTools:
     if target.profile is not None:
-        p = target.profile
-        return BinTools(ar=p.tool("ar"), ranlib=p.tool("ranlib"), nm=p.tool("nm"))
+        tools = tool_paths(target.profile, tool_dir)
+        return BinTools(ar=tools["ar"], ranlib=tools["ranlib"], nm=tools["nm"])
     # A user toolchain file: use the archiver CMake recorded for it (the target's); the host
     # binutils read foreign ELF archives too, as a fallback.
     return _bintools_from_build(tdir) or BinTools(ar="ar", ranlib="ranlib", nm="nm")
@@ -401,12 +468,14 @@ def _stage_output(
     if staging.exists():
         shutil.rmtree(staging)
     staging.mkdir(parents=True)
-    tools = _bintools_for(target, tdir)
+    tools = _bintools_for(target, tdir, facts.tool_dir)
     console.step(f"merging {len(libs)} libraries into libmicroros.a")
     library = staging / "libmicroros.a"
     report = merge_archives(runner, tools, libs, library, tdir / "merge")
-    inc = includes.flatten_includes(install / "include", staging / "include")
     profile = target.profile
+    # Before the output is swapped in: a library that fails the check never replaces a good one.
+    abi_check = _check_abi(runner, library, profile)
+    inc = includes.flatten_includes(install / "include", staging / "include")
     info: dict[str, Any] = {
         "generated_by": f"uros {__version__}",
         "target": target.key,
@@ -433,15 +502,28 @@ def _stage_output(
             "inputs": list(report.inputs),
         },
         "include": {"dir": "include", "files": inc.files, "bytes": inc.bytes, "packages": inc.packages},
+        "abi_check": abi_check,
     }
+    if profile is not None and profile.idf_target:
+        info["idf_target"] = profile.idf_target
     if profile is not None:
-        info["library"]["size"] = _size_totals(runner, profile.tool("size"), library)
+        size_tool = tool_paths(profile, facts.tool_dir)["size"]
+        info["library"]["size"] = _size_totals(runner, size_tool, library)
         firmware_tc = render_toolchain(
             ToolchainRequest(profile, micro_ros=False, command=f"uros toolchain render {profile.name}")
         )
         (staging / "toolchain.cmake").write_text(firmware_tc, encoding="utf-8")
     export.write_cmake_package(staging, info)
     return info
+
+
+def _check_abi(runner: Runner, library: Path, profile: TargetProfile | None) -> dict[str, Any]:
+    if profile is None:
+        return {"checked": False, "reason": "your own toolchain file: no target profile to compare with"}
+    console.step(f"checking every object against {profile.name}'s ELF facts")
+    summary = abi.check_library(runner, library, profile)
+    console.info(abi.describe(summary))
+    return summary
 
 
 def _bintools_from_build(tdir: Path) -> BinTools | None:
@@ -479,18 +561,60 @@ def meta_transport(meta_path: Path) -> str | None:
 
 
 def export_cmake(source: Path | None, output: Path) -> Path:
+    info, out = _prepare_export(source, output)
+    written = export.write_cmake_package(out, info)
+    console.step(f"wrote {', '.join(p.name for p in written)} in {out}")
+    return out
+
+
+def _prepare_export(source: Path | None, output: Path) -> tuple[dict[str, Any], Path]:
+    """Read the build-info of the output to export and copy that output to ``output``."""
     src = (source or output).resolve()
     info = export.read_build_info(src, "--from" if source else "--output")
     out = output.resolve()
     if src != out:
         _check_output_dir(out, force=False)
         export.copy_build_output(src, out)
-    written = export.write_cmake_package(out, info)
-    console.step(f"wrote {', '.join(p.name for p in written)} in {out}")
+    return info, out
+
+
+# ---------------------------------------------------------------------------------------------
+# uros export esp-idf
+
+
+def export_esp_idf(source: Path | None, output: Path) -> Path:
+    src = (source or output).resolve()
+    info = export.read_build_info(src, "--from" if source else "--output")
+    if not info.get("idf_target"):
+        raise ConfigError(
+            f"{src}: built for {info.get('target')}, which is not an ESP-IDF target",
+            "build for esp32, esp32s2, esp32s3 or esp32c3 first: uros build --toolchain esp32s3",
+        )
+    info, out = _prepare_export(source, output)
+    written = export.write_esp_idf_component(out, info)
+    console.step(
+        f"wrote the ESP-IDF component {out} ({', '.join(p.name for p in written)}): copy it into your "
+        f"project's components/ and add its folder name to PRIV_REQUIRES"
+    )
     return out
 
 
-__all__ = ["BuildOptions", "UrosError", "build", "export_cmake", "resolve_target"]
+# ---------------------------------------------------------------------------------------------
+# uros check
+
+
+def check_library(library: Path, target: str | None, profile_path: Path | None, verbose: bool) -> None:
+    """`uros check`: the build's ABI check on any library."""
+    if (target is None) == (profile_path is None):
+        raise ConfigError("uros check needs one target", "pass --target NAME or --profile FILE")
+    if not library.is_file():
+        raise ConfigError(f"{library}: no such file", "pass the path of a static library (.a) or an object")
+    profile = load_profile_file(profile_path) if profile_path is not None else find_profile(str(target))
+    stamp = time.strftime("%Y%m%d-%H%M%S")
+    log = Path(tempfile.gettempdir()) / f"uros-{os.getuid()}" / "log" / f"{stamp}-check-{os.getpid()}.log"
+    runner = Runner(log, verbose=verbose)
+    summary = abi.check_library(runner, library.resolve(), profile)
+    console.step(f"{library}: {abi.describe(summary)}")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -565,3 +689,6 @@ def interface_new(name: str, msgs: list[Path], srvs: list[Path], output: Path | 
         (dest / rel).write_text(text, encoding="utf-8")
     console.step(f"wrote interface package {name} in {dest}; add it with `uros add-package {dest}`")
     return dest
+
+
+__all__ = ["BuildOptions", "UrosError", "build", "check_library", "export_cmake", "resolve_target"]

@@ -8,8 +8,9 @@ naming the file and the key; nothing past this module sees a raw dict.
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import Any
 
@@ -44,8 +45,15 @@ class ElfFacts:
     header_flags: tuple[str, ...] = ()  # substrings of readelf -h "Flags:" (RISC-V float ABI, ...)
     # readelf -A attributes that must match exactly, e.g. Tag_ABI_VFP_args: VFP registers.
     attributes: tuple[tuple[str, str], ...] = ()
-    # attributes that must be absent or equal to one of the listed values (e.g. no FPU at all)
+    # readelf -A attributes that must not be there: Tag_FP_arch on a soft-float core, or
+    # Tag_ABI_HardFP_use on a double-precision FPU (its "SP only" marks a single-precision one).
     attributes_absent: tuple[str, ...] = ()
+    # readelf -A attributes whose value must match a regular expression (whole value), for values
+    # that carry versions, e.g. Tag_RISCV_arch "rv32i2p1_m2p0_c2p0_zmmul1p0" with GCC 12.
+    attribute_patterns: tuple[tuple[str, str], ...] = ()
+    # The ABI= line of Xtensa's .xtensa.info section: "0" windowed (ESP32/S2/S3), "1" call0
+    # (lx106/ESP8266). Xtensa objects carry no attributes and e_flags 0x300 on every core.
+    xtensa_abi: str = ""
 
 
 @dataclass(frozen=True)
@@ -57,6 +65,9 @@ class TargetProfile:
     cpu_flags: tuple[str, ...]  # -mcpu/-march/-mfpu/-mfloat-abi: on every compile and link
     elf: ElfFacts
     install_hint: str = ""
+    # Selects the C library (picolibc's specs): on every C/C++ compile and link, micro-ROS and
+    # firmware alike, since without it riscv64-unknown-elf-gcc finds no libc headers at all.
+    libc_flags: tuple[str, ...] = ()
     c_flags: tuple[str, ...] = ()
     cxx_flags: tuple[str, ...] = ()
     defines: tuple[str, ...] = ()  # defines the firmware needs too (ESP_PLATFORM, ...)
@@ -67,8 +78,12 @@ class TargetProfile:
     micro_ros: MicroRosFlags = MicroRosFlags()
     transport: str = "custom"
     native_64bit_atomics: bool = False
-    # where the compiler may live besides PATH (e.g. an ESP-IDF tools directory glob)
+    # Folders (globs) holding <prefix>gcc when it is not on PATH, e.g. an ESP-IDF tools install:
+    # "{IDF_TOOLS_PATH}/tools/xtensa-esp-elf/*/xtensa-esp-elf/bin" (see toolsearch.py).
     compiler_search: tuple[str, ...] = ()
+    # ESP-IDF's IDF_TARGET (esp32s3, ...): the exported ESP-IDF component refuses other chips,
+    # since an ESP32 and an ESP32-S3 object cannot be told apart by their ELF facts.
+    idf_target: str = ""
     source: str = ""  # the file it was loaded from, for messages
 
     def tool(self, name: str) -> str:
@@ -130,13 +145,94 @@ def _build(cls: Any, source: Path | str, data: Any, prefix: str = "") -> Any:
     return cls(**values)
 
 
-def parse_profile(data: Any, source: Path | str) -> TargetProfile:
-    profile: TargetProfile = _build(TargetProfile, source, data)
+_SEARCH_PLACEHOLDERS = ("{IDF_TOOLS_PATH}", "{IDF_PATH}")
+
+
+def _validate(profile: TargetProfile, source: Path | str) -> TargetProfile:
+    """Checks across fields, shared by profile files and command-line derivation."""
     if profile.transport not in TRANSPORTS:
         raise _fail(source, "transport", f"{profile.transport!r} is not one of {', '.join(TRANSPORTS)}")
     if not profile.optimization.startswith("-O"):
         raise _fail(source, "optimization", f"{profile.optimization!r} is not a -O flag")
-    return TargetProfile(**{**profile.__dict__, "source": str(source)})
+    # A triplet prefix, optionally with its folder (/opt/arm-gnu-toolchain/bin/arm-none-eabi-).
+    if not re.fullmatch(r"[^\n\r\0]*/?[A-Za-z0-9_.+-]+-", profile.compiler_prefix):
+        raise _fail(
+            source, "compiler_prefix", f"{profile.compiler_prefix!r} is not a prefix like 'arm-none-eabi-'"
+        )
+    for key in ("cpu_flags", "libc_flags", "c_flags", "cxx_flags", "link_flags"):
+        for flag in getattr(profile, key):
+            # One flag per entry: an empty one or a line break cannot be passed on as one word.
+            if not flag or any(c in flag for c in "\n\r\0"):
+                raise _fail(source, key, f"{flag!r} is not a single compiler flag")
+    for pattern in profile.compiler_search:
+        for placeholder in re.findall(r"\{[^}]*\}", pattern):
+            if placeholder not in _SEARCH_PLACEHOLDERS:
+                raise _fail(
+                    source,
+                    "compiler_search",
+                    f"unknown placeholder {placeholder} (known: {', '.join(_SEARCH_PLACEHOLDERS)})",
+                )
+    for tag, pattern in profile.elf.attribute_patterns:
+        try:
+            re.compile(pattern)
+        except re.error as exc:
+            raise _fail(source, f"elf.attribute_patterns.{tag}", f"not a regular expression: {exc}") from exc
+    if profile.elf.xtensa_abi not in ("", "0", "1"):
+        raise _fail(source, "elf.xtensa_abi", f"{profile.elf.xtensa_abi!r} is not 0 (windowed) or 1 (call0)")
+    return replace(profile, source=str(source))
+
+
+def parse_profile(data: Any, source: Path | str) -> TargetProfile:
+    profile: TargetProfile = _build(TargetProfile, source, data)
+    return _validate(profile, source)
+
+
+# Architecture of a standalone --compiler-prefix: (CMAKE_SYSTEM_PROCESSOR, readelf "Machine:").
+_PREFIX_ARCH = (
+    ("arm", "arm", "ARM"),
+    ("riscv", "riscv", "RISC-V"),
+    ("xtensa", "xtensa", "Tensilica Xtensa"),
+)
+
+
+def derive_profile(
+    base: TargetProfile | None, compiler_prefix: str | None, cflags: tuple[str, ...]
+) -> TargetProfile:
+    """A profile from the command line: a shipped/own profile with another compiler prefix and
+    more flags, or (no base) one made from --compiler-prefix and --cflags alone. Validated like a
+    file; the flags stay a list, each one word, all the way to the compiler."""
+    source = "command line"
+    if base is None:
+        if not compiler_prefix:
+            raise ConfigError(
+                "--cflags without a target", "pass --toolchain NAME or --compiler-prefix PREFIX as well"
+            )
+        triplet = compiler_prefix.rsplit("/", 1)[-1]
+        arch = next((a for a in _PREFIX_ARCH if triplet.startswith(a[0])), None)
+        if arch is None:
+            raise ConfigError(
+                f"--compiler-prefix {compiler_prefix}: cannot tell the architecture from the prefix",
+                "derive from a target (--toolchain NAME) or write a profile file (--profile my-board.yaml)",
+            )
+        name = f"custom-{triplet.rstrip('-')}"
+        profile = TargetProfile(
+            name=name,
+            description=f"from the command line: {compiler_prefix}gcc {' '.join(cflags)}".rstrip(),
+            compiler_prefix=compiler_prefix,
+            system_processor=arch[1],
+            cpu_flags=cflags,
+            elf=ElfFacts(machine=arch[2]),
+        )
+        return _validate(profile, source)
+    profile = replace(
+        base,
+        name=f"{base.name}-custom",
+        description=f"{base.description}, from the command line",
+        compiler_prefix=compiler_prefix or base.compiler_prefix,
+        c_flags=(*base.c_flags, *cflags),
+        cxx_flags=(*base.cxx_flags, *cflags),
+    )
+    return _validate(profile, source)
 
 
 def load_profile_file(path: Path) -> TargetProfile:

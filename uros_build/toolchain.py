@@ -59,12 +59,12 @@ def microros_flags(req: ToolchainRequest) -> list[str]:
 
 def tool_paths(profile: TargetProfile, tool_dir: str | None) -> dict[str, str]:
     prefix = f"{tool_dir.rstrip('/')}/" if tool_dir else ""
-    return {t: f"{prefix}{profile.tool(t)}" for t in ("gcc", "g++", "ar", "ranlib", "objcopy", "size")}
+    return {t: f"{prefix}{profile.tool(t)}" for t in ("gcc", "g++", "ar", "ranlib", "nm", "objcopy", "size")}
 
 
 def render_toolchain(req: ToolchainRequest) -> str:
     p = req.profile
-    base = [*p.cpu_flags, *(f"-D{d}" for d in p.defines)]
+    base = [*p.cpu_flags, *p.libc_flags, *(f"-D{d}" for d in p.defines)]
     extra = microros_flags(req) if req.micro_ros else []
     return templating.render(
         "toolchain.cmake.j2",
@@ -79,5 +79,5 @@ def render_toolchain(req: ToolchainRequest) -> str:
         c_flags=[*base, *p.c_flags, *extra],
         cxx_flags=[*base, *p.cxx_flags, *extra],
         asm_flags=list(p.cpu_flags),
-        link_flags=[*p.cpu_flags, *p.link_flags],
+        link_flags=[*p.cpu_flags, *p.libc_flags, *p.link_flags],
     )

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 import venv
@@ -36,8 +37,11 @@ def test_wheel_installs_and_runs_elsewhere(tmp_path: Path) -> None:
     )
     elsewhere = tmp_path / "elsewhere"
     elsewhere.mkdir()
+    # A PYTHONPATH pointing at a checkout (as when testing a worktree) would shadow the wheel.
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
     where = subprocess.run(
         [str(py), "-c", "import uros_build.resources as r; print(r.toolchains_dir())"],
+        env=env,
         cwd=elsewhere,
         check=True,
         capture_output=True,
@@ -48,13 +52,19 @@ def test_wheel_installs_and_runs_elsewhere(tmp_path: Path) -> None:
     uros = env_dir / "bin" / "uros"
     targets = json.loads(
         subprocess.run(
-            [str(uros), "targets", "--json"], cwd=elsewhere, check=True, capture_output=True, text=True
+            [str(uros), "targets", "--json"],
+            cwd=elsewhere,
+            env=env,
+            check=True,
+            capture_output=True,
+            text=True,
         ).stdout
     )
     assert "cortex-m7" in [t["name"] for t in targets]
     tc = subprocess.run(
         [str(uros), "toolchain", "render", "cortex-m7"],
         cwd=elsewhere,
+        env=env,
         check=True,
         capture_output=True,
         text=True,
@@ -63,10 +73,11 @@ def test_wheel_installs_and_runs_elsewhere(tmp_path: Path) -> None:
     meta = subprocess.run(
         [str(uros), "meta", "write", "--target", "cortex-m7"],
         cwd=elsewhere,
+        env=env,
         check=True,
         capture_output=True,
         text=True,
     ).stdout
     assert "-DRMW_UXRCE_TRANSPORT=custom" in meta
-    for name in ("microrosConfig.cmake.j2", "toolchain.cmake.j2"):
+    for name in ("microrosConfig.cmake.j2", "toolchain.cmake.j2", "esp-idf-component.cmake.j2"):
         assert (Path(where).parent / "templates" / name).is_file()

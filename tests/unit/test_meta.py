@@ -63,3 +63,22 @@ def test_bad_meta_names_file_and_problem(text: str, expected: str) -> None:
 def test_unknown_transport() -> None:
     with pytest.raises(ConfigError, match="unknown transport 'carrier-pigeon'"):
         meta.target_fragments(None, "carrier-pigeon")
+
+
+def test_esp32s3_meta_is_udp_without_rcutils_atomics() -> None:
+    m = meta.build_meta(meta.load_preset("default"), meta.target_fragments(find_profile("esp32s3"), None), [])
+    names = json.loads(meta.dump_meta(m))["names"]
+    assert "-DRMW_UXRCE_TRANSPORT=udp" in names["rmw_microxrcedds"]["cmake-args"]
+    assert "-DUCLIENT_PROFILE_UDP=ON" in names["microxrcedds_client"]["cmake-args"]
+    # ESP-IDF's newlib defines __atomic_*_8: rcutils must not build its own (RCUTILS_NO_64_ATOMIC off)
+    assert not any("RCUTILS_NO_64_ATOMIC" in a for a in names["rcutils"]["cmake-args"])
+
+
+def test_serial_transport_overrides_the_targets() -> None:
+    m = meta.build_meta(
+        meta.load_preset("default"), meta.target_fragments(find_profile("esp32s3"), "serial"), []
+    )
+    names = json.loads(meta.dump_meta(m))["names"]
+    assert "-DRMW_UXRCE_TRANSPORT=serial" in names["rmw_microxrcedds"]["cmake-args"]
+    assert "-DRMW_UXRCE_TRANSPORT=udp" not in names["rmw_microxrcedds"]["cmake-args"]
+    assert "-DUCLIENT_PROFILE_SERIAL=ON" in names["microxrcedds_client"]["cmake-args"]

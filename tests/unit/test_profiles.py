@@ -6,7 +6,7 @@ import pytest
 import yaml
 
 from uros_build.errors import ConfigError
-from uros_build.profiles import find_profile, load_profile_file, shipped_profiles
+from uros_build.profiles import derive_profile, find_profile, load_profile_file, shipped_profiles
 
 
 def _write(tmp_path: Path, data: object) -> Path:
@@ -49,6 +49,15 @@ def test_minimal_profile(tmp_path: Path) -> None:
         ({"elf": {"machine": "ARM", "flags": []}}, r"board.yaml: elf.flags: unknown key"),
         ({"optimization": "fast"}, r"board.yaml: optimization: 'fast' is not a -O flag"),
         ({"native_64bit_atomics": "yes"}, r"native_64bit_atomics: must be true or false"),
+        ({"elf": {"machine": "ARM", "xtensa_abi": "2"}}, r"elf.xtensa_abi: '2' is not 0"),
+        (
+            {"elf": {"machine": "ARM", "attribute_patterns": {"Tag_X": "("}}},
+            r"elf.attribute_patterns.Tag_X: not a",
+        ),
+        ({"compiler_search": ["{HOME}/bin"]}, r"compiler_search: unknown placeholder \{HOME\}"),
+        ({"compiler_prefix": "arm-none-eabi"}, r"compiler_prefix: 'arm-none-eabi' is not a prefix"),
+        ({"c_flags": ["-DA=1\n-DB"]}, r"c_flags: '-DA=1\\n-DB' is not a single compiler flag"),
+        ({"libc_flags": [""]}, r"libc_flags: '' is not a single compiler flag"),
     ],
 )
 def test_bad_profiles_name_file_and_key(tmp_path: Path, change: dict[str, object], expected: str) -> None:
@@ -67,3 +76,72 @@ def test_unknown_target_lists_known() -> None:
     with pytest.raises(ConfigError) as info:
         find_profile("cortex-m99")
     assert info.value.hint is not None and "cortex-m7" in info.value.hint
+
+
+# Every shipped target, with what it must have (the research record's measured facts).
+SHIPPED = {
+    "cortex-m0plus": ("arm-none-eabi-", "-mcpu=cortex-m0plus", "Tag_CPU_arch", "v6S-M"),
+    "rp2040": ("arm-none-eabi-", "-mcpu=cortex-m0plus", "Tag_CPU_arch", "v6S-M"),
+    "cortex-m3": ("arm-none-eabi-", "-mcpu=cortex-m3", "Tag_CPU_arch", "v7"),
+    "cortex-m4": ("arm-none-eabi-", "-mfloat-abi=soft", "Tag_CPU_arch", "v7E-M"),
+    "cortex-m4f": ("arm-none-eabi-", "-mfpu=fpv4-sp-d16", "Tag_FP_arch", "VFPv4-D16"),
+    "cortex-m7": ("arm-none-eabi-", "-mfpu=fpv5-d16", "Tag_FP_arch", "FPv5/FP-D16 for ARMv8"),
+    "cortex-m7-sp": ("arm-none-eabi-", "-mfpu=fpv5-sp-d16", "Tag_ABI_HardFP_use", "SP only"),
+    "cortex-m33": ("arm-none-eabi-", "-mcpu=cortex-m33", "Tag_CPU_arch", "v8-M.mainline"),
+    "rv32imc": ("riscv64-unknown-elf-", "-march=rv32imc", None, None),
+    "esp8266": ("xtensa-lx106-elf-", "-mlongcalls", None, None),
+    "esp32": ("xtensa-esp32-elf-", "-mlongcalls", None, None),
+    "esp32s2": ("xtensa-esp32s2-elf-", "-mlongcalls", None, None),
+    "esp32s3": ("xtensa-esp32s3-elf-", "-mlongcalls", None, None),
+    "esp32c3": ("riscv32-esp-elf-", "-march=rv32imc_zicsr_zifencei", None, None),
+}
+
+
+def test_every_shipped_target_loads() -> None:
+    profiles = shipped_profiles()
+    assert sorted(profiles) == sorted(SHIPPED)
+    for name, (prefix, flag, tag, value) in SHIPPED.items():
+        p = profiles[name]
+        assert p.compiler_prefix == prefix and flag in p.cpu_flags, name
+        if tag is not None:
+            assert dict(p.elf.attributes)[tag] == value, name
+        esp = name.startswith("esp32")
+        # bare metal: newlib/picolibc need the clock workaround, custom transport, rcutils' atomics;
+        # ESP-IDF: its newlib declares the clock, UDP is the default, IDF defines __atomic_*_8
+        assert p.micro_ros.declare_clock_gettime is not esp, name
+        assert ("CLOCK_MONOTONIC=0" in p.micro_ros.defines) is not esp, name
+        assert p.transport == ("udp" if esp else "custom"), name
+        assert p.native_64bit_atomics is esp, name
+        assert bool(p.idf_target) is esp and bool(p.compiler_search) is esp, name
+
+
+def test_soft_float_and_single_precision_facts() -> None:
+    for name in ("cortex-m0plus", "rp2040", "cortex-m3", "cortex-m4"):
+        assert "Tag_FP_arch" in find_profile(name).elf.attributes_absent
+    assert find_profile("cortex-m7").elf.attributes_absent == ("Tag_ABI_HardFP_use",)
+    assert find_profile("esp8266").elf.xtensa_abi == "1"
+    assert find_profile("esp32s3").elf.xtensa_abi == "0"
+    assert find_profile("rv32imc").elf.header_flags == ("RVC", "soft-float ABI")
+    assert find_profile("rv32imc").libc_flags == ("--specs=picolibc.specs",)
+
+
+def test_derive_from_a_target_keeps_flags_as_words() -> None:
+    flag = '-DBOARD_NAME="my board;1"'
+    p = derive_profile(find_profile("cortex-m4f"), None, (flag, "-DX=1"))
+    assert p.name == "cortex-m4f-custom" and p.compiler_prefix == "arm-none-eabi-"
+    assert p.c_flags[-2:] == (flag, "-DX=1") and p.cxx_flags[-2:] == (flag, "-DX=1")
+    assert p.elf == find_profile("cortex-m4f").elf and p.source == "command line"
+    other = derive_profile(find_profile("cortex-m4f"), "/opt/gcc-arm/bin/arm-none-eabi-", ())
+    assert other.tool("gcc") == "/opt/gcc-arm/bin/arm-none-eabi-gcc"
+
+
+def test_derive_standalone_from_the_prefix() -> None:
+    p = derive_profile(None, "riscv64-unknown-elf-", ("-march=rv32imac", "-mabi=ilp32"))
+    assert p.name == "custom-riscv64-unknown-elf" and p.system_processor == "riscv"
+    assert p.cpu_flags == ("-march=rv32imac", "-mabi=ilp32") and p.elf.machine == "RISC-V"
+    with pytest.raises(ConfigError, match="cannot tell the architecture"):
+        derive_profile(None, "avr-", ())
+    with pytest.raises(ConfigError, match="--cflags without a target"):
+        derive_profile(None, None, ("-O2",))
+    with pytest.raises(ConfigError, match="command line: c_flags: '' is not a single compiler flag"):
+        derive_profile(find_profile("cortex-m7"), None, ("",))

@@ -1,0 +1,131 @@
+"""The ABI check's pure parts, over real readelf output (tests/unit/data, Debian binutils 2.40).
+
+readelf-mixed.txt: `readelf --file-header --arch-specific --string-dump=.xtensa.info --syms --wide`
+of an archive holding an M4F object (fpv4-sp-d16 hard), an rv32imc one, an lx106 one and an lx106
+object that defines __atomic_load_8; stderr merged, as the runner does.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from pathlib import Path
+
+import pytest
+
+from uros_build import abi
+from uros_build.errors import VerifyError
+from uros_build.profiles import ElfFacts, find_profile
+
+DATA = Path(__file__).parent / "data"
+
+
+def _objects(name: str) -> list[abi.ObjectFacts]:
+    return abi.parse_readelf(
+        (DATA / name).read_text(encoding="utf-8").splitlines(), name.replace(".txt", ".a")
+    )
+
+
+def test_parse_archive_of_three_architectures() -> None:
+    arm, rv, xt, at = _objects("readelf-mixed.txt")
+    assert [o.member for o in (arm, rv, xt, at)] == ["arm.o", "rv.o", "x.o", "at.o"]
+    assert (arm.machine, arm.elf_class, arm.flags) == ("ARM", "ELF32", "0x5000000, Version5 EABI")
+    attrs = dict(arm.attributes)
+    assert attrs["Tag_FP_arch"] == "VFPv4-D16" and attrs["Tag_ABI_HardFP_use"] == "SP only"
+    assert attrs["Tag_CPU_name"] == "7E-M"  # quotes stripped
+    assert arm.xtensa_abi is None and arm.defined_symbols == ()  # U __atomic_load_8 is not defined
+    assert rv.machine == "RISC-V" and rv.flags == "0x1, RVC, soft-float ABI"
+    assert dict(rv.attributes)["Tag_RISCV_arch"] == "rv32i2p1_m2p0_c2p0_zmmul1p0"
+    assert xt.machine == "Tensilica Xtensa Processor" and xt.attributes == () and xt.xtensa_abi == "1"
+    assert at.defined_symbols == ("__atomic_load_8",)
+
+
+def test_single_object_has_no_file_line() -> None:
+    (obj,) = _objects("readelf-single-object.txt")
+    assert obj.member == "readelf-single-object.a" and obj.machine == "ARM"
+    assert abi.differences(obj, find_profile("cortex-m4f")) == []
+
+
+def test_m4f_object_against_cortex_m7_names_fpu_and_sp_only() -> None:
+    arm = _objects("readelf-mixed.txt")[0]
+    assert abi.differences(arm, find_profile("cortex-m4f")) == []
+    assert abi.differences(arm, find_profile("cortex-m7")) == [
+        "Tag_FP_arch is VFPv4-D16, cortex-m7 expects FPv5/FP-D16 for ARMv8",
+        "Tag_ABI_HardFP_use is SP only, cortex-m7 expects none",
+    ]
+    assert "Tag_FP_arch is VFPv4-D16, cortex-m4 expects none" in abi.differences(
+        arm, find_profile("cortex-m4")
+    )
+
+
+def test_double_precision_fpu_object_fails_cortex_m4f() -> None:
+    # -mfpu=vfpv3-d16 -mfloat-abi=hard (micro_ros_arduino's cortex_m4 recipe): no "SP only" tag
+    arm = _objects("readelf-mixed.txt")[0]
+    attrs = {**dict(arm.attributes), "Tag_FP_arch": "VFPv3-D16"}
+    del attrs["Tag_ABI_HardFP_use"]
+    dp = replace(arm, attributes=tuple(attrs.items()))
+    assert abi.differences(dp, find_profile("cortex-m4f")) == [
+        "Tag_ABI_HardFP_use is absent, cortex-m4f expects SP only",
+        "Tag_FP_arch is VFPv3-D16, cortex-m4f expects VFPv4-D16",
+    ]
+
+
+def test_other_architectures_are_named_by_machine() -> None:
+    _, rv, xt, _ = _objects("readelf-mixed.txt")
+    assert abi.differences(rv, find_profile("cortex-m4f")) == ["Machine is RISC-V, cortex-m4f expects ARM"]
+    assert abi.differences(xt, find_profile("rv32imc")) == [
+        "Machine is Tensilica Xtensa Processor, rv32imc expects RISC-V"
+    ]
+    assert abi.differences(rv, find_profile("rv32imc")) == []
+    assert abi.differences(rv, find_profile("esp32c3")) == []
+    assert abi.differences(xt, find_profile("esp8266")) == []
+
+
+def test_riscv_arch_pattern_and_float_abi() -> None:
+    rv = _objects("readelf-mixed.txt")[1]
+    with_a = replace(rv, attributes=(("Tag_RISCV_arch", "rv32i2p1_m2p0_a2p1_c2p0_zmmul1p0"),))
+    assert (
+        "Tag_RISCV_arch is rv32i2p1_m2p0_a2p1_c2p0_zmmul1p0"
+        in abi.differences(with_a, find_profile("rv32imc"))[0]
+    )
+    single = replace(rv, flags="0x3, RVC, single-float ABI")
+    assert abi.differences(single, find_profile("rv32imc")) == [
+        "Flags are '0x3, RVC, single-float ABI', rv32imc expects 'soft-float ABI'"
+    ]
+
+
+def test_xtensa_call0_object_fails_windowed_esp32s3() -> None:
+    xt = _objects("readelf-mixed.txt")[2]
+    assert abi.differences(xt, find_profile("esp32s3")) == [
+        ".xtensa.info ABI=1 (call0), esp32s3 expects ABI=0 (windowed)"
+    ]
+
+
+def test_esp_targets_refuse_their_own_64bit_atomics() -> None:
+    at = _objects("readelf-mixed.txt")[3]
+    esp = replace(find_profile("esp32s3"), elf=ElfFacts(machine="Tensilica Xtensa", xtensa_abi="1"))
+    (found,) = abi.differences(at, esp)
+    assert found.startswith("defines __atomic_load_8, which esp32s3's platform defines too")
+    assert abi.differences(at, find_profile("esp8266")) == []  # bare metal needs rcutils' copies
+    assert abi.readelf_argv(Path("l.a"), esp.elf, symbols=True)[-3:] == ["--syms", "--wide", "l.a"]
+
+
+def test_verify_names_the_first_object_and_summarises() -> None:
+    objects = _objects("readelf-mixed.txt")
+    with pytest.raises(VerifyError, match=r"^readelf-mixed.a\(rv.o\): Machine is RISC-V, cortex-m4f"):
+        abi.verify(objects, find_profile("cortex-m4f"), "readelf-mixed.a")
+    summary = abi.verify(objects[:1], find_profile("cortex-m4f"), "l.a")
+    assert summary["result"] == "pass" and summary["objects"] == 1
+    assert summary["expects"]["attributes"]["Tag_FP_arch"] == "VFPv4-D16"
+    assert abi.describe(summary).startswith("all 1 objects match cortex-m4f (ARM ELF32, ")
+    with pytest.raises(VerifyError, match="holds no objects"):
+        abi.verify([], find_profile("cortex-m4f"), "empty.a")
+
+
+def test_readelf_argv_reads_xtensa_info_only_where_expected() -> None:
+    assert abi.readelf_argv(Path("l.a"), find_profile("cortex-m7").elf, symbols=False) == [
+        "readelf",
+        "--file-header",
+        "--arch-specific",
+        "l.a",
+    ]
+    assert "--string-dump=.xtensa.info" in abi.readelf_argv(Path("l.a"), find_profile("esp8266").elf, False)
