@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import sys
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -27,6 +28,15 @@ SCRUBBED_VARIABLES = (
 )
 _ROS_ROOT = "/opt/ros/"
 _PATH_LISTS = ("PATH", "PYTHONPATH", "LD_LIBRARY_PATH")
+
+
+def host_python() -> str:
+    """The interpreter the rosidl generators run with: uros's own, which has empy 3, lark and
+    catkin_pkg. Spelled the same however uros was started (`uros`, `python -m uros_build`,
+    `python3.11 -m ...`): colcon-cmake reconfigures a package whenever its CMake arguments differ
+    from the last run's, and a reconfigure regenerates every interface package's code."""
+    stable = Path(sys.prefix) / "bin" / "python3"
+    return str(stable) if stable.is_file() else sys.executable
 
 
 @dataclass(frozen=True)

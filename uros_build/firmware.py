@@ -12,7 +12,6 @@ from __future__ import annotations
 import json
 import os
 import shutil
-import sys
 from collections.abc import Callable, Mapping
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
@@ -407,7 +406,7 @@ def dev_build_plan(root: Path, verbose: bool, jobs: int | None = None) -> colcon
         log_base=ws / "log",
         metas=(),
         toolchain_file=None,
-        python=sys.executable,
+        python=colcon_mod.host_python(),
         generator="Ninja" if shutil.which("ninja") else None,
         verbose=verbose,
         parallel_workers=jobs,

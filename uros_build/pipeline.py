@@ -191,7 +191,7 @@ def _major(version: str) -> int | None:
 
 
 def _colcon_program() -> str:
-    beside = Path(sys.executable).parent / "colcon"
+    beside = Path(colcon_mod.host_python()).parent / "colcon"
     return str(beside) if beside.is_file() else "colcon"
 
 
@@ -248,7 +248,7 @@ def _host_env(
         git_config = distros_mod.insteadof(distro.build_time_clones, cfg.mirror)
     env, scrubbed = colcon_mod.build_env(
         os.environ,
-        python_bin_dir=str(Path(sys.executable).parent),
+        python_bin_dir=str(Path(colcon_mod.host_python()).parent),
         cmake_major=_major(cmake_version),
         git_config=git_config,
     )
@@ -366,7 +366,7 @@ def build(opts: BuildOptions) -> Path:
             log_base=tdir / "log",
             metas=(meta_path,),
             toolchain_file=toolchain_file,
-            python=sys.executable,
+            python=colcon_mod.host_python(),
             generator="Ninja" if shutil.which("ninja", path=env["PATH"]) else None,
             verbose=opts.verbose,
             packages_up_to=opts.packages_up_to,
