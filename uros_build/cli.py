@@ -230,6 +230,7 @@ def distros(as_json: bool) -> None:
 @click.option(
     "--no-dev-build", is_flag=True, help="Do not build the host tools now (the first `uros build` will)."
 )
+@click.option("--toolchain", help="Check this target's compiler, C library and C++ headers before cloning.")
 @click.option("-j", "--jobs", type=int, default=4, show_default=True, help="Parallel clones.")
 @click.option("-v", "--verbose", is_flag=True, help="Stream the tools' output.")
 def create_firmware(
@@ -245,6 +246,7 @@ def create_firmware(
     force: bool,
     keep_partial: bool,
     no_dev_build: bool,
+    toolchain: str | None,
     jobs: int,
     verbose: bool,
 ) -> None:
@@ -265,6 +267,7 @@ def create_firmware(
             force=force,
             keep_partial=keep_partial,
             build_dev=not no_dev_build,
+            toolchain=toolchain,
             jobs=jobs,
             verbose=verbose,
         )

@@ -191,6 +191,7 @@ class CreateOptions:
     force: bool = False
     keep_partial: bool = False
     build_dev: bool = True
+    toolchain: str | None = None  # a target whose prerequisites are checked first
     jobs: int = 4
     verbose: bool = False
 
@@ -285,8 +286,8 @@ def _ignore(root: Path, ws: str, paths: tuple[str, ...]) -> None:
             console.warn(f"{ws}/{rel} is not in the workspace; nothing to ignore there")
 
 
-def _prepare_dir(root: Path, force: bool) -> tuple[bool, FirmwareConfig | None]:
-    """Returns (existed, its config). Keeps what the user made: uros.yaml, colcon.meta, extra packages."""
+def _existing(root: Path, force: bool) -> tuple[bool, FirmwareConfig | None]:
+    """Returns (existed, its config); an existing workspace needs --force. Changes nothing."""
     if not root.exists():
         return False, None
     if not any(root.iterdir()):
@@ -297,17 +298,26 @@ def _prepare_dir(root: Path, force: bool) -> tuple[bool, FirmwareConfig | None]:
             "use another --dir, or pass --force to re-create its sources "
             f"(your {USER_META}, {CONFIG} and mcu_ws/{EXTRA}/ are kept)",
         )
-    existing = load_config(root)
+    return True, load_config(root)
+
+
+def _clear_sources(root: Path) -> None:
+    """--force: remove the cloned sources, keep what the user made (uros.yaml, colcon.meta, extras)."""
     shutil.rmtree(root / "dev_ws", ignore_errors=True)
     mcu = root / "mcu_ws"
     if mcu.is_dir():
         for child in mcu.iterdir():
             if child.name != EXTRA:
                 shutil.rmtree(child) if child.is_dir() else child.unlink()
-    return True, existing
 
 
-def create_firmware(opts: CreateOptions, build_dev: Callable[[Path, Runner, bool], None]) -> Path:
+def create_firmware(
+    opts: CreateOptions,
+    build_dev: Callable[[Path, Runner, bool], None],
+    precheck: Callable[[Runner], None] | None = None,
+) -> Path:
+    """``precheck`` checks a target's compiler, C library and C++ headers before anything is
+    cloned, so a missing package costs seconds, not a clone and a dev_ws build."""
     if opts.platform != "generate_lib":
         raise ConfigError(
             f"create-firmware: unknown platform {opts.platform!r}", "uros supports `generate_lib` (any MCU)"
@@ -319,7 +329,7 @@ def create_firmware(opts: CreateOptions, build_dev: Callable[[Path, Runner, bool
     if opts.locked or opts.lock_file:
         lock_path = opts.lock_file or root / LOCK
         locked = read_lock(lock_path, "--lock-file" if opts.lock_file else "--locked")
-    existed, existing = _prepare_dir(root, opts.force)
+    existed, existing = _existing(root, opts.force)
     mirror = _mirror_from(opts, existing)
     sources = plan_sources(distro, mirror, locked)
     _check_sources(sources)
@@ -328,8 +338,17 @@ def create_firmware(opts: CreateOptions, build_dev: Callable[[Path, Runner, bool
     runner = Runner(root / ".uros" / "log" / f"create-firmware-{os.getpid()}.log", verbose=opts.verbose)
     console.step(f"uros create-firmware {opts.platform}: micro-ROS {distro.name} in {root}")
     console.info(f"log: {runner.log_path}")
-    git = runner.which("git")
-    runner.which("cmake")
+    try:
+        git = runner.which("git")
+        runner.which("cmake")
+        if precheck is not None:
+            precheck(runner)
+    except UrosError:
+        if not existed:
+            shutil.rmtree(root, ignore_errors=True)
+        raise
+    if existing is not None or existed:
+        _clear_sources(root)
     if distro.status == "manifest-only":
         console.warn(
             f"the {distro.name} manifest was written from upstream facts and not built by uros's authors"

@@ -280,8 +280,18 @@ def build_dev_workspace(root: Path, runner: Runner, verbose: bool, jobs: int | N
 
 
 def create_firmware(opts: firmware.CreateOptions) -> Path:
+    precheck = None
+    if opts.toolchain is not None:
+        profile = find_profile(opts.toolchain)
+
+        def precheck(runner: Runner) -> None:
+            tools = tool_paths(profile, locate_compiler(runner, profile))
+            for tool in ("gcc", "g++", "ar"):
+                runner.which(tools[tool], profile.install_hint or None)
+            _check_target_prerequisites(runner, profile, tools, opts.directory.resolve() / ".uros" / "probe")
+
     return firmware.create_firmware(
-        opts, lambda root, runner, verbose: build_dev_workspace(root, runner, verbose)
+        opts, lambda root, runner, verbose: build_dev_workspace(root, runner, verbose), precheck
     )
 
 

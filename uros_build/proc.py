@@ -42,6 +42,9 @@ _ERROR_PATTERNS = tuple(
     re.compile(p)
     for p in (
         r":\d+:(\d+:)? (fatal )?error: ",
+        # rosidl rejecting an interface file: its own message names the file and the line, which
+        # is what a user needs rather than the CMake stack around it
+        r"^Error processing '|^\s*[\w.]+\.(Invalid\w+|\w+Error): ",
         r"CMake Error",
         r"\berror: |\bError: |^fatal: ",
         r"^FAILED: |\*\*\* ",

@@ -192,3 +192,18 @@ def test_add_package_keeps_in_sync(upstream: Path, tmp_path: Path) -> None:
     assert "lift" in (copy / "msg/CmdVel.msg").read_text()
     proc = run_uros("add-package", str(tmp_path), "--workspace", str(fw), check=False)
     assert proc.returncode == 2 and "no package.xml" in proc.stderr
+
+
+def test_target_prerequisites_are_checked_before_cloning(upstream: Path, tmp_path: Path) -> None:
+    fw = tmp_path / "fw"
+    # esp32s3's compiler is not packaged: exit 3 with the install hint, nothing cloned or left behind
+    env = {k: v for k, v in __import__("os").environ.items() if k not in ("IDF_PATH", "IDF_TOOLS_PATH")}
+    env["IDF_TOOLS_PATH"] = str(tmp_path / "no-idf")
+    proc = run_uros("create-firmware", "--dir", str(fw), "--no-dev-build", "--toolchain", "esp32s3",
+                    *_mirror(upstream), check=False, env=env)
+    assert proc.returncode == 3, proc.stderr
+    assert "xtensa-esp32s3-elf-gcc" in proc.stderr and "cloning" not in proc.stderr
+    assert not fw.exists()
+    # cortex-m7's compiler, newlib and C++ headers are installed here (.ci/run installs them)
+    run_uros("create-firmware", "--dir", str(fw), "--no-dev-build", "--toolchain", "cortex-m7", *_mirror(upstream))
+    assert (fw / "uros.lock").is_file()

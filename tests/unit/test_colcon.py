@@ -70,3 +70,18 @@ def test_env_git_insteadof() -> None:
     assert env["GIT_CONFIG_KEY_0"] == "url./m/x.insteadOf"
     assert env["GIT_CONFIG_VALUE_0"] == "https://github.com/x"
     assert "CMAKE_POLICY_VERSION_MINIMUM" not in env
+
+
+def test_first_error_prefers_compiler_and_rosidl_messages() -> None:
+    from uros_build.proc import first_error
+
+    assert first_error(["-- Up-to-date: /x/test_failed/lib.a", "/w/a.c:3:9: error: expected ';'", "FAILED: x"]) == (
+        "/w/a.c:3:9: error: expected ';'"
+    )
+    rosidl = [
+        "CMake Error at /i/share/rosidl_adapter/cmake/rosidl_adapt_interfaces.cmake:59 (message):",
+        "Traceback (most recent call last):",
+        "rosidl_adapter.parser.InvalidFieldDefinition: 'int32 a 3.5'",
+    ]
+    assert first_error(rosidl) == "rosidl_adapter.parser.InvalidFieldDefinition: 'int32 a 3.5'"
+    assert first_error(["just output"]) == "just output"
