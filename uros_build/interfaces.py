@@ -62,13 +62,46 @@ def _check_lines(lines: list[tuple[int, str]], source: str) -> set[str]:
                 name = constant.group("name")
                 raise ConfigError(f"{source}:{number}: constant {name!r} must be UPPER_CASE")
             continue
-        name = rest.split(None, 1)[0]
+        name, *default = rest.split(None, 1)
         if not _FIELD.match(name):
             raise ConfigError(
                 f"{source}:{number}: field name {name!r} is invalid",
                 "field names are lower_snake_case, start with a letter, no double or trailing underscore",
             )
+        if default and match.group("array") is None:
+            _check_default(base, default[0].strip(), f"{source}:{number}")
     return deps
+
+
+_INTEGERS = {"byte", "char", "int8", "uint8", "int16", "uint16", "int32", "uint32", "int64", "uint64"}
+
+
+def _check_default(type_name: str, value: str, where: str) -> None:
+    """The default-value rules rosidl_adapter applies to scalar primitives (parse_primitive_value_string)."""
+    problem = None
+    if type_name in _INTEGERS:
+        try:
+            number = int(value, 0)
+        except ValueError:
+            problem = "is not an integer"
+        else:
+            bits = int(type_name.removeprefix("u").removeprefix("int")) if "int" in type_name else 8
+            low, high = (
+                (0, 2**bits - 1)
+                if type_name.startswith("u") or type_name in ("byte", "char")
+                else (-(2 ** (bits - 1)), 2 ** (bits - 1) - 1)
+            )
+            if not low <= number <= high:
+                problem = f"is outside {low}..{high}"
+    elif type_name in ("float32", "float64"):
+        try:
+            float(value)
+        except ValueError:
+            problem = "is not a number"
+    elif type_name == "bool" and value.lower() not in ("true", "false", "0", "1"):
+        problem = "is not true/false"
+    if problem:
+        raise ConfigError(f"{where}: default value {value!r} {problem} for type {type_name}")
 
 
 def read_interface(path: Path, kind: str) -> InterfaceFile:

@@ -44,7 +44,7 @@ _ERROR_PATTERNS = tuple(
         r":\d+:(\d+:)? (fatal )?error: ",
         # rosidl rejecting an interface file: its own message names the file and the line, which
         # is what a user needs rather than the CMake stack around it
-        r"^Error processing '|^\s*[\w.]+\.(Invalid\w+|\w+Error): ",
+        r"^\s*Error processing '|^\s*[\w.]+\.(Invalid\w+|\w+Error): ",
         r"CMake Error",
         r"\berror: |\bError: |^fatal: ",
         r"^FAILED: |\*\*\* ",

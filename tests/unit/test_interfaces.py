@@ -51,6 +51,9 @@ def test_dependencies_become_depends(tmp_path: Path) -> None:
         ("Bad.msg", "uint8 max=3\n", r"constant 'max' must be UPPER_CASE"),
         ("bad_name.msg", "int32 a\n", r"'bad_name' is not a valid type name"),
         ("Bad.srv", "int32 a\n", r"needs one '---' line"),
+        ("Bad.msg", "int32 a 3.5\n", r"Bad.msg:1: default value '3.5' is not an integer for type int32"),
+        ("Bad.msg", "uint8 a 256\n", r"default value '256' is outside 0..255"),
+        ("Bad.msg", "float32 a x\n", r"is not a number"),
     ],
 )
 def test_bad_interface_files(tmp_path: Path, name: str, text: str, expected: str) -> None:
