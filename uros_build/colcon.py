@@ -53,6 +53,7 @@ class ColconPlan:
     parallel_workers: int | None = None
     packages_up_to: tuple[str, ...] = ()
     ignore_regex: str | None = ".*_cpp"
+    packages_ignore: tuple[str, ...] = ()
 
 
 def colcon_argv(plan: ColconPlan, colcon: str = "colcon") -> list[str]:
@@ -74,6 +75,8 @@ def colcon_argv(plan: ColconPlan, colcon: str = "colcon") -> list[str]:
         argv += ["--metas", *map(str, plan.metas)]
     if plan.ignore_regex:
         argv.append(f"--packages-ignore-regex={plan.ignore_regex}")
+    if plan.packages_ignore:
+        argv += ["--packages-ignore", *plan.packages_ignore]
     if plan.packages_up_to:
         argv += ["--packages-up-to", *plan.packages_up_to]
     if plan.parallel_workers:

@@ -16,6 +16,7 @@ from uros_build import __version__, abi, console, export, firmware, includes, in
 from uros_build import colcon as colcon_mod
 from uros_build import distros as distros_mod
 from uros_build import meta as meta_mod
+from uros_build import packages as packages_mod
 from uros_build.archive import BinTools, merge_archives
 from uros_build.errors import ConfigError, MissingToolError, StepFailed, UrosError
 from uros_build.proc import Runner
@@ -369,8 +370,12 @@ def build(opts: BuildOptions) -> Path:
         env, scrubbed = _host_env(ws.root, cfg, facts.cmake_version)
         if scrubbed:
             console.warn(f"ignoring the sourced environment for this build: {', '.join(scrubbed)}")
+        skipped = packages_mod.host_only(packages_mod.discover(ws.source_dir))
+        if skipped:
+            console.info(f"not building {len(skipped)} pure-Python packages: {', '.join(skipped)}")
         plan = colcon_mod.ColconPlan(
             base_paths=(ws.source_dir,),
+            packages_ignore=tuple(skipped),
             build_base=tdir / "build",
             install_base=tdir / "install",
             log_base=tdir / "log",
@@ -393,6 +398,7 @@ def build(opts: BuildOptions) -> Path:
         staging = out.with_name(f".{out.name}.staging-{os.getpid()}")
         try:
             info = _stage_output(runner, ws, target, tdir, staging, facts, meta_path)
+            info["skipped_python_packages"] = skipped
             (staging / export.BUILD_INFO).write_text(export.dump_json(info), encoding="utf-8")
             _swap_into_place(staging, out)
         except BaseException:

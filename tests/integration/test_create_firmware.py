@@ -199,11 +199,22 @@ def test_target_prerequisites_are_checked_before_cloning(upstream: Path, tmp_pat
     # esp32s3's compiler is not packaged: exit 3 with the install hint, nothing cloned or left behind
     env = {k: v for k, v in __import__("os").environ.items() if k not in ("IDF_PATH", "IDF_TOOLS_PATH")}
     env["IDF_TOOLS_PATH"] = str(tmp_path / "no-idf")
-    proc = run_uros("create-firmware", "--dir", str(fw), "--no-dev-build", "--toolchain", "esp32s3",
-                    *_mirror(upstream), check=False, env=env)
+    proc = run_uros(
+        "create-firmware",
+        "--dir",
+        str(fw),
+        "--no-dev-build",
+        "--toolchain",
+        "esp32s3",
+        *_mirror(upstream),
+        check=False,
+        env=env,
+    )
     assert proc.returncode == 3, proc.stderr
     assert "xtensa-esp32s3-elf-gcc" in proc.stderr and "cloning" not in proc.stderr
     assert not fw.exists()
     # cortex-m7's compiler, newlib and C++ headers are installed here (.ci/run installs them)
-    run_uros("create-firmware", "--dir", str(fw), "--no-dev-build", "--toolchain", "cortex-m7", *_mirror(upstream))
+    run_uros(
+        "create-firmware", "--dir", str(fw), "--no-dev-build", "--toolchain", "cortex-m7", *_mirror(upstream)
+    )
     assert (fw / "uros.lock").is_file()

@@ -75,9 +75,9 @@ def test_env_git_insteadof() -> None:
 def test_first_error_prefers_compiler_and_rosidl_messages() -> None:
     from uros_build.proc import first_error
 
-    assert first_error(["-- Up-to-date: /x/test_failed/lib.a", "/w/a.c:3:9: error: expected ';'", "FAILED: x"]) == (
-        "/w/a.c:3:9: error: expected ';'"
-    )
+    assert first_error(
+        ["-- Up-to-date: /x/test_failed/lib.a", "/w/a.c:3:9: error: expected ';'", "FAILED: x"]
+    ) == ("/w/a.c:3:9: error: expected ';'")
     rosidl = [
         "CMake Error at /i/share/rosidl_adapter/cmake/rosidl_adapt_interfaces.cmake:59 (message):",
         "Traceback (most recent call last):",
@@ -85,3 +85,31 @@ def test_first_error_prefers_compiler_and_rosidl_messages() -> None:
     ]
     assert first_error(rosidl) == "rosidl_adapter.parser.InvalidFieldDefinition: 'int32 a 3.5'"
     assert first_error(["just output"]) == "just output"
+
+
+def test_pure_python_packages_nothing_compiled_needs_are_skipped(tmp_path: Path) -> None:
+    from uros_build import packages
+
+    def pkg(name: str, build_type: str, deps: list[str] = [], ignored: bool = False) -> None:  # noqa: B006
+        d = tmp_path / name
+        d.mkdir()
+        dep_xml = "".join(f"<build_depend>{x}</build_depend>" for x in deps)
+        (d / "package.xml").write_text(
+            f"<package format='3'><name>{name}</name>{dep_xml}<export><build_type>{build_type}</build_type></export></package>"
+        )
+        if ignored:
+            (d / "COLCON_IGNORE").write_text("")
+
+    pkg("ros2trace", "ament_python")
+    pkg("rosidl_cli", "ament_python")
+    pkg("needed_py", "ament_python")
+    pkg("rcl", "ament_cmake", ["needed_py"])
+    pkg("ignored_py", "ament_python", ignored=True)
+    found = packages.discover(tmp_path)
+    assert [p.name for p in found] == ["needed_py", "rcl", "ros2trace", "rosidl_cli"]
+    assert packages.host_only(found) == ["ros2trace", "rosidl_cli"]
+    argv = colcon_argv(_plan(packages_ignore=("ros2trace", "rosidl_cli")))
+    assert argv[argv.index("--packages-ignore") + 1 : argv.index("--packages-ignore") + 3] == [
+        "ros2trace",
+        "rosidl_cli",
+    ]
