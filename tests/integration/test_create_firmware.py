@@ -218,3 +218,88 @@ def test_target_prerequisites_are_checked_before_cloning(upstream: Path, tmp_pat
         "create-firmware", "--dir", str(fw), "--no-dev-build", "--toolchain", "cortex-m7", *_mirror(upstream)
     )
     assert (fw / "uros.lock").is_file()
+
+
+def test_firmware_workspace_builds_end_to_end(upstream: Path, tmp_path: Path) -> None:
+    """create-firmware + uros build through the firmware-workspace path (dev_ws, workspace meta,
+    extra packages) with the real colcon and arm-none-eabi-gcc; the upstreams hold fixture packages."""
+    import shutil
+
+    from fixture_ws import make_fixture_workspace
+
+    if shutil.which("arm-none-eabi-gcc") is None:
+        pytest.skip("arm-none-eabi-gcc is not installed")
+    # A host tool in the dev workspace: an MCU package finds it through dev_ws/install.
+    host = tmp_path / "up" / "ament+ament_cmake"
+    shutil.copytree(upstream / "ament+ament_cmake", host)
+    (host / "host_tool").mkdir()
+    (host / "host_tool/package.xml").write_text(
+        "<package format='3'><name>host_tool</name><version>0.1.0</version><description>d</description>"
+        "<maintainer email='a@b.c'>m</maintainer><license>MIT</license>"
+        "<export><build_type>cmake</build_type></export></package>\n"
+    )
+    (host / "host_tool/CMakeLists.txt").write_text(
+        "cmake_minimum_required(VERSION 3.16)\nproject(host_tool NONE)\n"
+        'file(WRITE ${CMAKE_BINARY_DIR}/host_toolConfig.cmake "set(HOST_TOOL_FOUND TRUE)\\n")\n'
+        "install(FILES ${CMAKE_BINARY_DIR}/host_toolConfig.cmake DESTINATION share/host_tool/cmake)\n"
+    )
+    _commit(host, "host tool")
+    # The MCU sources: the fixture packages inside the micro-ROS rclc repository.
+    mcu = tmp_path / "up" / "ros2+rclc"
+    shutil.copytree(upstream / "ros2+rclc", mcu)
+    fixture = make_fixture_workspace(tmp_path / "fixture")
+    for pkg in (fixture / "mcu_ws" / "src").iterdir():
+        if pkg.name != "fx_skip_cpp":
+            shutil.copytree(pkg, mcu / pkg.name)
+    _commit(mcu, "fixture packages")
+    # An extra package that needs the host tool at configure time.
+    extra = tmp_path / "fx_extra"
+    (extra / "src").mkdir(parents=True)
+    (extra / "package.xml").write_text(
+        "<package format='3'><name>fx_extra</name><version>0.1.0</version><description>d</description>"
+        "<maintainer email='a@b.c'>m</maintainer><license>MIT</license>"
+        "<export><build_type>cmake</build_type></export></package>\n"
+    )
+    (extra / "CMakeLists.txt").write_text(
+        "cmake_minimum_required(VERSION 3.16)\nproject(fx_extra C)\nfind_package(host_tool REQUIRED)\n"
+        "add_library(fx_extra STATIC src/extra.c)\ninstall(TARGETS fx_extra ARCHIVE DESTINATION lib)\n"
+    )
+    (extra / "src/extra.c").write_text("int fx_extra_v1(void) { return 1; }\n")
+
+    fw = tmp_path / "firmware"
+    run_uros(
+        "create-firmware",
+        "--dir",
+        str(fw),
+        "--toolchain",
+        "cortex-m7",
+        "--extra-package",
+        str(extra),
+        *_mirror(upstream),
+        "--mirror-override",
+        f"ament/ament_cmake={host}",
+        "--mirror-override",
+        f"uros/rclc={mcu}",
+    )
+    assert (fw / "dev_ws/install/share/host_tool/cmake/host_toolConfig.cmake").is_file()  # dev_ws built once
+    # the workspace's colcon.meta is layered into every build: fx_time needs this option
+    meta = json.loads((fw / "colcon.meta").read_text())
+    meta["names"]["fx_time"] = {"cmake-args": ["-DFX_TIME_ENABLE=ON"]}
+    (fw / "colcon.meta").write_text(json.dumps(meta))
+
+    run_uros("build", "--toolchain", "cortex-m7", "--workspace", str(fw))
+    out = fw / "build" / "cortex-m7"
+    info = json.loads((out / "build-info.json").read_text())
+    assert "fx_extra" in info["packages"] and "fx_time" in info["packages"]
+    assert info["transport"] == "custom"
+
+    def symbols() -> str:
+        return subprocess.run(
+            ["arm-none-eabi-nm", str(out / "libmicroros.a")], capture_output=True, text=True, check=True
+        ).stdout
+
+    assert " T fx_extra_v1" in symbols()
+    # editing the extra package's source folder reaches the next build
+    (extra / "src/extra.c").write_text("int fx_extra_v2(void) { return 2; }\n")
+    run_uros("build", "--toolchain", "cortex-m7", "--workspace", str(fw))
+    assert " T fx_extra_v2" in symbols() and "fx_extra_v1" not in symbols()
