@@ -303,3 +303,25 @@ def test_firmware_workspace_builds_end_to_end(upstream: Path, tmp_path: Path) ->
     (extra / "src/extra.c").write_text("int fx_extra_v2(void) { return 2; }\n")
     run_uros("build", "--toolchain", "cortex-m7", "--workspace", str(fw))
     assert " T fx_extra_v2" in symbols() and "fx_extra_v1" not in symbols()
+
+
+def test_add_package_from_a_git_url(upstream: Path, tmp_path: Path) -> None:
+    fw = tmp_path / "firmware"
+    run_uros("create-firmware", "--dir", str(fw), "--no-dev-build", *_mirror(upstream))
+    repo = tmp_path / "my_msgs_repo"
+    pkg = _interface_pkg(tmp_path)
+    import shutil
+
+    shutil.copytree(pkg, repo / "eic_demo_interface")
+    _git("init", "-q", "-b", "main", cwd=repo)
+    _commit(repo, "interfaces")
+    run_uros("add-package", f"file://{repo}", "--version", "main", "--workspace", str(fw))
+    assert (fw / "mcu_ws/extra_packages/my_msgs_repo/eic_demo_interface/package.xml").is_file()
+    # a repository without any package.xml is refused and not left behind
+    empty = tmp_path / "empty_repo"
+    empty.mkdir()
+    _git("init", "-q", "-b", "main", cwd=empty)
+    _commit(empty, "nothing")
+    proc = run_uros("add-package", f"file://{empty}", "--workspace", str(fw), check=False)
+    assert proc.returncode == 2 and "holds no package.xml" in proc.stderr
+    assert not (fw / "mcu_ws/extra_packages/empty_repo").exists()
