@@ -7,7 +7,18 @@ import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
 
-_BUILD_DEPS = ("depend", "build_depend", "buildtool_depend", "build_export_depend")
+# Every dependency but tests and docs: a generator package's exec and export dependencies run
+# while its dependents build (iron's rosidl_generator_c imports rosidl_pycommon, an
+# ament_python package it names as buildtool_export_depend).
+_BUILD_DEPS = (
+    "depend",
+    "build_depend",
+    "buildtool_depend",
+    "build_export_depend",
+    "buildtool_export_depend",
+    "exec_depend",
+    "run_depend",
+)
 
 
 @dataclass(frozen=True)
@@ -45,6 +56,15 @@ def host_only(packages: list[PackageInfo]) -> list[str]:
     """Pure-Python packages nothing compiled depends on (ros2trace, tracetools_*, sensor_msgs_py,
     rosidl_cli in humble): they put no object into libmicroros.a, yet colcon spends seconds on each
     at every build. micro_ros_setup builds them anyway."""
+    by_name = {p.name: p for p in packages}
     python = {p.name for p in packages if p.build_type == "ament_python"}
-    needed = {d for p in packages if p.build_type != "ament_python" for d in p.build_deps}
+    needed: set[str] = set()
+    todo = [d for p in packages if p.build_type != "ament_python" for d in p.build_deps]
+    while todo:  # what compiled packages need, transitively
+        name = todo.pop()
+        if name in needed:
+            continue
+        needed.add(name)
+        if name in by_name:
+            todo.extend(by_name[name].build_deps)
     return sorted(python - needed)

@@ -44,7 +44,7 @@ _ERROR_PATTERNS = tuple(
         r":\d+:(\d+:)? (fatal )?error: ",
         # rosidl rejecting an interface file: its own message names the file and the line, which
         # is what a user needs rather than the CMake stack around it
-        r"^\s*Error processing '|^\s*[\w.]+\.(Invalid\w+|\w+Error): ",
+        r"^\s*Error processing '|^\s*([\w.]+\.)?(Invalid\w+|\w+Error): ",
         r"CMake Error",
         r"\berror: |\bError: |^fatal: ",
         r"^FAILED: |\*\*\* ",
@@ -56,7 +56,9 @@ def first_error(lines: Sequence[str]) -> str | None:
     for pattern in _ERROR_PATTERNS:
         for line in lines:
             if pattern.search(line):
-                return line.strip()
+                text = line.strip()
+                # ninja's FAILED lines list every output of the step: keep the message one line
+                return text if len(text) <= 300 else text[:297] + "..."
     return lines[-1].strip() if lines else None
 
 

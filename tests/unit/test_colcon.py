@@ -85,6 +85,15 @@ def test_first_error_prefers_compiler_and_rosidl_messages() -> None:
     ]
     assert first_error(rosidl) == "rosidl_adapter.parser.InvalidFieldDefinition: 'int32 a 3.5'"
     assert first_error(["just output"]) == "just output"
+    # iron: a generator's missing Python module, under ninja's very long FAILED line
+    iron = [
+        "FAILED: [code=1] " + "rosidl_generator_c/x.h " * 40,
+        "Traceback (most recent call last):",
+        "ModuleNotFoundError: No module named 'rosidl_pycommon'",
+        "ninja: build stopped: subcommand failed.",
+    ]
+    assert first_error(iron) == "ModuleNotFoundError: No module named 'rosidl_pycommon'"
+    assert len(first_error(["FAILED: " + "x" * 1000]) or "") == 300
 
 
 def test_pure_python_packages_nothing_compiled_needs_are_skipped(tmp_path: Path) -> None:
@@ -102,11 +111,12 @@ def test_pure_python_packages_nothing_compiled_needs_are_skipped(tmp_path: Path)
 
     pkg("ros2trace", "ament_python")
     pkg("rosidl_cli", "ament_python")
-    pkg("needed_py", "ament_python")
+    pkg("needed_py", "ament_python", ["needed_too_py"])
+    pkg("needed_too_py", "ament_python")
     pkg("rcl", "ament_cmake", ["needed_py"])
     pkg("ignored_py", "ament_python", ignored=True)
     found = packages.discover(tmp_path)
-    assert [p.name for p in found] == ["needed_py", "rcl", "ros2trace", "rosidl_cli"]
+    assert [p.name for p in found] == ["needed_py", "needed_too_py", "rcl", "ros2trace", "rosidl_cli"]
     assert packages.host_only(found) == ["ros2trace", "rosidl_cli"]
     argv = colcon_argv(_plan(packages_ignore=("ros2trace", "rosidl_cli")))
     assert argv[argv.index("--packages-ignore") + 1 : argv.index("--packages-ignore") + 3] == [
