@@ -47,7 +47,9 @@ int main(void) {
 
   std_msgs__msg__Int32 msg = {.data = 0};
   for (;;) {
-    (void)rcl_publish(&publisher, &msg, NULL);
+    if (rcl_publish(&publisher, &msg, NULL) != RCL_RET_OK) {
+      continue; /* agent not reachable yet: a real board would back off or reconnect here */
+    }
     msg.data++;
   }
 }

@@ -58,9 +58,12 @@ int main(void) {
   int64_t sequence = 0;
   for (;;) {
     rclc_executor_spin_some(&executor, RCL_MS_TO_NS(100));
-    (void)rcl_publish(&publisher, &velocity_out, NULL);
+    if (rcl_publish(&publisher, &velocity_out, NULL) != RCL_RET_OK) {
+      continue; /* agent not reachable yet: a real board would back off or reconnect here */
+    }
     time_request.time_ms_req = sequence;
-    (void)rcl_send_request(&client, &time_request, &sequence);
-    velocity_out.left_rpm++;
+    if (rcl_send_request(&client, &time_request, &sequence) == RCL_RET_OK) {
+      velocity_out.left_rpm++;
+    }
   }
 }
