@@ -1,0 +1,30 @@
+from __future__ import annotations
+
+import click
+from click.testing import CliRunner
+
+from uros_build.cli import cli
+
+
+def _commands(group: click.Group, prefix: tuple[str, ...] = ()) -> list[tuple[str, ...]]:
+    out = [prefix]
+    for name, command in group.commands.items():
+        if isinstance(command, click.Group):
+            out += _commands(command, (*prefix, name))
+        else:
+            out.append((*prefix, name))
+    return out
+
+
+def test_every_command_has_help() -> None:
+    runner = CliRunner()
+    commands = _commands(cli)
+    assert (
+        ("create-firmware",) in commands
+        and ("export", "esp-idf") in commands
+        and ("interface", "new") in commands
+    )
+    for path in commands:
+        result = runner.invoke(cli, [*path, "--help"])
+        assert result.exit_code == 0, (path, result.output)
+        assert "Usage: " in result.output
