@@ -10,7 +10,7 @@ from typing import Any
 
 import click
 
-from uros_build import __version__, console, pipeline
+from uros_build import __version__, console, pipeline, tasks
 from uros_build.errors import Interrupted, UrosError
 
 _PATH = click.Path(path_type=Path)
@@ -40,7 +40,7 @@ def cli(ctx: click.Context, debug: bool) -> None:
 @click.option("--json", "as_json", is_flag=True, help="Print the table as JSON.")
 def targets(as_json: bool) -> None:
     """List the shipped target profiles (toolchains/*.yaml)."""
-    _table(pipeline.targets_table(), as_json, ("name", "compiler", "description"))
+    _table(tasks.targets_table(), as_json, ("name", "compiler", "description"))
 
 
 @cli.group()
@@ -62,7 +62,7 @@ def toolchain() -> None:
 @click.option("--gcc-major", type=int, help="The cross GCC's major version (decides GCC<6 workarounds).")
 def toolchain_render(target: str, output: Path | None, purpose: str, gcc_major: int | None) -> None:
     """Render the CMake toolchain file of TARGET (a target name or a profile .yaml)."""
-    pipeline.render_toolchain_file(target, output, micro_ros=purpose == "micro-ros", gcc_major=gcc_major)
+    tasks.render_toolchain_file(target, output, micro_ros=purpose == "micro-ros", gcc_major=gcc_major)
 
 
 @cli.group()
@@ -92,7 +92,7 @@ def meta_write(
 
     resolved = pipeline.resolve_target(target, None) if target else None
     merged = pipeline.meta_for(preset, resolved, transport, list(metas), list(sets))
-    pipeline.write_output_file(output, meta_mod.dump_meta(merged, f"uros meta write --preset {preset}"))
+    tasks.write_output_file(output, meta_mod.dump_meta(merged, f"uros meta write --preset {preset}"))
 
 
 @cli.command()
@@ -164,7 +164,7 @@ def build(
 @click.option("-v", "--verbose", is_flag=True, help="Stream readelf's output.")
 def check(library: Path, target: str | None, profile: Path | None, verbose: bool) -> None:
     """Check that every object in LIBRARY has the ELF facts of a target (exit 5 if not)."""
-    pipeline.check_library(library, target, profile, verbose)
+    tasks.check_library(library, target, profile, verbose)
 
 
 @cli.group()
@@ -183,14 +183,14 @@ _FROM = click.option(
 @_FROM
 def export_cmake(output: Path, source: Path | None) -> None:
     """Write microrosConfig.cmake (find_package) and microros.cmake (include) for a build output."""
-    pipeline.export_cmake(source, output)
+    tasks.export_cmake(source, output)
 
 
 @cli.command()
 @click.option("--json", "as_json", is_flag=True, help="Print the table as JSON.")
 def distros(as_json: bool) -> None:
     """List the micro-ROS distro manifests (meta/distros/)."""
-    _table(pipeline.distros_table(), as_json, ("name", "status", "dev_repositories", "mcu_repositories"))
+    _table(tasks.distros_table(), as_json, ("name", "status", "dev_repositories", "mcu_repositories"))
 
 
 @cli.command("create-firmware")
@@ -283,7 +283,7 @@ def create_firmware(
 @click.option("-v", "--verbose", is_flag=True, help="Stream git's output.")
 def add_package(source: str, workspace: Path, version: str | None, verbose: bool) -> None:
     """Add a package (a folder, kept in sync at every build, or a git URL) to the MCU workspace."""
-    pipeline.add_package(source, workspace, version, verbose)
+    tasks.add_package(source, workspace, version, verbose)
 
 
 @cli.group()
@@ -301,7 +301,7 @@ def interface_new(
     name: str, msgs: tuple[Path, ...], srvs: tuple[Path, ...], output: Path | None, force: bool
 ) -> None:
     """Scaffold an interface package NAME from .msg/.srv files (package.xml, CMakeLists.txt)."""
-    pipeline.interface_new(name, list(msgs), list(srvs), output, force)
+    tasks.interface_new(name, list(msgs), list(srvs), output, force)
 
 
 @export.command("esp-idf")
@@ -309,7 +309,7 @@ def interface_new(
 @_FROM
 def export_esp_idf(output: Path, source: Path | None) -> None:
     """Write an ESP-IDF component (CMakeLists.txt, libmicroros.a, include/) for an ESP32 build."""
-    pipeline.export_esp_idf(source, output)
+    tasks.export_esp_idf(source, output)
 
 
 def main(argv: list[str] | None = None) -> None:
