@@ -21,6 +21,7 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent / "tests"))
 
 from fixture_ws import make_fixture_workspace  # noqa: E402
+from uros_helpers import build_firmware_project  # noqa: E402
 
 
 def uros(*args: str) -> float:
@@ -105,27 +106,8 @@ def real(rows: list[tuple[str, str]], mirror: str) -> None:
                 f"{info['include']['files']:,} files, {info['include']['bytes']:,} bytes",
             )
         )
-        b = Path(tmp) / "elf"
-        subprocess.run(
-            [
-                "cmake",
-                "-S",
-                str(EXAMPLE),
-                "-B",
-                str(b),
-                "-G",
-                "Ninja",
-                f"-DCMAKE_TOOLCHAIN_FILE={out / 'toolchain.cmake'}",
-                f"-DCMAKE_PREFIX_PATH={out}",
-                "-DCMAKE_BUILD_TYPE=Release",
-            ],
-            check=True,
-            capture_output=True,
-        )
-        subprocess.run(["cmake", "--build", str(b)], check=True, capture_output=True)
-        rows.append(
-            ("humble: stm32h7-custom-interfaces firmware.elf `size`", size_totals(b / "firmware.elf"))
-        )
+        elf = build_firmware_project(EXAMPLE, out, Path(tmp) / "elf")
+        rows.append(("humble: stm32h7-custom-interfaces firmware.elf `size`", size_totals(elf)))
 
 
 def main() -> None:

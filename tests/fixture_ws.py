@@ -177,6 +177,27 @@ def make_fixture_workspace(root: Path) -> Path:
         'message(FATAL_ERROR "packages ending in _cpp must be ignored")\n',
     )
 
+    # fx_host_py: a pure-Python package nothing compiled needs (like ros2trace): uros skips it;
+    # building it fails.
+    hostpy = src / "fx_host_py"
+    _write(
+        hostpy / "package.xml",
+        _package_xml("fx_host_py", []).replace("<build_type>cmake<", "<build_type>ament_python<"),
+    )
+    _write(hostpy / "resource" / "fx_host_py", "")
+    _write(
+        hostpy / "setup.py",
+        """
+        import sys
+
+        from setuptools import setup
+
+        if {"egg_info", "build", "install", "develop"} & set(sys.argv[1:]):
+            raise SystemExit("fx_host_py must not be built: it puts nothing into libmicroros.a")
+        setup(name="fx_host_py", version="0.1.0", packages=[])
+        """,
+    )
+
     _write(
         root / "fixture.meta",
         """
@@ -187,6 +208,7 @@ def make_fixture_workspace(root: Path) -> Path:
 
 
 # Expected facts of the fixture build
+FIXTURE_SKIPPED_PYTHON = ["fx_host_py"]
 FIXTURE_LIBRARIES = ("libfx_core.a", "libfx_dup.a", "libfx_flat.a", "libfx_time.a", "libfx_util.a")
 FIXTURE_MEMBERS = 8  # core.c, util.c | common.c x2 | flat.c | time.c | util.c, scale.c
 FIXTURE_SYMBOLS = (

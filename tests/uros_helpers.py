@@ -26,3 +26,18 @@ def run_uros(
             f"uros {' '.join(args)} failed ({proc.returncode}):\n{proc.stdout}\n{proc.stderr}"
         )
     return proc
+
+
+def build_firmware_project(source: Path, package: Path, build: Path, *cmake_args: str) -> Path:
+    """Configure and build a firmware CMake project against a `uros build` output (its firmware
+    toolchain file and its CMake package), as a user would; returns the ELF."""
+    subprocess.run(
+        ["cmake", "-S", str(source), "-B", str(build), "-G", "Ninja",
+         f"-DCMAKE_TOOLCHAIN_FILE={package / 'toolchain.cmake'}", f"-DCMAKE_PREFIX_PATH={package}",
+         "-DCMAKE_BUILD_TYPE=Release", "-DCMAKE_EXPORT_COMPILE_COMMANDS=ON", *cmake_args],
+        check=True, capture_output=True, text=True,
+    )  # fmt: skip
+    done = subprocess.run(["cmake", "--build", str(build)], capture_output=True, text=True)
+    if done.returncode != 0:
+        raise AssertionError(f"firmware build failed:\n{done.stdout}\n{done.stderr}")
+    return build / "firmware.elf"

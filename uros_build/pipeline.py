@@ -351,7 +351,7 @@ def build(opts: BuildOptions) -> Path:
         )
         staging = out.with_name(f".{out.name}.staging-{os.getpid()}")
         try:
-            info = _stage_output(runner, ws, target, tdir, staging, facts, meta_path)
+            info = _stage_output(runner, target, tdir, staging, facts, meta)
             info["skipped_python_packages"] = skipped
             (staging / export.BUILD_INFO).write_text(export.dump_json(info), encoding="utf-8")
             _swap_into_place(staging, out)
@@ -426,7 +426,7 @@ def _bintools_for(target: Target, tdir: Path, tool_dir: str | None) -> BinTools:
 
 
 def _stage_output(
-    runner: Runner, ws: Workspace, target: Target, tdir: Path, staging: Path, facts: _Facts, meta_path: Path
+    runner: Runner, target: Target, tdir: Path, staging: Path, facts: _Facts, meta: meta_mod.Meta
 ) -> dict[str, Any]:
     install = tdir / "install"
     libs = sorted((install / "lib").glob("*.a"))
@@ -460,7 +460,7 @@ def _stage_output(
             "optimization": profile.optimization if profile else None,
             "micro_ros_only": list(_microros_flags(profile, facts)) if profile else [],
         },
-        "transport": meta_transport(meta_path),
+        "transport": meta_transport(meta),
         "packages": _built_packages(install),
         "library": {
             "file": "libmicroros.a",
@@ -517,8 +517,8 @@ def _microros_flags(profile: TargetProfile, facts: _Facts) -> list[str]:
     return microros_flags(req)
 
 
-def meta_transport(meta_path: Path) -> str | None:
-    meta = meta_mod.load_meta_file(meta_path)
+def meta_transport(meta: meta_mod.Meta) -> str | None:
+    """The XRCE-DDS transport the merged meta selects (recorded in build-info.json)."""
     args = meta.names.get("rmw_microxrcedds", {}).get("cmake-args", ())
     for arg in args if isinstance(args, tuple) else ():
         if arg.startswith("-DRMW_UXRCE_TRANSPORT="):

@@ -13,7 +13,13 @@ from collections import Counter
 from pathlib import Path
 
 import pytest
-from fixture_ws import FIXTURE_LIBRARIES, FIXTURE_MEMBERS, FIXTURE_SYMBOLS, make_fixture_workspace
+from fixture_ws import (
+    FIXTURE_LIBRARIES,
+    FIXTURE_MEMBERS,
+    FIXTURE_SKIPPED_PYTHON,
+    FIXTURE_SYMBOLS,
+    make_fixture_workspace,
+)
 from uros_helpers import run_uros
 
 pytestmark = pytest.mark.integration
@@ -83,6 +89,7 @@ def test_build_info(m7_build: Path) -> None:
     assert info["library"]["size"]["text"] > 0
     assert info["transport"] == "custom"
     assert info["include"]["files"] == 6
+    assert info["skipped_python_packages"] == FIXTURE_SKIPPED_PYTHON
     # sorted keys, deterministic
     text = (out / "build-info.json").read_text()
     assert text == json.dumps(json.loads(text), indent=2, sort_keys=True) + "\n"
@@ -100,16 +107,17 @@ def test_second_build_reuses_trees_and_is_reproducible(m7_build: Path) -> None:
     before = _sha(out / "libmicroros.a")
     cache = m7_build / ".uros" / "targets" / "cortex-m7" / "build" / "fx_core" / "CMakeCache.txt"
     cache_mtime = cache.stat().st_mtime_ns
-    proc = run_uros(
-        "build",
-        "--toolchain",
-        "cortex-m7",
-        "--workspace",
-        str(m7_build),
-        "--meta",
-        str(m7_build / "fixture.meta"),
-        "--verbose",
-    )
+    # Started through another spelling of the same interpreter (python3 vs python vs python3.X, as
+    # `uros` and `python -m uros_build` differ): the CMake arguments must not change, or colcon
+    # reconfigures every package (and rosidl regenerates every interface package).
+    me = Path(sys.executable)
+    names = ("python3", "python", f"python3.{sys.version_info.minor}")
+    other = next((me.with_name(n) for n in names if me.with_name(n).is_file() and me.with_name(n) != me), me)
+    proc = subprocess.run(
+        [str(other), "-m", "uros_build", "build", "--toolchain", "cortex-m7", "--workspace", str(m7_build),
+         "--meta", str(m7_build / "fixture.meta"), "--verbose"],
+        capture_output=True, text=True, check=True,
+    )  # fmt: skip
     assert cache.stat().st_mtime_ns == cache_mtime  # not reconfigured from scratch
     assert "no work to do" in proc.stderr  # ninja had nothing to compile
     assert _sha(out / "libmicroros.a") == before

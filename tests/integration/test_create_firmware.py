@@ -129,32 +129,15 @@ def test_create_lock_force_and_locked(upstream: Path, tmp_path: Path) -> None:
 
 def test_missing_branch_names_repo_and_cleans_up(upstream: Path, tmp_path: Path) -> None:
     fw = tmp_path / "fw"
-    proc = run_uros(
-        "create-firmware",
-        "--dir",
-        str(fw),
-        "--no-dev-build",
-        *_mirror(upstream),
-        "--mirror-override",
-        "uros/rclc=@no-such-branch",
-        check=False,
-    )
+    args = ["create-firmware", "--dir", str(fw), "--no-dev-build", *_mirror(upstream)]
+    args += ["--mirror-override", "uros/rclc=@no-such-branch"]
+    proc = run_uros(*args, check=False)
     assert proc.returncode == 4, proc.stderr
     line = next(x for x in proc.stderr.splitlines() if x.startswith("error:"))
     assert "mcu_ws/uros/rclc" in line and "no-such-branch" in line
     assert "--mirror-override uros/rclc=" in proc.stderr
     assert not fw.exists()  # no half-created workspace
-    proc = run_uros(
-        "create-firmware",
-        "--dir",
-        str(fw),
-        "--no-dev-build",
-        *_mirror(upstream),
-        "--mirror-override",
-        "uros/rclc=@no-such-branch",
-        "--keep-partial",
-        check=False,
-    )
+    proc = run_uros(*args, "--keep-partial", check=False)
     assert proc.returncode == 4 and fw.is_dir()
 
 
@@ -325,3 +308,16 @@ def test_add_package_from_a_git_url(upstream: Path, tmp_path: Path) -> None:
     proc = run_uros("add-package", f"file://{empty}", "--workspace", str(fw), check=False)
     assert proc.returncode == 2 and "holds no package.xml" in proc.stderr
     assert not (fw / "mcu_ws/extra_packages/empty_repo").exists()
+
+
+def test_distros_and_interface_checks_through_the_cli(tmp_path: Path) -> None:
+    rows = json.loads(run_uros("distros", "--json").stdout)
+    assert {r["name"]: r["status"] for r in rows}["humble"] == "built-here"
+    bad = tmp_path / "Wheel.msg"
+    bad.write_text("int32 rpm 3.5\n")
+    proc = run_uros(
+        "interface", "new", "my_msgs", "--msg", str(bad), "--output", str(tmp_path / "my_msgs"), check=False
+    )
+    assert proc.returncode == 2
+    assert f"error: {bad}:1: default value '3.5' is not an integer for type int32" in proc.stderr
+    assert not (tmp_path / "my_msgs").exists()

@@ -8,7 +8,7 @@ import textwrap
 from pathlib import Path
 
 import pytest
-from uros_helpers import REPO
+from uros_helpers import REPO, build_firmware_project
 
 pytestmark = pytest.mark.integration
 
@@ -34,27 +34,7 @@ def test_example_links_a_cortex_m7_hard_float_elf(m7_build: Path, tmp_path: Path
     app = tmp_path / "app.c"
     app.write_text(FIXTURE_APP)
     build = tmp_path / "fw"
-    subprocess.run(
-        [
-            "cmake",
-            "-S",
-            str(REPO / "examples" / "cmake-firmware"),
-            "-B",
-            str(build),
-            "-G",
-            "Ninja",
-            f"-DCMAKE_TOOLCHAIN_FILE={out / 'toolchain.cmake'}",
-            f"-DCMAKE_PREFIX_PATH={out}",
-            f"-DAPP_SOURCES={app}",
-            "-DCMAKE_EXPORT_COMPILE_COMMANDS=ON",
-            "-DCMAKE_BUILD_TYPE=Release",
-        ],
-        check=True,
-        capture_output=True,
-        text=True,
-    )
-    subprocess.run(["cmake", "--build", str(build)], check=True, capture_output=True, text=True)
-    elf = build / "firmware.elf"
+    elf = build_firmware_project(REPO / "examples" / "cmake-firmware", out, build, f"-DAPP_SOURCES={app}")
     assert elf.is_file()
 
     header = subprocess.run(["readelf", "-h", str(elf)], capture_output=True, text=True, check=True).stdout

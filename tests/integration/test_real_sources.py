@@ -14,7 +14,7 @@ import subprocess
 from pathlib import Path
 
 import pytest
-from uros_helpers import REPO, run_uros
+from uros_helpers import REPO, build_firmware_project, run_uros
 
 pytestmark = [pytest.mark.integration, pytest.mark.realsources]
 
@@ -97,27 +97,7 @@ def test_real_humble_library_links_the_stm32h7_example(tmp_path: Path) -> None:
         assert (out / "include" / header).is_file(), header
 
     build = tmp_path / "fw-build"
-    subprocess.run(
-        [
-            "cmake",
-            "-S",
-            str(EXAMPLE),
-            "-B",
-            str(build),
-            "-G",
-            "Ninja",
-            f"-DCMAKE_TOOLCHAIN_FILE={out / 'toolchain.cmake'}",
-            f"-DCMAKE_PREFIX_PATH={out}",
-            "-DCMAKE_BUILD_TYPE=Release",
-            "-DCMAKE_EXPORT_COMPILE_COMMANDS=ON",
-        ],
-        check=True,
-        capture_output=True,
-        text=True,
-    )
-    done = subprocess.run(["cmake", "--build", str(build)], capture_output=True, text=True)
-    assert done.returncode == 0, done.stdout + done.stderr
-    elf = build / "firmware.elf"
+    elf = build_firmware_project(EXAMPLE, out, build)
     attrs = subprocess.run(["readelf", "-A", str(elf)], check=True, capture_output=True, text=True).stdout
     assert "Tag_ABI_VFP_args: VFP registers" in attrs
     commands = " ".join(e["command"] for e in json.loads((build / "compile_commands.json").read_text()))
