@@ -204,7 +204,7 @@ def check_library(
     """Read every object of ``library`` in one readelf run and verify it against ``profile``."""
     argv = readelf_argv(library, profile.elf, symbols=profile.native_64bit_atomics)
     argv[0] = runner.which(READELF, READELF_HINT)
-    lines = runner.run(argv, step=f"read the ELF facts of {library.name}")
+    lines = runner.query(argv, step=f"read the ELF facts of {library.name}").splitlines()
     return verify(parse_readelf(lines, library.name), profile, library.name)
 
 

@@ -7,8 +7,6 @@ call uros can tell a bad flag (2) from a missing compiler (3) from a failed buil
 
 from __future__ import annotations
 
-from pathlib import Path
-
 
 class UrosError(Exception):
     """Base: a message that names the file or flag, and a hint that names the fix."""
@@ -37,10 +35,6 @@ class StepFailed(UrosError):
     """An external command failed; the message names the step and the log to read."""
 
     exit_code = 4
-
-    def __init__(self, message: str, hint: str | None = None, log: Path | None = None) -> None:
-        super().__init__(message, hint)
-        self.log = log
 
 
 class VerifyError(UrosError):

@@ -1,10 +1,19 @@
 """The only module that starts processes.
 
 Every command is found with ``shutil.which`` first (a missing program is a one-line error
-naming the package that provides it), echoed as ``+ argv``, and its output is streamed line
-by line into the per-run log (and to the console with ``--verbose``). A failure raises
-:class:`StepFailed` carrying the first error line and the log path. The design follows
-colcon-core's: one place owns subprocesses, everything else builds argv lists as data.
+naming the package that provides it), echoed as ``+ argv`` into the per-run log together with
+the environment it runs in *as a difference from uros's own* (so a failed colcon run can be
+repeated by hand from the log). Two ways to run:
+
+- :meth:`Runner.run` streams merged stdout/stderr line by line into the log (and to the console
+  with ``--verbose``): builds, clones.
+- :meth:`Runner.query` returns stdout alone, with stderr kept apart in the log and ``LC_ALL=C``
+  set, for tools whose output uros parses (ar, nm, readelf, size, gcc): a warning on stderr or a
+  translated "Machine:" line can never reach a parser.
+
+A failure raises :class:`StepFailed` carrying the first error line and the log path. The design
+follows colcon-core's (``subprocess.py``, ``event/command.py``, ``location.py``): one place owns
+subprocesses and log locations, everything else builds argv lists as data.
 """
 
 from __future__ import annotations
@@ -16,10 +25,12 @@ import shlex
 import shutil
 import signal
 import subprocess
+import threading
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import NoReturn
 
 from uros_build import console
 from uros_build.errors import Interrupted, MissingToolError, StepFailed
@@ -74,6 +85,43 @@ def format_argv(argv: Sequence[str]) -> str:
     return "+ " + shlex.join(argv)
 
 
+# The log of the current uros run: the CLI's catch-all writes an unexpected traceback there.
+_current_log: Path | None = None
+
+
+def current_log() -> Path | None:
+    return _current_log
+
+
+def new_run_log(log_dir: Path, command: str, key: str = "") -> Path:
+    """``<log_dir>/<stamp>-<command>[-<key>]-<pid>.log``, with ``<log_dir>/latest.log`` pointing at
+    it (colcon-core's ``latest`` link): the one place that names log files."""
+    stamp = time.strftime("%Y%m%d-%H%M%S")
+    name = "-".join(x for x in (stamp, command, key) if x)
+    path = log_dir / f"{name}-{os.getpid()}.log"
+    log_dir.mkdir(parents=True, exist_ok=True)
+    latest = log_dir / "latest.log"
+    with contextlib.suppress(OSError):  # a folder without symlinks (some mounts) keeps no link
+        tmp = log_dir / f".latest-{os.getpid()}"
+        tmp.unlink(missing_ok=True)
+        tmp.symlink_to(path.name)
+        tmp.replace(latest)
+    return path
+
+
+def user_log_dir() -> Path:
+    """Where commands that have no workspace log (``uros check``, listings)."""
+    uid = os.getuid() if hasattr(os, "getuid") else 0
+    return Path(os.environ.get("TMPDIR") or "/tmp") / f"uros-{uid}" / "log"
+
+
+def env_difference(env: Mapping[str, str], base: Mapping[str, str]) -> list[str]:
+    """``export``/``unset`` lines that turn ``base`` into ``env`` (sorted, shell-quoted)."""
+    lines = [f"unset {k}" for k in sorted(set(base) - set(env))]
+    lines += [f"export {k}={shlex.quote(v)}" for k, v in sorted(env.items()) if base.get(k) != v]
+    return lines
+
+
 @dataclass
 class Runner:
     """Runs commands for one uros invocation, all logged into ``log_path``."""
@@ -81,9 +129,12 @@ class Runner:
     log_path: Path
     verbose: bool = False
     _resolved: dict[str, str] = field(default_factory=dict)
+    _lock: threading.Lock = field(default_factory=threading.Lock)
 
     def __post_init__(self) -> None:
+        global _current_log
         self.log_path.parent.mkdir(parents=True, exist_ok=True)
+        _current_log = self.log_path
 
     def which(self, program: str, hint: str | None = None, path: str | None = None) -> str:
         """Absolute path of ``program``; MissingToolError naming the fix when absent."""
@@ -95,9 +146,24 @@ class Runner:
             self._resolved[key] = found
         return self._resolved[key]
 
-    def _log(self, text: str) -> None:
-        with self.log_path.open("a", encoding="utf-8") as log:
+    def log(self, text: str) -> None:
+        """Append to the run log; safe from several threads (parallel clones)."""
+        with self._lock, self.log_path.open("a", encoding="utf-8") as log:
             log.write(text if text.endswith("\n") else text + "\n")
+
+    def _prepare(
+        self,
+        argv: Sequence[str],
+        hint: str | None,
+        cwd: Path | None,
+        env: Mapping[str, str] | None,
+        label: str,
+    ) -> list[str]:
+        argv = [self.which(argv[0], hint, path=(env or os.environ).get("PATH")), *argv[1:]]
+        where = f"   (in {cwd})" if cwd else ""
+        diff = env_difference(env, os.environ) if env is not None else []
+        self.log("\n".join([f"\n{label}{format_argv(argv)}{where}", *(f"{label}  {d}" for d in diff)]))
+        return argv
 
     def run(
         self,
@@ -108,27 +174,73 @@ class Runner:
         env: Mapping[str, str] | None = None,
         hint: str | None = None,
         quiet: bool = False,
+        label: str = "",
     ) -> list[str]:
         """Run ``argv`` to completion, streaming its output; return the output lines.
 
-        ``quiet`` keeps the ``+ argv`` echo out of the console (it is always in the log):
-        used for the many small queries of the archive check.
+        ``quiet`` keeps the ``+ argv`` echo out of the console (it is always in the log);
+        ``label`` prefixes every logged line (``[uros/rclc] ``) when commands run in parallel.
         """
-        argv = [self.which(argv[0], hint, path=(env or os.environ).get("PATH")), *argv[1:]]
-        echo = format_argv(argv)
-        self._log(f"\n{echo}" + (f"   (in {cwd})" if cwd else ""))
+        argv = self._prepare(argv, hint, cwd, env, label)
         if not quiet:
-            console.info(echo)
+            console.info(format_argv(argv))
         started = time.monotonic()
         lines: list[str] = []
+        proc = self._start(argv, step, cwd, env, subprocess.STDOUT)
+        try:
+            assert proc.stdout is not None
+            for line in proc.stdout:
+                text = line.rstrip("\n")
+                self.log(label + text)
+                lines.append(text)
+                if self.verbose:
+                    console.tool_line(label + text)
+            code = proc.wait()
+        except KeyboardInterrupt:
+            self._interrupted(proc, step, started)
+        self.log(f"{label}exit {code} after {time.monotonic() - started:.1f} s")
+        if code != 0:
+            self._failed(step, code, lines, hint)
+        return lines
+
+    def query(
+        self,
+        argv: Sequence[str],
+        *,
+        step: str,
+        cwd: Path | None = None,
+        env: Mapping[str, str] | None = None,
+        hint: str | None = None,
+    ) -> str:
+        """Run a tool whose output uros parses: stdout only, in the C locale; stderr goes to the
+        log (and into the error on failure), never into the parsed text."""
+        base = dict(env if env is not None else os.environ)
+        base["LC_ALL"] = "C"
+        argv = self._prepare(argv, hint, cwd, base, "")
+        started = time.monotonic()
+        proc = self._start(argv, step, cwd, base, subprocess.PIPE)
+        try:
+            out, err = proc.communicate()
+        except KeyboardInterrupt:
+            self._interrupted(proc, step, started)
+        if err:
+            self.log("stderr:\n" + err)
+        self.log(f"exit {proc.returncode} after {time.monotonic() - started:.1f} s ({len(out)} bytes)")
+        if proc.returncode != 0:
+            self._failed(step, proc.returncode, err.splitlines() or out.splitlines(), hint)
+        return out
+
+    def _start(
+        self, argv: list[str], step: str, cwd: Path | None, env: Mapping[str, str] | None, stderr: int
+    ) -> subprocess.Popen[str]:
         try:
             # A new session: Ctrl-C reaches uros first, which then stops the whole tool tree.
-            proc = subprocess.Popen(
-                list(argv),
+            return subprocess.Popen(
+                argv,
                 cwd=cwd,
                 env=dict(env) if env is not None else None,
                 stdout=subprocess.PIPE,
-                stderr=subprocess.STDOUT,
+                stderr=stderr,
                 stdin=subprocess.DEVNULL,
                 text=True,
                 errors="replace",
@@ -136,29 +248,18 @@ class Runner:
             )
         except OSError as exc:
             raise StepFailed(f"{step}: could not start {argv[0]}: {exc}", log=self.log_path) from exc
-        try:
-            assert proc.stdout is not None
-            with self.log_path.open("a", encoding="utf-8") as log:
-                for line in proc.stdout:
-                    log.write(line)
-                    lines.append(line.rstrip("\n"))
-                    if self.verbose:
-                        console.tool_line(line.rstrip("\n"))
-            code = proc.wait()
-        except KeyboardInterrupt:
-            _stop(proc)
-            self._log(f"interrupted after {time.monotonic() - started:.1f} s")
-            raise Interrupted(f"{step} was interrupted", "the previous output was left untouched") from None
-        self._log(f"exit {code} after {time.monotonic() - started:.1f} s")
-        if code != 0:
-            cause = first_error(lines)
-            detail = f": {cause}" if cause else ""
-            raise StepFailed(
-                f"{step} failed (exit {code}){detail}",
-                hint or f"the full output is in {self.log_path}",
-                log=self.log_path,
-            )
-        return lines
+
+    def _interrupted(self, proc: subprocess.Popen[str], step: str, started: float) -> NoReturn:
+        _stop(proc)
+        self.log(f"interrupted after {time.monotonic() - started:.1f} s")
+        raise Interrupted(f"{step} was interrupted", "the previous output was left untouched") from None
+
+    def _failed(self, step: str, code: int, lines: Sequence[str], hint: str | None) -> NoReturn:
+        cause = first_error(lines)
+        detail = f": {cause}" if cause else ""
+        raise StepFailed(
+            f"{step} failed (exit {code}){detail}", hint or f"the full output is in {self.log_path}"
+        )
 
 
 def _stop(proc: subprocess.Popen[str]) -> None:

@@ -1,0 +1,89 @@
+"""Reading every YAML and JSON input uros takes (profiles, distro.yaml, uros.yaml, --config,
+uros.lock, build-info.json): one place that turns unreadable, non-UTF-8 or malformed files into a
+one-line ConfigError naming the file (and line), and small typed readers that the model modules
+use to turn the parsed data into frozen dataclasses. Nothing past a loader sees a raw dict."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from uros_build.errors import ConfigError
+
+
+def read_text(path: Path, flag: str = "", hint: str | None = None) -> str:
+    where = f"{flag} {path}" if flag else str(path)
+    try:
+        return path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ConfigError(f"{where}: no such file", hint) from None
+    except IsADirectoryError:
+        raise ConfigError(f"{where}: is a folder, not a file", hint) from None
+    except UnicodeDecodeError as exc:
+        raise ConfigError(f"{where}: not UTF-8 text (byte {exc.start})", hint or "save it as UTF-8") from None
+    except OSError as exc:
+        raise ConfigError(f"{where}: cannot read: {exc.strerror}", hint) from None
+
+
+def load_yaml(path: Path, flag: str = "", hint: str | None = None) -> Any:
+    text = read_text(path, flag, hint)
+    try:
+        return yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f":{mark.line + 1}:{mark.column + 1}" if mark is not None else ""
+        prefix = f"{flag} " if flag else ""
+        raise ConfigError(
+            f"{prefix}{path}{where}: not valid YAML: {getattr(exc, 'problem', None) or exc}", hint
+        ) from None
+
+
+def load_json(path: Path, flag: str = "", hint: str | None = None) -> Any:
+    text = read_text(path, flag, hint)
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError as exc:
+        prefix = f"{flag} " if flag else ""
+        raise ConfigError(
+            f"{prefix}{path}:{exc.lineno}:{exc.colno}: not valid JSON: {exc.msg}", hint
+        ) from None
+
+
+def mapping(
+    data: Any, source: str, known: set[str] | None = None, required: tuple[str, ...] = ()
+) -> Mapping[str, Any]:
+    """``data`` as a mapping with only ``known`` keys and every ``required`` one."""
+    if data is None:
+        data = {}
+    if not isinstance(data, Mapping):
+        raise ConfigError(f"{source}: expected a mapping (key: value lines), got {type(data).__name__}")
+    if known is not None:
+        unknown = sorted(str(k) for k in set(data) - known)
+        if unknown:
+            raise ConfigError(f"{source}: {unknown[0]}: unknown key (known: {', '.join(sorted(known))})")
+    for key in required:
+        if key not in data:
+            raise ConfigError(f"{source}: {key}: is required but missing")
+    return data
+
+
+def string(data: Mapping[str, Any], key: str, source: str, default: str | None = None) -> str:
+    value = data.get(key, default)
+    if not isinstance(value, str) or not value:
+        if value is None:
+            raise ConfigError(f"{source}: {key}: is required but missing")
+        raise ConfigError(f"{source}: {key}: must be a non-empty string, got {value!r}")
+    return value
+
+
+def string_list(data: Mapping[str, Any], key: str, source: str) -> tuple[str, ...]:
+    value = data.get(key)
+    if value is None:
+        return ()
+    if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+        raise ConfigError(f"{source}: {key}: must be a list of strings, got {value!r}")
+    return tuple(value)
