@@ -79,7 +79,7 @@ def real(rows: list[tuple[str, str]], mirror: str) -> None:
         )
         t = uros(
             "create-firmware",
-            "--dir",
+            "--workspace",
             str(fw),
             "--no-dev-build",
             "--extra-package",

@@ -6,6 +6,13 @@ test_msgs' msg/ and srv/ types of the same name) keeps only the last, so objects
 word (12 of 1,093 in a real Humble build). Here every instance is extracted with ``ar xN``, given a
 unique name, and the result is checked: the same number of members and the same multiset of
 defined global symbols as all inputs together.
+
+Plan, then execute (as in :mod:`uros_build.abi`): :func:`parse_members` and
+:func:`parse_defined_globals` read ``ar t`` and ``nm`` text, :func:`plan_merge` decides every
+extraction and every output name, :func:`verify_merge` compares inputs with the output; all four
+are pure. Only :func:`merge_archives` runs commands, and few of them: per input archive one
+``ar t``, one ``nm`` and one ``ar x`` (plus one ``ar xN`` per instance number where a name
+repeats), then one ``ar qcD``, one ``ranlib`` and one ``ar t`` and ``nm`` of the output.
 """
 
 from __future__ import annotations
@@ -13,6 +20,7 @@ from __future__ import annotations
 import re
 import shutil
 from collections import Counter
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -41,108 +49,223 @@ class MergeReport:
     renamed_duplicates: int
 
 
+@dataclass(frozen=True)
+class ArchiveListing:
+    """An input archive and its members in archive order, as ``ar t`` lists them."""
+
+    path: Path
+    members: tuple[str, ...]
+
+    @property
+    def name(self) -> str:
+        return self.path.name
+
+
+@dataclass(frozen=True)
+class Extraction:
+    """One ``ar`` call that extracts ``members`` of ``archive`` into ``folder`` (relative to the
+    work folder). Each call gets a folder of its own, so no extraction overwrites another's file."""
+
+    archive: Path
+    folder: str
+    members: tuple[str, ...]
+    # None: plain ``ar x``; N: ``ar xN N``, the Nth member of each given name
+    instance: int | None = None
+    # ``members`` is the whole archive: ``ar x archive`` without names says the same, shorter
+    whole: bool = False
+
+
+@dataclass(frozen=True)
+class PlannedMember:
+    """Where one input member comes from and what it is called in the output."""
+
+    archive: Path
+    member: str
+    instance: int  # 1-based position among the members of this name in its archive
+    duplicate: bool  # its name occurs more than once in its archive
+    source: str  # the file its extraction leaves, relative to the work folder
+    output: str  # its name in the merged library, unique there
+
+
+@dataclass(frozen=True)
+class MergePlan:
+    extractions: tuple[Extraction, ...]  # in the order they run
+    members: tuple[PlannedMember, ...]  # in output order
+
+    @property
+    def output_names(self) -> tuple[str, ...]:
+        return tuple(m.output for m in self.members)
+
+    @property
+    def renamed_duplicates(self) -> int:
+        return sum(1 for m in self.members if m.duplicate)
+
+
 def _safe(name: str) -> str:
     return re.sub(r"[^A-Za-z0-9_.+-]", "_", name)
 
 
-def list_members(runner: Runner, tools: BinTools, archive: Path) -> tuple[str, ...]:
-    lines = runner.run([tools.ar, "t", str(archive)], step=f"list {archive.name}", quiet=True)
-    return tuple(line for line in lines if line.strip())
+def parse_members(ar_t_text: str) -> tuple[str, ...]:
+    """``ar t`` output -> member names in archive order, same-named members each time they occur."""
+    return tuple(line for line in ar_t_text.splitlines() if line.strip())
 
 
-def defined_globals(runner: Runner, tools: BinTools, archive: Path) -> Counter[str]:
-    # POSIX format: "name type value size"; member headers end with ':'. nm exits 0 on members
-    # without symbols and prints "no symbols" to stderr, which the runner merges: skip those.
-    lines = runner.run(
-        [tools.nm, "-g", "--defined-only", "--format=posix", str(archive)],
-        step=f"read symbols of {archive.name}",
-        quiet=True,
-    )
+def parse_defined_globals(nm_posix_text: str) -> Counter[str]:
+    """``nm -g --defined-only --format=posix`` output over an archive -> how many members define
+    each symbol.
+
+    Member headers are ``lib.a[member.o]:`` (GNU nm) or ``member.o:`` (llvm-nm, which also puts a
+    blank line before each); symbol lines are ``name TYPE [value [size]]``. A header is the only
+    line that ends with ':' (a symbol line ends with its type letter or a hex number), so it is
+    told apart first, whatever spaces a path holds. A member without symbols is a header alone.
+    """
     symbols: Counter[str] = Counter()
-    for line in lines:
-        parts = line.split()
-        if len(parts) >= 2 and not line.endswith(":") and len(parts[1]) == 1:
+    for line in nm_posix_text.splitlines():
+        text = line.rstrip()
+        if not text or text.endswith(":"):
+            continue
+        parts = text.split()
+        if 2 <= len(parts) <= 4 and len(parts[1]) == 1:
             symbols[parts[0]] += 1
     return symbols
 
 
+def plan_merge(listings: Sequence[ArchiveListing]) -> MergePlan:
+    """Every extraction and every output name, for ``listings`` in the order given (pure).
+
+    Output names are ``<archive stem>__<member>``, and ``<archive stem>__<i>_<member>`` for the
+    i-th of several same-named members of one archive: the stem keeps apart the ``util.c.obj`` of
+    two libraries, the instance number the two ``common.c.obj`` of one. VerifyError if two members
+    would still get one name (``lib a.a`` and ``lib_a.a``; a member literally named ``2_x.o`` next
+    to two ``x.o``), before anything is extracted.
+    """
+    extractions: list[Extraction] = []
+    members: list[PlannedMember] = []
+    taken: dict[str, str] = {}  # output name -> "archive(member)" that has it, for the error
+    for index, listing in enumerate(listings):
+        stem = _safe(listing.name.removesuffix(".a"))
+        base = f"{index:03d}"
+        counts = Counter(listing.members)
+        unique = tuple(m for m in listing.members if counts[m] == 1)
+        if unique:
+            whole = len(unique) == len(listing.members)
+            extractions.append(Extraction(listing.path, base, unique, whole=whole))
+        # GNU ar applies xN's count to every name given, so one call per instance number takes the
+        # i-th copy of all names that repeat at least i times; names in first-appearance order.
+        repeated = tuple(dict.fromkeys(m for m in listing.members if counts[m] > 1))
+        for instance in range(1, max((counts[m] for m in repeated), default=0) + 1):
+            names = tuple(m for m in repeated if counts[m] >= instance)
+            extractions.append(Extraction(listing.path, f"{base}.{instance}", names, instance=instance))
+        seen: Counter[str] = Counter()
+        for member in listing.members:
+            seen[member] += 1
+            instance = seen[member]
+            duplicate = counts[member] > 1
+            folder = f"{base}.{instance}" if duplicate else base
+            output = f"{stem}__{instance}_{_safe(member)}" if duplicate else f"{stem}__{_safe(member)}"
+            where = f"{listing.name}({member})" + (f" #{instance}" if duplicate else "")
+            if output in taken:
+                raise VerifyError(
+                    f"{taken[output]} and {where} would both be named {output} in the merged library",
+                    "rename one of the two archives or objects: the merge would lose one of them",
+                )
+            taken[output] = where
+            members.append(
+                PlannedMember(listing.path, member, instance, duplicate, f"{folder}/{member}", output)
+            )
+    return MergePlan(tuple(extractions), tuple(members))
+
+
+def extraction_argv(ar: str, extraction: Extraction) -> list[str]:
+    """The ``ar`` command line of one extraction, run in its folder (pure)."""
+    archive = str(extraction.archive)
+    if extraction.instance is not None:
+        return [ar, "xN", str(extraction.instance), archive, *extraction.members]
+    return [ar, "x", archive] if extraction.whole else [ar, "x", archive, *extraction.members]
+
+
+def verify_merge(expected: Sequence[ArchiveContents], actual: ArchiveContents, workdir: Path) -> None:
+    """VerifyError unless ``actual`` has as many members as all of ``expected`` together and
+    the same multiset of defined global symbols (pure; ``workdir`` is only named in the hint)."""
+    expected_members = sum(len(c.members) for c in expected)
+    expected_symbols: Counter[str] = Counter()
+    for contents in expected:
+        expected_symbols += contents.symbols
+    if len(actual.members) != expected_members:
+        raise VerifyError(
+            f"libmicroros.a has {len(actual.members)} members but its inputs have {expected_members}",
+            f"the merge lost objects; the work folder {workdir} is kept for inspection",
+        )
+    if actual.symbols != expected_symbols:
+        missing = sorted((expected_symbols - actual.symbols).elements())[:5]
+        raise VerifyError(
+            f"libmicroros.a lacks defined symbols its inputs have: {', '.join(missing) or '(counts differ)'}",
+            f"the work folder {workdir} is kept for inspection",
+        )
+
+
 def read_contents(runner: Runner, tools: BinTools, archive: Path) -> ArchiveContents:
-    return ArchiveContents(list_members(runner, tools, archive), defined_globals(runner, tools, archive))
+    """One ``ar t`` and one ``nm`` of ``archive``. ``query`` hands the parsers stdout alone, so
+    nm's "no symbols" notes on stderr never reach them."""
+    listing = runner.query([tools.ar, "t", str(archive)], step=f"list {archive.name}")
+    names = runner.query(
+        [tools.nm, "-g", "--defined-only", "--format=posix", str(archive)],
+        step=f"read symbols of {archive.name}",
+    )
+    return ArchiveContents(parse_members(listing), parse_defined_globals(names))
 
 
 def merge_archives(
     runner: Runner, tools: BinTools, inputs: list[Path], output: Path, workdir: Path
 ) -> MergeReport:
+    """Merge ``inputs`` (in name order) into ``output`` through ``workdir``, which is kept for
+    inspection when the check fails and removed when it passes."""
+    ordered = sorted(inputs, key=lambda p: p.name)
+    # Absolute paths: every ar runs inside the work folder.
+    resolved = [p.resolve() for p in ordered]
+    expected = [read_contents(runner, tools, archive) for archive in resolved]
+    plan = plan_merge([ArchiveListing(p, c.members) for p, c in zip(resolved, expected, strict=True)])
+
     if workdir.exists():
         shutil.rmtree(workdir)
     workdir.mkdir(parents=True)
-    ordered: list[str] = []  # member files in the order they go into the output
-    expected_members = 0
-    expected_symbols: Counter[str] = Counter()
-    renamed = 0
-    for index, archive in enumerate(sorted(inputs, key=lambda p: p.name)):
-        contents = read_contents(runner, tools, archive)
-        expected_members += len(contents.members)
-        expected_symbols += contents.symbols
-        stem = _safe(archive.name.removesuffix(".a"))
-        here = workdir / f"{index:03d}"
-        here.mkdir()
-        counts = Counter(contents.members)
+    for extraction in plan.extractions:
+        folder = workdir / extraction.folder
+        folder.mkdir()
+        what = f" #{extraction.instance}" if extraction.instance is not None else ""
         runner.run(
-            [tools.ar, "x", str(archive.resolve())], step=f"extract {archive.name}", cwd=here, quiet=True
+            extraction_argv(tools.ar, extraction),
+            step=f"extract{what} from {extraction.archive.name}",
+            cwd=folder,
+            quiet=True,
         )
-        seen: Counter[str] = Counter()
-        for member in contents.members:
-            seen[member] += 1
-            instance = seen[member]
-            if counts[member] == 1:
-                source = here / member
-            else:
-                # ar x keeps only the last same-named member; take each instance by its count.
-                inst_dir = here / f"_instance{instance}"
-                inst_dir.mkdir(exist_ok=True)
-                runner.run(
-                    [tools.ar, "xN", str(instance), str(archive.resolve()), member],
-                    step=f"extract {member} #{instance} of {archive.name}",
-                    cwd=inst_dir,
-                    quiet=True,
-                )
-                source = inst_dir / member
-                renamed += 1
-            suffix = f"{instance}_" if counts[member] > 1 else ""
-            target = workdir / f"{stem}__{suffix}{_safe(member)}"
-            if target.exists():
-                raise VerifyError(f"two members would both be named {target.name} in {archive}")
-            source.rename(target)
-            ordered.append(target.name)
-        shutil.rmtree(here)
-    if output.exists():
-        output.unlink()
-    # One response file instead of ~1,100 arguments; D: deterministic (zero timestamps and uids).
+    for planned in plan.members:
+        source = workdir / planned.source
+        # ar x exits 0 when a named member is not there ("no entry ... in archive" on stderr only).
+        if not source.is_file():
+            raise VerifyError(
+                f"ar did not extract {planned.member} #{planned.instance} of {planned.archive.name}",
+                f"the work folder {workdir} is kept for inspection",
+            )
+        source.rename(workdir / planned.output)
+    for extraction in plan.extractions:
+        shutil.rmtree(workdir / extraction.folder)
+
+    output.unlink(missing_ok=True)
+    # One response file instead of ~1,100 arguments; its names need no quoting (_safe keeps only
+    # [A-Za-z0-9_.+-]). D: deterministic (zero timestamps and uids).
     listing = workdir / "members.rsp"
-    listing.write_text("\n".join(ordered) + "\n", encoding="utf-8")
-    runner.run(
-        [tools.ar, "qcD", str(output.resolve()), f"@{listing.name}"], step="write libmicroros.a", cwd=workdir
-    )
-    runner.run(
-        [tools.ranlib, "-D", str(output.resolve())], step="index libmicroros.a", cwd=workdir, quiet=True
-    )
+    listing.write_text("\n".join(plan.output_names) + "\n", encoding="utf-8")
+    target = output.resolve()
+    runner.run([tools.ar, "qcD", str(target), f"@{listing.name}"], step="write libmicroros.a", cwd=workdir)
+    runner.run([tools.ranlib, "-D", str(target)], step="index libmicroros.a", cwd=workdir, quiet=True)
+
     result = read_contents(runner, tools, output)
-    if len(result.members) != expected_members:
-        raise VerifyError(
-            f"libmicroros.a has {len(result.members)} members but its inputs have {expected_members}",
-            f"the merge lost objects; the work folder {workdir} is kept for inspection",
-        )
-    if result.symbols != expected_symbols:
-        missing = sorted((expected_symbols - result.symbols).elements())[:5]
-        raise VerifyError(
-            f"libmicroros.a lacks defined symbols its inputs have: {', '.join(missing) or '(counts differ)'}",
-            f"the work folder {workdir} is kept for inspection",
-        )
+    verify_merge(expected, result, workdir)
     shutil.rmtree(workdir)
     return MergeReport(
-        inputs=tuple(p.name for p in sorted(inputs, key=lambda p: p.name)),
+        inputs=tuple(p.name for p in ordered),
         members=len(result.members),
         symbols=sum(result.symbols.values()),
-        renamed_duplicates=renamed,
+        renamed_duplicates=plan.renamed_duplicates,
     )

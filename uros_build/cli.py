@@ -1,19 +1,88 @@
-"""The `uros` command line. Callbacks parse options and call one pipeline function; no logic here."""
+"""The `uros` command line: option parsing, one call into uros_build.commands per command, and the
+one place that turns errors into a message and an exit code.
+
+One vocabulary across commands: the target is ``--toolchain`` (a target name, or for `uros build`
+also a profile or a .cmake file), a workspace folder is ``-w/--workspace``, what a command writes
+goes to ``-o/--output``. Earlier spellings (``--target``, ``--dir``) still work and are hidden.
+"""
 
 from __future__ import annotations
 
 import json
 import sys
 import traceback
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import click
 
-from uros_build import __version__, console, pipeline, tasks
+from uros_build import __version__, console, defaults, proc
+from uros_build.commands import add_package as add_package_cmd
+from uros_build.commands import build as build_cmd
+from uros_build.commands import check as check_cmd
+from uros_build.commands import create_firmware as create_cmd
+from uros_build.commands import export as export_cmd
+from uros_build.commands import interface as interface_cmd
+from uros_build.commands import listings
 from uros_build.errors import Interrupted, UrosError
+from uros_build.plan import BuildArgs, CreateArgs
 
 _PATH = click.Path(path_type=Path)
+_Decorator = Callable[[Callable[..., Any]], Callable[..., Any]]
+
+
+class _Option(click.Option):
+    """An option whose old spellings (``aliases``) keep working but stay out of ``--help``."""
+
+    def __init__(self, *args: Any, aliases: tuple[str, ...] = (), **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self.hidden_aliases = aliases
+
+    def get_help_record(self, ctx: click.Context) -> tuple[str, str] | None:
+        shown = self.opts
+        self.opts = [o for o in shown if o not in self.hidden_aliases]
+        try:
+            return super().get_help_record(ctx)
+        finally:
+            self.opts = shown
+
+
+def _toolchain_option(help_text: str) -> _Decorator:
+    return click.option(
+        "--toolchain", "--target", "toolchain", cls=_Option, aliases=("--target",), help=help_text
+    )
+
+
+def _workspace_option(default: Path, help_text: str) -> _Decorator:
+    return click.option(
+        "-w", "--workspace", "--dir", "workspace", cls=_Option, aliases=("--dir",), type=_PATH,
+        default=default, show_default=True, help=help_text,
+    )  # fmt: skip
+
+
+def _output_option(help_text: str, required: bool = False) -> _Decorator:
+    return click.option("-o", "--output", type=_PATH, required=required, help=help_text)
+
+
+_VERBOSE = click.option("-v", "--verbose", is_flag=True, help="Stream the tools' output.")
+_JSON = click.option("--json", "as_json", is_flag=True, help="Print the table as JSON.")
+_METAS = click.option(
+    "--meta", "metas", multiple=True, type=_PATH, help="A colcon.meta merged on top (repeatable)."
+)
+_SETS = click.option(
+    "--set", "sets", multiple=True, metavar="PKG.OPTION=VALUE", help="Set a CMake option of a package."
+)
+_TRANSPORT = click.option(
+    "--transport", help="XRCE-DDS transport: custom, udp or serial (default: the target's)."
+)
+_PRESET = click.option(
+    "--preset", default=defaults.PRESET, show_default=True, help="colcon.meta starting point (meta/presets/)."
+)
+# `--from` names the build output to copy; without it, --output is that output, rewritten in place.
+_FROM = click.option(
+    "--from", "source", type=_PATH, help="A `uros build` output to copy (default: --output itself)."
+)
 
 
 def _table(rows: list[dict[str, Any]], as_json: bool, columns: tuple[str, ...]) -> None:
@@ -36,76 +105,71 @@ def cli(ctx: click.Context, debug: bool) -> None:
     ctx.obj = {"debug": debug}
 
 
-@cli.command()
-@click.option("--json", "as_json", is_flag=True, help="Print the table as JSON.")
+@click.command()
+@_JSON
 def targets(as_json: bool) -> None:
     """List the shipped target profiles (toolchains/*.yaml)."""
-    _table(tasks.targets_table(), as_json, ("name", "compiler", "description"))
+    _table(listings.targets_table(), as_json, ("name", "compiler", "description"))
 
 
-@cli.group()
+@click.command()
+@_JSON
+def distros(as_json: bool) -> None:
+    """List the micro-ROS distro manifests (meta/distros/)."""
+    _table(listings.distros_table(), as_json, ("name", "status", "dev_repositories", "mcu_repositories"))
+
+
+@click.group()
 def toolchain() -> None:
     """CMake toolchain files."""
 
 
-@toolchain.command("render")
+@click.command("render")
 @click.argument("target")
-@click.option("-o", "--output", type=_PATH, help="Write here instead of standard output.")
+@_output_option("Write here instead of standard output.")
 @click.option(
-    "--for",
-    "purpose",
-    type=click.Choice(["firmware", "micro-ros"]),
-    default="firmware",
-    show_default=True,
+    "--for", "purpose", type=click.Choice(["firmware", "micro-ros"]), default="firmware", show_default=True,
     help="firmware: no micro-ROS-only flags; micro-ros: with them (what `uros build` uses).",
-)
+)  # fmt: skip
 @click.option("--gcc-major", type=int, help="The cross GCC's major version (decides GCC<6 workarounds).")
 def toolchain_render(target: str, output: Path | None, purpose: str, gcc_major: int | None) -> None:
     """Render the CMake toolchain file of TARGET (a target name or a profile .yaml)."""
-    tasks.render_toolchain_file(target, output, micro_ros=purpose == "micro-ros", gcc_major=gcc_major)
+    listings.render_toolchain_file(target, output, micro_ros=purpose == "micro-ros", gcc_major=gcc_major)
 
 
-@cli.group()
+@click.group()
 def meta() -> None:
     """colcon.meta files."""
 
 
-@meta.command("write")
-@click.option("--preset", default="default", show_default=True, help="Starting point (meta/presets/).")
-@click.option("--target", "target", help="Add what this target needs (transport, atomics).")
-@click.option("--transport", help="XRCE-DDS transport: custom, udp or serial (default: the target's).")
-@click.option("--meta", "metas", multiple=True, type=_PATH, help="A colcon.meta merged on top (repeatable).")
-@click.option(
-    "--set", "sets", multiple=True, metavar="PKG.OPTION=VALUE", help="Set a CMake option of a package."
-)
-@click.option("-o", "--output", type=_PATH, help="Write here instead of standard output.")
+@click.command("write")
+@_PRESET
+@_toolchain_option("Add what this target needs (transport, atomics).")
+@_TRANSPORT
+@_METAS
+@_SETS
+@_output_option("Write here instead of standard output.")
 def meta_write(
     preset: str,
-    target: str | None,
+    toolchain: str | None,
     transport: str | None,
     metas: tuple[Path, ...],
     sets: tuple[str, ...],
     output: Path | None,
 ) -> None:
     """Write a colcon.meta (JSON, sorted keys)."""
-    from uros_build import meta as meta_mod
-
-    resolved = pipeline.resolve_target(target, None) if target else None
-    merged = pipeline.meta_for(preset, resolved, transport, list(metas), list(sets))
-    tasks.write_output_file(output, meta_mod.dump_meta(merged, f"uros meta write --preset {preset}"))
+    listings.write_meta(preset, toolchain, transport, metas, sets, output)
 
 
-@cli.command()
-@click.option("--toolchain", help="A target name (see `uros targets`) or your own CMake toolchain file.")
+@click.command()
+@_toolchain_option("A target name (see `uros targets`) or your own CMake toolchain file.")
 @click.option("--profile", type=_PATH, help="Your own target profile (.yaml, as in toolchains/).")
-@click.option("--workspace", type=_PATH, default=Path("."), show_default=True, help="The firmware workspace.")
-@click.option("--meta", "metas", multiple=True, type=_PATH, help="A colcon.meta merged on top (repeatable).")
-@click.option(
-    "--set", "sets", multiple=True, metavar="PKG.OPTION=VALUE", help="Set a CMake option of a package."
-)
-@click.option("--preset", default="default", show_default=True, help="colcon.meta starting point.")
-@click.option("--transport", help="XRCE-DDS transport: custom, udp or serial (default: the target's).")
-@click.option("--output", type=_PATH, help="Output folder (default: <workspace>/build/<target>).")
+@_workspace_option(defaults.WORKSPACE, "The firmware workspace.")
+@_METAS
+@_SETS
+@_PRESET
+@_TRANSPORT
+@_output_option("Output folder (default: <workspace>/build/<target>).")
 @click.option("--packages-up-to", multiple=True, help="Build only these packages and their dependencies.")
 @click.option("-j", "--jobs", type=int, help="Packages built in parallel (colcon --parallel-workers).")
 @click.option(
@@ -113,13 +177,11 @@ def meta_write(
     help="Derive a target: this compiler prefix (e.g. arm-none-eabi-) instead of the profile's.",
 )
 @click.option(
-    "--cflags",
-    multiple=True,
-    metavar="FLAG",
+    "--cflags", multiple=True, metavar="FLAG",
     help="Derive a target: one more compiler flag (repeatable; one flag each, never split).",
-)
+)  # fmt: skip
 @click.option("--force", is_flag=True, help="Replace an --output folder that is not a uros output.")
-@click.option("-v", "--verbose", is_flag=True, help="Stream colcon's and the compilers' output.")
+@_VERBOSE
 def build(
     toolchain: str | None,
     profile: Path | None,
@@ -137,92 +199,78 @@ def build(
     verbose: bool,
 ) -> None:
     """Build libmicroros.a, its include tree and a CMake package for one target."""
-    pipeline.build(
-        pipeline.BuildOptions(
-            workspace=workspace,
-            toolchain=toolchain,
-            profile=profile,
-            metas=metas,
-            sets=sets,
-            preset=preset,
-            transport=transport,
-            output=output,
-            verbose=verbose,
-            force=force,
-            packages_up_to=packages_up_to,
-            jobs=jobs,
-            compiler_prefix=compiler_prefix,
-            cflags=cflags,
+    build_cmd.build(
+        BuildArgs(
+            workspace,
+            toolchain,
+            profile,
+            metas,
+            sets,
+            preset,
+            transport,
+            output,
+            verbose,
+            force,
+            packages_up_to,
+            jobs,
+            compiler_prefix,
+            cflags,
         )
     )
 
 
-@cli.command()
+@click.command()
 @click.argument("library", type=_PATH)
-@click.option("--target", help="The target the library must fit (see `uros targets`).")
+@_toolchain_option("The target the library must fit (see `uros targets`).")
 @click.option("--profile", type=_PATH, help="Or your own target profile (.yaml).")
-@click.option("-v", "--verbose", is_flag=True, help="Stream readelf's output.")
-def check(library: Path, target: str | None, profile: Path | None, verbose: bool) -> None:
+@_VERBOSE
+def check(library: Path, toolchain: str | None, profile: Path | None, verbose: bool) -> None:
     """Check that every object in LIBRARY has the ELF facts of a target (exit 5 if not)."""
-    tasks.check_library(library, target, profile, verbose)
+    check_cmd.check_library(library, toolchain, profile, verbose)
 
 
-@cli.group()
+@click.group()
 def export() -> None:
     """Packages for firmware build systems."""
 
 
-# `--from` names the build output to copy; without it, --output is that output, rewritten in place.
-_FROM = click.option(
-    "--from", "source", type=_PATH, help="A `uros build` output to copy (default: --output itself)."
-)
-
-
-@export.command("cmake")
-@click.option("--output", type=_PATH, required=True, help="Folder of the CMake package.")
+@click.command("cmake")
+@_output_option("Folder of the CMake package.", required=True)
 @_FROM
 def export_cmake(output: Path, source: Path | None) -> None:
     """Write microrosConfig.cmake (find_package) and microros.cmake (include) for a build output."""
-    tasks.export_cmake(source, output)
+    export_cmd.export_cmake(source, output)
 
 
-@cli.command()
-@click.option("--json", "as_json", is_flag=True, help="Print the table as JSON.")
-def distros(as_json: bool) -> None:
-    """List the micro-ROS distro manifests (meta/distros/)."""
-    _table(tasks.distros_table(), as_json, ("name", "status", "dev_repositories", "mcu_repositories"))
+@click.command("esp-idf")
+@_output_option("Folder of the ESP-IDF component.", required=True)
+@_FROM
+def export_esp_idf(output: Path, source: Path | None) -> None:
+    """Write an ESP-IDF component (CMakeLists.txt, libmicroros.a, include/) for an ESP32 build."""
+    export_cmd.export_esp_idf(source, output)
 
 
-@cli.command("create-firmware")
-@click.argument("platform", default="generate_lib")
-@click.option("--distro", default="humble", show_default=True, help="micro-ROS distro (see `uros distros`).")
+@click.command("create-firmware")
+@click.argument("platform", default=defaults.PLATFORM)
 @click.option(
-    "--dir", "directory", type=_PATH, default=Path("firmware"), show_default=True, help="Workspace folder."
+    "--distro", default=defaults.DISTRO, show_default=True, help="micro-ROS distro (see `uros distros`)."
 )
+@_workspace_option(defaults.FIRMWARE_DIR, "Workspace folder to create.")
 @click.option(
-    "--mirror",
-    "mirrors",
-    multiple=True,
-    metavar="UPSTREAM=LOCAL",
+    "--mirror", "mirrors", multiple=True, metavar="UPSTREAM=LOCAL",
     help="Rewrite URLs, e.g. 'https://github.com/{owner}/{repo}=/srv/mirror/{owner}+{repo}/repo'.",
-)
+)  # fmt: skip
 @click.option(
-    "--mirror-override",
-    "overrides",
-    multiple=True,
-    metavar="REPO=URL[@VERSION]",
+    "--mirror-override", "overrides", multiple=True, metavar="REPO=URL[@VERSION]",
     help="One repository from elsewhere (REPO: workspace path like uros/rclc, or owner/repo).",
-)
+)  # fmt: skip
 @click.option("--config", type=_PATH, help="A uros.yaml with a mirror: section (rules, overrides).")
-@click.option("--locked", is_flag=True, help="Clone exactly the commits in <dir>/uros.lock.")
+@click.option("--locked", is_flag=True, help="Clone exactly the commits in <workspace>/uros.lock.")
 @click.option("--lock-file", type=_PATH, help="Clone exactly the commits in this lock file.")
 @click.option(
-    "--extra-package",
-    "extra_packages",
-    multiple=True,
-    type=_PATH,
+    "--extra-package", "extra_packages", multiple=True, type=_PATH,
     help="A package folder (e.g. custom interfaces) to build with micro-ROS (repeatable).",
-)
+)  # fmt: skip
 @click.option(
     "--force", is_flag=True, help="Re-create an existing workspace's sources (keeps your meta and extras)."
 )
@@ -230,13 +278,15 @@ def distros(as_json: bool) -> None:
 @click.option(
     "--no-dev-build", is_flag=True, help="Do not build the host tools now (the first `uros build` will)."
 )
-@click.option("--toolchain", help="Check this target's compiler, C library and C++ headers before cloning.")
-@click.option("-j", "--jobs", type=int, default=4, show_default=True, help="Parallel clones.")
-@click.option("-v", "--verbose", is_flag=True, help="Stream the tools' output.")
+@_toolchain_option("Check this target's compiler, C library and C++ headers before cloning.")
+@click.option(
+    "-j", "--jobs", type=int, default=defaults.CLONE_JOBS, show_default=True, help="Parallel clones."
+)
+@_VERBOSE
 def create_firmware(
     platform: str,
     distro: str,
-    directory: Path,
+    workspace: Path,
     mirrors: tuple[str, ...],
     overrides: tuple[str, ...],
     config: Path | None,
@@ -251,72 +301,94 @@ def create_firmware(
     verbose: bool,
 ) -> None:
     """Create a micro-ROS firmware workspace (PLATFORM: generate_lib, a library for any MCU)."""
-    from uros_build.firmware import CreateOptions
-
-    pipeline.create_firmware(
-        CreateOptions(
-            directory=directory,
-            distro=distro,
-            platform=platform,
-            mirrors=mirrors,
-            overrides=overrides,
-            config=config,
-            locked=locked,
-            lock_file=lock_file,
-            extra_packages=extra_packages,
-            force=force,
-            keep_partial=keep_partial,
-            build_dev=not no_dev_build,
-            toolchain=toolchain,
-            jobs=jobs,
-            verbose=verbose,
+    create_cmd.create_firmware(
+        CreateArgs(
+            workspace,
+            distro,
+            platform,
+            mirrors,
+            overrides,
+            config,
+            locked,
+            lock_file,
+            extra_packages,
+            force,
+            keep_partial,
+            not no_dev_build,
+            toolchain,
+            jobs,
+            verbose,
         )
     )
 
 
-@cli.command("add-package")
+@click.command("add-package")
 @click.argument("source")
-@click.option(
-    "--workspace", type=_PATH, default=Path("firmware"), show_default=True, help="Firmware workspace."
-)
+@_workspace_option(defaults.FIRMWARE_DIR, "Firmware workspace.")
 @click.option("--version", help="Branch or tag, for a git URL.")
-@click.option("-v", "--verbose", is_flag=True, help="Stream git's output.")
+@_VERBOSE
 def add_package(source: str, workspace: Path, version: str | None, verbose: bool) -> None:
     """Add a package (a folder, kept in sync at every build, or a git URL) to the MCU workspace."""
-    tasks.add_package(source, workspace, version, verbose)
+    add_package_cmd.add_package(source, workspace, version, verbose)
 
 
-@cli.group()
+@click.group()
 def interface() -> None:
     """Custom interface packages (.msg, .srv)."""
 
 
-@interface.command("new")
+@click.command("new")
 @click.argument("name")
 @click.option("--msg", "msgs", multiple=True, type=_PATH, help="A .msg file (repeatable).")
 @click.option("--srv", "srvs", multiple=True, type=_PATH, help="A .srv file (repeatable).")
-@click.option("--output", type=_PATH, help="Package folder (default: ./NAME).")
+@_output_option("Package folder (default: ./NAME).")
 @click.option("--force", is_flag=True, help="Write into an existing folder.")
 def interface_new(
     name: str, msgs: tuple[Path, ...], srvs: tuple[Path, ...], output: Path | None, force: bool
 ) -> None:
     """Scaffold an interface package NAME from .msg/.srv files (package.xml, CMakeLists.txt)."""
-    tasks.interface_new(name, list(msgs), list(srvs), output, force)
+    interface_cmd.interface_new(name, list(msgs), list(srvs), output, force)
 
 
-@export.command("esp-idf")
-@click.option("--output", type=_PATH, required=True, help="Folder of the ESP-IDF component.")
-@_FROM
-def export_esp_idf(output: Path, source: Path | None) -> None:
-    """Write an ESP-IDF component (CMakeLists.txt, libmicroros.a, include/) for an ESP32 build."""
-    tasks.export_esp_idf(source, output)
+# The one registry: (group, command), in the order `uros --help` lists them.
+_REGISTRY: tuple[tuple[click.Group, click.Command], ...] = (
+    (cli, build),
+    (cli, create_firmware),
+    (cli, add_package),
+    (cli, check),
+    (cli, targets),
+    (cli, distros),
+    (cli, toolchain),
+    (toolchain, toolchain_render),
+    (cli, meta),
+    (meta, meta_write),
+    (cli, export),
+    (export, export_cmake),
+    (export, export_esp_idf),
+    (cli, interface),
+    (interface, interface_new),
+)
+for _group, _command in _REGISTRY:
+    _group.add_command(_command)
+
+
+def _internal_error(exc: BaseException) -> None:
+    """An exception uros did not expect: one line on the console, the traceback in the run log."""
+    log = proc.current_log() or proc.new_run_log(proc.user_log_dir(), "error")
+    try:
+        with log.open("a", encoding="utf-8") as handle:
+            handle.write("\n" + "".join(traceback.format_exception(exc)))
+        where = f"the traceback is in {log}"
+    except OSError:
+        where = "rerun with --debug for the traceback"
+    console.error(f"internal error: {type(exc).__name__}: {exc}", f"{where}; please report it")
 
 
 def main(argv: list[str] | None = None) -> None:
     debug = "--debug" in (argv if argv is not None else sys.argv[1:])
     try:
         cli.main(args=argv, prog_name="uros", standalone_mode=False)
-    except click.exceptions.Abort:
+    except (click.exceptions.Abort, KeyboardInterrupt):
         console.error("interrupted", "the previous output was left untouched")
         sys.exit(Interrupted.exit_code)
     except click.ClickException as exc:
@@ -327,7 +399,9 @@ def main(argv: list[str] | None = None) -> None:
             traceback.print_exc()
         console.error(exc.message, exc.hint)
         sys.exit(exc.exit_code)
-    except KeyboardInterrupt:
-        console.error("interrupted", "the previous output was left untouched")
-        sys.exit(Interrupted.exit_code)
+    except Exception as exc:
+        if debug:
+            traceback.print_exc()
+        _internal_error(exc)
+        sys.exit(1)
     sys.exit(0)

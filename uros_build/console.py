@@ -1,6 +1,7 @@
-"""The only module that talks to the terminal (through rich).
+"""Status lines on the terminal (through rich): steps, notes, warnings, errors.
 
-Status lines go to stderr so that ``--json`` output on stdout stays machine-readable.
+Status lines go to stderr so that ``--json`` output on stdout stays machine-readable (listings
+and rendered files are written to stdout by their commands).
 When stderr is not a terminal (CI, pipes), rich prints plain lines without colour.
 """
 
@@ -10,7 +11,6 @@ from rich.console import Console
 from rich.markup import escape
 
 _err = Console(stderr=True, highlight=False, soft_wrap=True)
-_out = Console(highlight=False, soft_wrap=True)
 
 
 def step(text: str) -> None:
@@ -34,8 +34,3 @@ def error(text: str, hint: str | None) -> None:
     _err.print(f"[bold red]error:[/] {escape(text)}")
     if hint:
         _err.print(f"[bold]hint:[/] {escape(hint)}")
-
-
-def out(text: str) -> None:
-    """Results (lists, JSON) on stdout."""
-    _out.print(escape(text), markup=True)

@@ -247,7 +247,9 @@ class Runner:
                 start_new_session=True,
             )
         except OSError as exc:
-            raise StepFailed(f"{step}: could not start {argv[0]}: {exc}", log=self.log_path) from exc
+            raise StepFailed(
+                f"{step}: could not start {argv[0]}: {exc}", f"the log is {self.log_path}"
+            ) from exc
 
     def _interrupted(self, proc: subprocess.Popen[str], step: str, started: float) -> NoReturn:
         _stop(proc)

@@ -1,30 +1,239 @@
-"""A firmware workspace on disk and where uros keeps things in it.
+"""The firmware workspace: its layout on disk, its data files, and where uros keeps things in it.
 
     <workspace>/
+      uros.yaml          what create-firmware made: distro, mirror rules, extra packages (edit freely)
+      uros.lock          the commit of every cloned repository (`--locked` re-creates exactly these)
+      colcon.meta        the distro's generate_lib meta, layered into every `uros build` (edit freely)
       mcu_ws/            sources colcon builds for the MCU (or the packages sit in <workspace> itself)
-      dev_ws/            host tools workspace (real micro-ROS only, `uros create-firmware`)
+      mcu_ws/extra_packages/   the user's packages, synced from their folders at every build
+      dev_ws/            host tools workspace (ament, ...), built once, shared by every target
       build/<target>/    outputs: libmicroros.a, include/, CMake package, build-info.json
       .uros/targets/<target>/{build,install,log}   colcon's trees, kept between runs per target
-      .uros/log/         one log per uros run
+      .uros/log/         one log per uros run, latest.log the newest
 
 Keeping colcon's trees per target is what makes a second build incremental (micro_ros_setup's
 build.sh wipes build/install/log every time) and what lets two targets share one workspace.
+This module only reads and writes files; it starts no processes.
 """
 
 from __future__ import annotations
 
 import fcntl
+import json
 import os
 import re
-import time
-from collections.abc import Iterator
+import shutil
+import xml.etree.ElementTree as ET
+from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
+import yaml
+
+from uros_build import __version__, console, loader, proc
+from uros_build import distros as distros_mod
+from uros_build.buildinfo import BUILD_INFO
+from uros_build.distros import Mirror, Source
 from uros_build.errors import ConfigError
 
+CONFIG = "uros.yaml"
+LOCK = "uros.lock"
+USER_META = "colcon.meta"
+EXTRA = "extra_packages"
+DEV_MARKER = ".uros-dev-built"  # in dev_ws/install: the lock the dev workspace was built from
 _IGNORE_NOTE = "uros: colcon must not look for packages here\n"
+
+
+# ---------------------------------------------------------------------------------------------
+# uros.yaml
+
+
+@dataclass(frozen=True)
+class WorkspaceConfig:
+    distro: str
+    platform: str = "generate_lib"
+    mirror: Mirror = field(default_factory=Mirror)
+    extra_packages: tuple[str, ...] = ()  # source folders synced into mcu_ws/extra_packages
+
+
+_CONFIG_KEYS = {"distro", "platform", "mirror", "extra_packages"}
+
+
+def parse_config(data: Any, source: str) -> WorkspaceConfig:
+    top = loader.mapping(data, source, _CONFIG_KEYS, required=("distro",))
+    return WorkspaceConfig(
+        distro=loader.string(top, "distro", source),
+        platform=loader.string(top, "platform", source, "generate_lib"),
+        mirror=distros_mod.load_mirror_config(
+            loader.mapping(top.get("mirror"), f"{source}: mirror"), f"{source}"
+        ),
+        extra_packages=loader.string_list(top, "extra_packages", source),
+    )
+
+
+def load_config(root: Path) -> WorkspaceConfig | None:
+    path = root / CONFIG
+    if not path.is_file():
+        return None
+    hint = "fix the file or re-create the workspace with `uros create-firmware --force`"
+    return parse_config(loader.load_yaml(path, hint=hint), str(path))
+
+
+def config_text(cfg: WorkspaceConfig) -> str:
+    data: dict[str, Any] = {
+        "distro": cfg.distro,
+        "platform": cfg.platform,
+        "mirror": distros_mod.mirror_to_config(cfg.mirror),
+        "extra_packages": list(cfg.extra_packages),
+    }
+    header = f"# Written by uros {__version__} create-firmware; edit freely (uros build reads it).\n"
+    return header + yaml.safe_dump(data, sort_keys=True)
+
+
+def save_config(root: Path, cfg: WorkspaceConfig) -> None:
+    write_if_changed(root / CONFIG, config_text(cfg))
+
+
+# ---------------------------------------------------------------------------------------------
+# uros.lock
+
+
+@dataclass(frozen=True)
+class LockedRepo:
+    url: str  # upstream
+    version: str  # the manifest's branch/tag
+    source: str  # what was cloned (after mirror rules)
+    commit: str
+
+
+@dataclass(frozen=True)
+class Lock:
+    distro: str
+    repositories: Mapping[str, LockedRepo]
+
+    @classmethod
+    def from_clones(cls, distro: str, sources: Mapping[str, Source], commits: Mapping[str, str]) -> Lock:
+        return cls(
+            distro,
+            {p: LockedRepo(s.repo.url, s.repo.version, s.url, commits[p]) for p, s in sources.items()},
+        )
+
+    def commits(self) -> dict[str, str]:
+        return {path: r.commit for path, r in self.repositories.items()}
+
+    def to_json(self) -> str:
+        data = {
+            "generated_by": f"uros {__version__} create-firmware",
+            "distro": self.distro,
+            "repositories": {
+                path: {"url": r.url, "version": r.version, "source": r.source, "commit": r.commit}
+                for path, r in sorted(self.repositories.items())
+            },
+        }
+        return json.dumps(data, indent=2, sort_keys=True) + "\n"
+
+
+def parse_lock(data: Any, source: str) -> Lock:
+    top = loader.mapping(data, source, required=("repositories",))
+    repos = loader.mapping(top["repositories"], f"{source}: repositories")
+    out = {}
+    for path, entry in repos.items():
+        where = f"{source}: repositories.{path}"
+        item = loader.mapping(entry, where, required=("commit",))
+        out[str(path)] = LockedRepo(
+            url=str(item.get("url", "")),
+            version=str(item.get("version", "")),
+            source=str(item.get("source", "")),
+            commit=loader.string(item, "commit", where),
+        )
+    return Lock(str(top.get("distro", "")), out)
+
+
+def read_lock(path: Path, flag: str) -> Lock:
+    hint = "create the workspace once without --locked"
+    if not path.is_file():
+        raise ConfigError(f"{flag} {path}: no such lock file", hint)
+    return parse_lock(loader.load_json(path, flag, hint), f"{flag} {path}")
+
+
+# ---------------------------------------------------------------------------------------------
+# extra packages
+
+
+def package_name(package_xml: Path) -> str:
+    try:
+        name = ET.parse(package_xml).getroot().findtext("name")
+    except ET.ParseError as exc:
+        raise ConfigError(f"{package_xml}: not valid XML: {exc}") from exc
+    if not name:
+        raise ConfigError(f"{package_xml}: has no <name>")
+    return name.strip()
+
+
+def check_extra_package(path: Path, flag: str) -> str:
+    """The package name of the folder ``path``, or a ConfigError naming ``flag``."""
+    if not path.is_dir():
+        raise ConfigError(f"{flag} {path}: no such folder", "pass the folder of a ROS 2 package")
+    xml = path / "package.xml"
+    if not xml.is_file():
+        raise ConfigError(
+            f"{flag} {path}: no package.xml in it",
+            "an extra package is a ROS 2 package folder (package.xml, CMakeLists.txt); "
+            "`uros interface new` scaffolds one",
+        )
+    return package_name(xml)
+
+
+def sync_tree(src: Path, dst: Path) -> int:
+    """Make ``dst`` a copy of ``src``, touching only files whose content changed (so the build
+    sees exactly what changed); returns how many files were written or removed."""
+    changed = 0
+    dst.mkdir(parents=True, exist_ok=True)
+    wanted = set()
+    for path in sorted(src.rglob("*")):
+        rel = path.relative_to(src)
+        if any(part.startswith(".git") for part in rel.parts):
+            continue
+        wanted.add(rel)
+        target = dst / rel
+        if path.is_dir():
+            target.mkdir(parents=True, exist_ok=True)
+        elif not target.is_file() or target.read_bytes() != path.read_bytes():
+            target.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(path, target)
+            changed += 1
+    for path in sorted(dst.rglob("*"), reverse=True):
+        if path.relative_to(dst) not in wanted:
+            if path.is_dir():
+                shutil.rmtree(path)
+            else:
+                path.unlink()
+            changed += 1
+    return changed
+
+
+# ---------------------------------------------------------------------------------------------
+# the host dev workspace
+
+
+def dev_env(env: Mapping[str, str], install: Path) -> dict[str, str]:
+    """What sourcing dev_ws/install/setup.bash provides, without a shell (pure)."""
+    out = dict(env)
+    prefix = str(install)
+    out["AMENT_PREFIX_PATH"] = prefix
+    out["CMAKE_PREFIX_PATH"] = prefix
+    out["PATH"] = os.pathsep.join(p for p in (str(install / "bin"), env.get("PATH", "")) if p)
+    sites = sorted(str(p) for p in install.glob("lib/python3*/site-packages"))
+    out["PYTHONPATH"] = os.pathsep.join(
+        [*sites, *(p for p in env.get("PYTHONPATH", "").split(os.pathsep) if p)]
+    )
+    return out
+
+
+# ---------------------------------------------------------------------------------------------
+# the workspace
 
 
 @dataclass(frozen=True)
@@ -33,6 +242,7 @@ class Workspace:
 
     @classmethod
     def open(cls, path: Path, flag: str = "--workspace") -> Workspace:
+        """A folder holding packages (a firmware workspace or any colcon workspace)."""
         root = path.resolve()
         if not root.is_dir():
             raise ConfigError(
@@ -47,10 +257,29 @@ class Workspace:
             )
         return ws
 
+    @classmethod
+    def open_firmware(cls, path: Path, flag: str = "--workspace") -> tuple[Workspace, WorkspaceConfig]:
+        """A workspace made by `uros create-firmware` (it has a uros.yaml)."""
+        root = path.resolve()
+        cfg = load_config(root)
+        if cfg is None:
+            raise ConfigError(
+                f"{flag} {path}: not a firmware workspace (no {CONFIG})",
+                "create one with `uros create-firmware generate_lib`, "
+                "or copy the package into your workspace",
+            )
+        return cls(root), cfg
+
+    # -- layout --------------------------------------------------------------------------------
+
     @property
     def source_dir(self) -> Path:
         mcu = self.root / "mcu_ws"
         return mcu if mcu.is_dir() else self.root
+
+    @property
+    def extra_dir(self) -> Path:
+        return self.root / "mcu_ws" / EXTRA
 
     @property
     def state_dir(self) -> Path:
@@ -60,11 +289,37 @@ class Workspace:
     def log_dir(self) -> Path:
         return self.state_dir / "log"
 
+    @property
+    def user_meta(self) -> Path:
+        return self.root / USER_META
+
+    @property
+    def lock_path(self) -> Path:
+        return self.root / LOCK
+
+    @property
+    def dev_dir(self) -> Path:
+        return self.root / "dev_ws"
+
+    @property
+    def dev_install(self) -> Path:
+        return self.dev_dir / "install"
+
+    def dev_built(self) -> bool:
+        return (self.dev_install / DEV_MARKER).is_file()
+
+    def mark_dev_built(self) -> None:
+        lock = self.lock_path.read_text(encoding="utf-8") if self.lock_path.is_file() else ""
+        (self.dev_install / DEV_MARKER).write_text(lock, encoding="utf-8")
+
     def target_dir(self, key: str) -> Path:
         return self.state_dir / "targets" / key
 
     def default_output(self, key: str) -> Path:
         return self.root / "build" / key
+
+    def new_log(self, command: str, key: str = "") -> Path:
+        return proc.new_run_log(self.log_dir, command, key)
 
     def has_packages(self) -> bool:
         for _dirpath, dirnames, filenames in os.walk(self.source_dir):
@@ -86,10 +341,25 @@ class Workspace:
             if not marker.exists():
                 marker.write_text(_IGNORE_NOTE, encoding="utf-8")
 
-    def new_log(self, command: str, key: str = "") -> Path:
-        stamp = time.strftime("%Y%m%d-%H%M%S")
-        name = "-".join(x for x in (stamp, command, key) if x)
-        return self.log_dir / f"{name}-{os.getpid()}.log"
+    # -- extra packages ------------------------------------------------------------------------
+
+    def sync_extra_packages(self, cfg: WorkspaceConfig) -> None:
+        """Copy each extra package's folder into mcu_ws/extra_packages, changed files only."""
+        for entry in cfg.extra_packages:
+            src = Path(entry)
+            if not src.is_dir():
+                console.warn(
+                    f"{self.root / CONFIG}: extra package {src} is gone; keeping the copy in mcu_ws/{EXTRA}"
+                )
+                continue
+            name = check_extra_package(src, f"{self.root / CONFIG}: extra_packages")
+            changed = sync_tree(src, self.extra_dir / name)
+            if changed:
+                console.info(f"extra package {name}: {changed} file(s) updated from {src}")
+
+
+# ---------------------------------------------------------------------------------------------
+# target keys, locks, generated files, outputs
 
 
 def target_key(name: str) -> str:
@@ -117,3 +387,22 @@ def write_if_changed(path: Path, text: str) -> bool:
     tmp.write_text(text, encoding="utf-8")
     tmp.replace(path)
     return True
+
+
+def check_output_dir(out: Path, force: bool, flag: str = "--output") -> None:
+    if out.exists() and any(out.iterdir()) and not (out / BUILD_INFO).is_file() and not force:
+        raise ConfigError(
+            f"{flag} {out}: the folder exists and is not a uros build output",
+            "choose a new or empty folder, or pass --force to replace its contents",
+        )
+
+
+def swap_into_place(staging: Path, out: Path) -> None:
+    """Replace ``out`` by ``staging`` with renames only, so ``out`` is never half-written."""
+    out.parent.mkdir(parents=True, exist_ok=True)
+    old = out.with_name(f".{out.name}.old-{os.getpid()}")
+    if out.exists():
+        out.rename(old)
+    staging.rename(out)
+    if old.exists():
+        shutil.rmtree(old)

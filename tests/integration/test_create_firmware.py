@@ -89,7 +89,7 @@ def test_create_lock_force_and_locked(upstream: Path, tmp_path: Path) -> None:
         "generate_lib",
         "--distro",
         "humble",
-        "--dir",
+        "--workspace",
         str(fw),
         "--no-dev-build",
         *_mirror(upstream),
@@ -129,7 +129,7 @@ def test_create_lock_force_and_locked(upstream: Path, tmp_path: Path) -> None:
 
 def test_missing_branch_names_repo_and_cleans_up(upstream: Path, tmp_path: Path) -> None:
     fw = tmp_path / "fw"
-    args = ["create-firmware", "--dir", str(fw), "--no-dev-build", *_mirror(upstream)]
+    args = ["create-firmware", "--workspace", str(fw), "--no-dev-build", *_mirror(upstream)]
     args += ["--mirror-override", "uros/rclc=@no-such-branch"]
     proc = run_uros(*args, check=False)
     assert proc.returncode == 4, proc.stderr
@@ -152,7 +152,7 @@ def test_missing_branch_names_repo_and_cleans_up(upstream: Path, tmp_path: Path)
 )
 def test_bad_input(tmp_path: Path, args: list[str], expected: str) -> None:
     fw = tmp_path / "fw"
-    proc = run_uros("create-firmware", "--dir", str(fw), "--no-dev-build", *args, check=False)
+    proc = run_uros("create-firmware", "--workspace", str(fw), "--no-dev-build", *args, check=False)
     assert proc.returncode == 2, proc.stderr
     errors = [x for x in proc.stderr.splitlines() if x.startswith("error:")]
     assert len(errors) == 1 and expected in errors[0]
@@ -161,17 +161,16 @@ def test_bad_input(tmp_path: Path, args: list[str], expected: str) -> None:
 
 def test_add_package_keeps_in_sync(upstream: Path, tmp_path: Path) -> None:
     fw = tmp_path / "firmware"
-    run_uros("create-firmware", "--dir", str(fw), "--no-dev-build", *_mirror(upstream))
+    run_uros("create-firmware", "--workspace", str(fw), "--no-dev-build", *_mirror(upstream))
     pkg = _interface_pkg(tmp_path)
     run_uros("add-package", str(pkg), "--workspace", str(fw))
     copy = fw / "mcu_ws/extra_packages/eic_demo_interface"
     assert (copy / "srv/GetTime.srv").is_file()
     (pkg / "msg/CmdVel.msg").write_text("int32 left_rpm\nint32 right_rpm\nint32 lift\n")
-    from uros_build import firmware
+    from uros_build.workspace import Workspace
 
-    cfg = firmware.load_config(fw)
-    assert cfg is not None
-    firmware.sync_extra_packages(fw, cfg)  # what `uros build` does first
+    ws, cfg = Workspace.open_firmware(fw)
+    ws.sync_extra_packages(cfg)  # what `uros build` does first
     assert "lift" in (copy / "msg/CmdVel.msg").read_text()
     proc = run_uros("add-package", str(tmp_path), "--workspace", str(fw), check=False)
     assert proc.returncode == 2 and "no package.xml" in proc.stderr
@@ -184,7 +183,7 @@ def test_target_prerequisites_are_checked_before_cloning(upstream: Path, tmp_pat
     env["IDF_TOOLS_PATH"] = str(tmp_path / "no-idf")
     proc = run_uros(
         "create-firmware",
-        "--dir",
+        "--workspace",
         str(fw),
         "--no-dev-build",
         "--toolchain",
@@ -198,7 +197,7 @@ def test_target_prerequisites_are_checked_before_cloning(upstream: Path, tmp_pat
     assert not fw.exists()
     # cortex-m7's compiler, newlib and C++ headers are installed here (.ci/run installs them)
     run_uros(
-        "create-firmware", "--dir", str(fw), "--no-dev-build", "--toolchain", "cortex-m7", *_mirror(upstream)
+        "create-firmware", "--workspace", str(fw), "--no-dev-build", "--toolchain", "cortex-m7", *_mirror(upstream)
     )
     assert (fw / "uros.lock").is_file()
 
@@ -252,7 +251,7 @@ def test_firmware_workspace_builds_end_to_end(upstream: Path, tmp_path: Path) ->
     fw = tmp_path / "firmware"
     run_uros(
         "create-firmware",
-        "--dir",
+        "--workspace",
         str(fw),
         "--toolchain",
         "cortex-m7",
@@ -290,7 +289,7 @@ def test_firmware_workspace_builds_end_to_end(upstream: Path, tmp_path: Path) ->
 
 def test_add_package_from_a_git_url(upstream: Path, tmp_path: Path) -> None:
     fw = tmp_path / "firmware"
-    run_uros("create-firmware", "--dir", str(fw), "--no-dev-build", *_mirror(upstream))
+    run_uros("create-firmware", "--workspace", str(fw), "--no-dev-build", *_mirror(upstream))
     repo = tmp_path / "my_msgs_repo"
     pkg = _interface_pkg(tmp_path)
     import shutil

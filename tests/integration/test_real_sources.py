@@ -65,7 +65,7 @@ def test_real_humble_library_links_the_stm32h7_example(tmp_path: Path) -> None:
         "generate_lib",
         "--distro",
         "humble",
-        "--dir",
+        "--workspace",
         str(fw),
         "--extra-package",
         str(pkg),

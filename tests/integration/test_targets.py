@@ -122,7 +122,7 @@ def test_target_builds_and_passes_the_abi_check(target_builds: Path, target: str
     # newlib and picolibc got CLOCK_MONOTONIC=0 and the declaration header, as micro-ROS-only flags.
     assert info["flags"]["micro_ros_only"][:3] == ["-DCLOCK_MONOTONIC=0", "-include", "uros_clock_gettime.h"]
     # and `uros check` agrees on the finished library
-    proc = run_uros("check", str(out / "libmicroros.a"), "--target", target)
+    proc = run_uros("check", str(out / "libmicroros.a"), "--toolchain", target)
     assert f"all {FIXTURE_MEMBERS} objects match {target}" in proc.stderr
 
 
@@ -169,7 +169,7 @@ def _error_line(proc: subprocess.CompletedProcess[str]) -> str:
 def test_cortex_m4f_library_fails_as_cortex_m7(target_builds: Path) -> None:
     need("arm-none-eabi-gcc")
     lib = target_builds / "build" / "cortex-m4f" / "libmicroros.a"
-    proc = run_uros("check", str(lib), "--target", "cortex-m7", check=False)
+    proc = run_uros("check", str(lib), "--toolchain", "cortex-m7", check=False)
     assert proc.returncode == 5
     line = _error_line(proc)
     assert re.search(
@@ -182,7 +182,7 @@ def test_riscv_object_in_an_arm_library_fails(target_builds: Path, tmp_path: Pat
     need("arm-none-eabi-gcc", "riscv64-unknown-elf-gcc")
     b = target_builds / "build"
     mixed = _copy_with(b / "cortex-m4f" / "libmicroros.a", b / "rv32imc" / "libmicroros.a", tmp_path)
-    proc = run_uros("check", str(mixed), "--target", "cortex-m4f", check=False)
+    proc = run_uros("check", str(mixed), "--toolchain", "cortex-m4f", check=False)
     assert proc.returncode == 5
     assert re.search(
         r"mixed\.a\(libfx_\w+\.c\.obj\): Machine is RISC-V, cortex-m4f expects ARM", _error_line(proc)
@@ -265,7 +265,7 @@ def test_standalone_target_from_prefix_and_flags(tmp_path: Path) -> None:
     assert info["abi_check"]["expects"] == {"class": "ELF32", "machine": "RISC-V"}
     lib = ws / "build" / "custom-riscv64-unknown-elf" / "libmicroros.a"
     assert all('Tag_RISCV_arch: "rv32i2p1_m2p0_a2p1_c2p0' in t for t in _readelf_members(lib).values())
-    proc = run_uros("check", str(lib), "--target", "rv32imc", check=False)
+    proc = run_uros("check", str(lib), "--toolchain", "rv32imc", check=False)
     assert proc.returncode == 5 and "Tag_RISCV_arch is rv32i2p1_m2p0_a2p1" in _error_line(proc)
 
 

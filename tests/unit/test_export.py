@@ -6,7 +6,7 @@ from uros_build.export import esp_idf_component_files
 
 
 def test_esp_idf_component_golden() -> None:
-    files = esp_idf_component_files({"target": "esp32s3", "idf_target": "esp32s3", "transport": "udp"})
+    files = esp_idf_component_files("esp32s3", "esp32s3", "udp")
     text = files["CMakeLists.txt"]
     check_golden("esp32s3.esp-idf-CMakeLists.txt", text)
     assert 'idf_component_register(INCLUDE_DIRS "include" REQUIRES lwip)' in text
@@ -16,5 +16,5 @@ def test_esp_idf_component_golden() -> None:
 
 
 def test_custom_transport_needs_no_lwip() -> None:
-    files = esp_idf_component_files({"target": "esp32c3", "idf_target": "esp32c3", "transport": "custom"})
+    files = esp_idf_component_files("esp32c3", "esp32c3", "custom")
     assert "lwip" not in files["CMakeLists.txt"]

@@ -1,0 +1,316 @@
+"""The archive merge's pure parts, over real tool output (tests/unit/data/archive-*, LC_ALL=C).
+
+libfx_core.a (core.c.obj, util.c.obj), libfx_util.a (util.c.obj, scale.c.obj) and libfx_dup.a
+(three common.c.obj from three folders, one defining a weak symbol, with an empty.c.obj without
+symbols and a util.c.obj with a common symbol between them), built with arm-none-eabi-gcc 12;
+``*.ar-t.txt`` is ``arm-none-eabi-ar t``, ``*.nm.txt`` is GNU nm 2.40
+``-g --defined-only --format=posix`` (``lib.a[member]:`` headers), ``archive-fx_dup.llvm-nm.txt``
+the same from llvm-nm 14 (``member:`` headers after a blank line). ``archive-merged.*`` is the
+libmicroros.a that merge_archives made of the three.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from collections.abc import Sequence
+from pathlib import Path
+from typing import cast
+
+import pytest
+
+from uros_build import archive
+from uros_build.archive import ArchiveContents, ArchiveListing, BinTools, Extraction
+from uros_build.errors import VerifyError
+from uros_build.proc import Runner
+
+DATA = Path(__file__).parent / "data"
+INPUTS = ("libfx_core.a", "libfx_dup.a", "libfx_util.a")
+
+
+def _text(name: str) -> str:
+    return (DATA / name).read_text(encoding="utf-8")
+
+
+def _contents(stem: str) -> ArchiveContents:
+    return ArchiveContents(
+        archive.parse_members(_text(f"archive-{stem}.ar-t.txt")),
+        archive.parse_defined_globals(_text(f"archive-{stem}.nm.txt")),
+    )
+
+
+def _listings() -> list[ArchiveListing]:
+    return [ArchiveListing(Path("/ws/install/lib") / name, _contents(name[3:-2]).members) for name in INPUTS]
+
+
+# --- parse_members ---------------------------------------------------------------------------
+
+
+def test_parse_members_keeps_every_same_named_member_in_order() -> None:
+    assert archive.parse_members(_text("archive-fx_dup.ar-t.txt")) == (
+        "common.c.obj",
+        "empty.c.obj",
+        "common.c.obj",
+        "util.c.obj",
+        "common.c.obj",
+    )
+
+
+def test_parse_members_skips_blank_lines() -> None:
+    assert archive.parse_members("a.o\n\nb.o\n  \n") == ("a.o", "b.o")
+    assert archive.parse_members("") == ()
+
+
+# --- parse_defined_globals -------------------------------------------------------------------
+
+FX_DUP_SYMBOLS = Counter(
+    {
+        "common_one": 1,
+        "shared_data": 1,
+        "common_two": 1,
+        "weak_hook": 1,  # W: weak definitions count, a merge must keep them too
+        "util_buffer": 1,  # C: a common symbol
+        "util_call": 1,
+        "common_three": 1,
+    }
+)
+
+
+def test_parse_defined_globals_gnu_headers_with_brackets() -> None:
+    # libfx_dup.a[empty.c.obj]: is a header with no symbol lines after it
+    assert archive.parse_defined_globals(_text("archive-fx_dup.nm.txt")) == FX_DUP_SYMBOLS
+
+
+def test_parse_defined_globals_bare_member_headers_read_the_same() -> None:
+    assert archive.parse_defined_globals(_text("archive-fx_dup.llvm-nm.txt")) == FX_DUP_SYMBOLS
+
+
+def test_parse_defined_globals_counts_a_symbol_once_per_member_that_defines_it() -> None:
+    text = "lib.a[a.o]:\nf T 0 4\nlib.a[b.o]:\nf T 0 4\nlib.a[c.o]:\n"
+    assert archive.parse_defined_globals(text) == Counter({"f": 2})
+
+
+def test_parse_defined_globals_odd_lines() -> None:
+    text = (
+        "my lib.a[odd name.o]:\n"  # spaces in a header: still a header, not a symbol
+        "x T y.o:\n"  # a member called "x T y.o": it ends with ':', so a header
+        "abs_sym A 10\n"  # no size
+        "bare_sym T\n"  # neither value nor size
+        "weak_obj V 8 4\n"
+    )
+    assert archive.parse_defined_globals(text) == Counter({"abs_sym": 1, "bare_sym": 1, "weak_obj": 1})
+    assert archive.parse_defined_globals("") == Counter()
+
+
+# --- plan_merge ------------------------------------------------------------------------------
+
+
+def test_plan_merge_names_every_member_uniquely_in_output_order() -> None:
+    plan = archive.plan_merge(_listings())
+    assert plan.output_names == (
+        "libfx_core__core.c.obj",
+        "libfx_core__util.c.obj",
+        "libfx_dup__1_common.c.obj",
+        "libfx_dup__empty.c.obj",
+        "libfx_dup__2_common.c.obj",
+        "libfx_dup__util.c.obj",
+        "libfx_dup__3_common.c.obj",
+        "libfx_util__util.c.obj",
+        "libfx_util__scale.c.obj",
+    )
+    # the same names ar t lists in the library merge_archives made of these three
+    assert plan.output_names == archive.parse_members(_text("archive-merged.ar-t.txt"))
+    assert plan.renamed_duplicates == 3
+    assert len({m.source for m in plan.members}) == len(plan.members)  # no extraction overwrites another
+
+
+def test_plan_merge_extracts_unique_members_in_one_call_and_each_instance_in_one() -> None:
+    lib = Path("/ws/install/lib")
+    plan = archive.plan_merge(_listings())
+    assert plan.extractions == (
+        Extraction(lib / "libfx_core.a", "000", ("core.c.obj", "util.c.obj"), whole=True),
+        Extraction(lib / "libfx_dup.a", "001", ("empty.c.obj", "util.c.obj")),
+        Extraction(lib / "libfx_dup.a", "001.1", ("common.c.obj",), instance=1),
+        Extraction(lib / "libfx_dup.a", "001.2", ("common.c.obj",), instance=2),
+        Extraction(lib / "libfx_dup.a", "001.3", ("common.c.obj",), instance=3),
+        Extraction(lib / "libfx_util.a", "002", ("util.c.obj", "scale.c.obj"), whole=True),
+    )
+    third = plan.members[6]
+    assert (third.member, third.instance, third.duplicate) == ("common.c.obj", 3, True)
+    assert (third.source, third.output) == ("001.3/common.c.obj", "libfx_dup__3_common.c.obj")
+    util = plan.members[5]
+    assert (util.source, util.output, util.duplicate) == ("001/util.c.obj", "libfx_dup__util.c.obj", False)
+
+
+def test_plan_merge_one_call_per_instance_number_covers_every_repeated_name() -> None:
+    plan = archive.plan_merge(
+        [ArchiveListing(Path("libm.a"), ("a.o", "b.o", "a.o", "b.o", "b.o"))]  # only repeated names
+    )
+    assert [(e.instance, e.members) for e in plan.extractions] == [
+        (1, ("a.o", "b.o")),
+        (2, ("a.o", "b.o")),
+        (3, ("b.o",)),
+    ]
+    assert plan.output_names == ("libm__1_a.o", "libm__1_b.o", "libm__2_a.o", "libm__2_b.o", "libm__3_b.o")
+    assert [m.source for m in plan.members] == [
+        "000.1/a.o",
+        "000.1/b.o",
+        "000.2/a.o",
+        "000.2/b.o",
+        "000.3/b.o",
+    ]
+
+
+def test_plan_merge_makes_names_safe_and_skips_empty_archives() -> None:
+    plan = archive.plan_merge(
+        [ArchiveListing(Path("libempty.a"), ()), ArchiveListing(Path("libx y.a"), ("odd name.o",))]
+    )
+    assert plan.output_names == ("libx_y__odd_name.o",)
+    assert plan.extractions == (Extraction(Path("libx y.a"), "001", ("odd name.o",), whole=True),)
+    assert plan.renamed_duplicates == 0
+
+
+def test_plan_merge_two_archives_with_one_stem_collide() -> None:
+    with pytest.raises(VerifyError) as err:
+        archive.plan_merge(
+            [ArchiveListing(Path("lib a.a"), ("x.o",)), ArchiveListing(Path("lib_a.a"), ("x.o",))]
+        )
+    assert (
+        err.value.message
+        == "lib a.a(x.o) and lib_a.a(x.o) would both be named lib_a__x.o in the merged library"
+    )
+    assert err.value.exit_code == 5
+
+
+def test_plan_merge_member_named_like_an_instance_collides() -> None:
+    with pytest.raises(
+        VerifyError, match=r"libq.a\(x.o\) #2 and libq.a\(2_x.o\) would both be named libq__2_x.o"
+    ):
+        archive.plan_merge([ArchiveListing(Path("libq.a"), ("x.o", "x.o", "2_x.o"))])
+
+
+def test_extraction_argv() -> None:
+    whole = Extraction(Path("/l/libc.a"), "000", ("a.o", "b.o"), whole=True)
+    some = Extraction(Path("/l/libc.a"), "000", ("b.o",))
+    second = Extraction(Path("/l/libc.a"), "000.2", ("a.o", "c.o"), instance=2)
+    assert archive.extraction_argv("ar", whole) == ["ar", "x", "/l/libc.a"]
+    assert archive.extraction_argv("ar", some) == ["ar", "x", "/l/libc.a", "b.o"]
+    assert archive.extraction_argv("ar", second) == ["ar", "xN", "2", "/l/libc.a", "a.o", "c.o"]
+
+
+# --- verify_merge ----------------------------------------------------------------------------
+
+
+def _inputs() -> list[ArchiveContents]:
+    return [_contents(name[3:-2]) for name in INPUTS]
+
+
+def test_verify_merge_passes_on_the_real_merge() -> None:
+    archive.verify_merge(_inputs(), _contents("merged"), Path("/ws/merge"))
+
+
+def test_verify_merge_fails_when_a_member_is_lost() -> None:
+    merged = _contents("merged")
+    # what ar x into one folder gives: one common.c.obj where there were three
+    lost = ArchiveContents(
+        (*(m for m in merged.members if "_common" not in m), "libfx_dup__common.c.obj"),
+        merged.symbols - Counter({"common_one": 1, "shared_data": 1, "common_two": 1, "weak_hook": 1}),
+    )
+    with pytest.raises(VerifyError) as err:
+        archive.verify_merge(_inputs(), lost, Path("/ws/merge"))
+    assert err.value.message == "libmicroros.a has 7 members but its inputs have 9"
+    assert err.value.hint == "the merge lost objects; the work folder /ws/merge is kept for inspection"
+    assert err.value.exit_code == 5
+
+
+def test_verify_merge_names_up_to_five_missing_symbols() -> None:
+    expected = [ArchiveContents(("a.o",), Counter({f"s{i}": 1 for i in range(7)} | {"kept": 1}))]
+    actual = ArchiveContents(("x__a.o",), Counter({"kept": 1}))
+    with pytest.raises(VerifyError) as err:
+        archive.verify_merge(expected, actual, Path("/ws/merge"))
+    assert err.value.message == "libmicroros.a lacks defined symbols its inputs have: s0, s1, s2, s3, s4"
+    assert err.value.hint == "the work folder /ws/merge is kept for inspection"
+
+
+def test_verify_merge_fails_when_a_symbol_is_defined_fewer_times() -> None:
+    expected = [ArchiveContents(("a.o",), Counter({"f": 1})), ArchiveContents(("a.o",), Counter({"f": 1}))]
+    with pytest.raises(VerifyError, match=r"lacks defined symbols its inputs have: f$"):
+        archive.verify_merge(expected, ArchiveContents(("1", "2"), Counter({"f": 1})), Path("w"))
+
+
+def test_verify_merge_fails_on_extra_symbols_too() -> None:
+    expected = [ArchiveContents(("a.o",), Counter({"f": 1}))]
+    with pytest.raises(VerifyError, match=r"inputs have: \(counts differ\)"):
+        archive.verify_merge(expected, ArchiveContents(("x__a.o",), Counter({"f": 1, "g": 1})), Path("w"))
+
+
+# --- merge_archives, over a runner that starts nothing ---------------------------------------
+
+
+class FakeRunner:
+    """Answers ar t / nm from the fixtures and does what ar x / ar q would to the files."""
+
+    def __init__(self, lose: str | None = None) -> None:
+        self.calls: list[list[str]] = []
+        self.lose = lose  # a member an ar x call "does not find" (it exits 0 then, as GNU ar does)
+
+    def query(self, argv: Sequence[str], *, step: str, cwd: Path | None = None) -> str:
+        self.calls.append(list(argv))
+        name = Path(argv[-1]).name
+        stem = name[3:-2] if name in INPUTS else "merged"
+        return _text(f"archive-{stem}.ar-t.txt" if argv[1] == "t" else f"archive-{stem}.nm.txt")
+
+    def run(
+        self, argv: Sequence[str], *, step: str, cwd: Path | None = None, quiet: bool = False
+    ) -> list[str]:
+        self.calls.append(list(argv))
+        assert cwd is not None
+        if argv[1] in ("x", "xN"):
+            names = list(argv[4:] if argv[1] == "xN" else argv[3:])
+            names = names or list(_contents(Path(argv[2]).name[3:-2]).members)
+            for name in names:
+                if name != self.lose:
+                    (cwd / name).write_text(f"{argv}", encoding="utf-8")
+        elif argv[1] == "qcD":
+            rsp = (cwd / argv[3].removeprefix("@")).read_text(encoding="utf-8").split()
+            assert all((cwd / name).is_file() for name in rsp)
+            assert rsp == list(archive.parse_members(_text("archive-merged.ar-t.txt")))
+            Path(argv[2]).write_text("merged", encoding="utf-8")
+        return []
+
+
+TOOLS = BinTools(ar="ar", ranlib="ranlib", nm="nm")
+
+
+def _lib(tmp_path: Path) -> list[Path]:
+    lib = tmp_path / "lib"
+    lib.mkdir()
+    for name in reversed(INPUTS):  # merge_archives sorts them by name
+        (lib / name).write_text("!<arch>\n", encoding="utf-8")
+    return [lib / name for name in reversed(INPUTS)]
+
+
+def test_merge_archives_process_count(tmp_path: Path) -> None:
+    runner = FakeRunner()
+    report = archive.merge_archives(
+        cast(Runner, runner), TOOLS, _lib(tmp_path), tmp_path / "libmicroros.a", tmp_path / "merge"
+    )
+    assert report == archive.MergeReport(inputs=INPUTS, members=9, symbols=11, renamed_duplicates=3)
+    # 3 archives: 2 reads each, 1 ar x each, 3 ar xN for the 3 common.c.obj; ar q, ranlib, 2 reads
+    assert [c[:2] for c in runner.calls] == [
+        ["ar", "t"], ["nm", "-g"], ["ar", "t"], ["nm", "-g"], ["ar", "t"], ["nm", "-g"],
+        ["ar", "x"], ["ar", "x"], ["ar", "xN"], ["ar", "xN"], ["ar", "xN"], ["ar", "x"],
+        ["ar", "qcD"], ["ranlib", "-D"], ["ar", "t"], ["nm", "-g"],
+    ]  # fmt: skip
+    assert not (tmp_path / "merge").exists()
+
+
+def test_merge_archives_notices_a_member_ar_did_not_extract(tmp_path: Path) -> None:
+    with pytest.raises(VerifyError, match=r"ar did not extract empty.c.obj #1 of libfx_dup.a"):
+        archive.merge_archives(
+            cast(Runner, FakeRunner(lose="empty.c.obj")),
+            TOOLS,
+            _lib(tmp_path),
+            tmp_path / "o.a",
+            tmp_path / "m",
+        )
+    assert (tmp_path / "m").is_dir()  # kept for inspection

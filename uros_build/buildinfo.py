@@ -1,0 +1,160 @@
+"""``build-info.json``: what one `uros build` did, as a frozen value written once and read back.
+
+The build writes it; ``uros export`` and the output guard read it back through
+:func:`read_build_info`, which validates it like any other input, so a hand-edited or truncated
+file is a one-line error rather than a KeyError deep in an exporter. JSON with sorted keys.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+from uros_build import loader
+from uros_build.errors import ConfigError
+
+BUILD_INFO = "build-info.json"
+# Written into every output uros creates: how the output guard tells a uros output from a user's
+# folder that merely holds a file called build-info.json.
+GENERATOR = "uros"
+
+
+@dataclass(frozen=True)
+class Compiler:
+    path: str
+    version: str
+
+
+@dataclass(frozen=True)
+class Flags:
+    cpu: tuple[str, ...] = ()
+    c: tuple[str, ...] = ()
+    cxx: tuple[str, ...] = ()
+    optimization: str | None = None
+    micro_ros_only: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class Library:
+    file: str
+    bytes: int
+    sha256: str
+    members: int
+    defined_global_symbols: int
+    renamed_duplicate_members: int
+    inputs: tuple[str, ...]
+    size: Mapping[str, int] | None = None  # text/data/bss from <prefix>size, where a profile names it
+
+
+@dataclass(frozen=True)
+class Include:
+    dir: str
+    files: int
+    bytes: int
+    packages: int
+
+
+@dataclass(frozen=True)
+class BuildInfo:
+    generated_by: str
+    target: str
+    profile: str | None  # the profile file's name; None for the user's own toolchain file
+    toolchain_file: str | None
+    compiler: Compiler | None
+    cmake_version: str
+    flags: Flags
+    transport: str | None
+    packages: tuple[str, ...]
+    library: Library
+    include: Include
+    # abi.verify's summary (expects/result/objects/...): its shape belongs to abi.py
+    abi_check: Mapping[str, Any] = field(default_factory=dict)
+    skipped_python_packages: tuple[str, ...] = ()
+    idf_target: str | None = None
+
+    def to_json(self) -> str:
+        data = asdict(self)
+        if data["idf_target"] is None:
+            del data["idf_target"]
+        if data["library"]["size"] is None:
+            del data["library"]["size"]
+        return json.dumps(_lists(data), indent=2, sort_keys=True) + "\n"
+
+
+def _lists(value: Any) -> Any:
+    if isinstance(value, dict):
+        return {k: _lists(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_lists(v) for v in value]
+    return value
+
+
+def _tuple(data: Mapping[str, Any], key: str, source: str) -> tuple[str, ...]:
+    return loader.string_list(data, key, source)
+
+
+def parse_build_info(data: Any, source: str) -> BuildInfo:
+    """The dataclass from parsed JSON; a ConfigError naming the key on anything malformed."""
+    top = loader.mapping(data, source)
+    try:
+        flags = loader.mapping(top.get("flags"), f"{source}: flags")
+        lib = loader.mapping(top.get("library"), f"{source}: library", required=("file", "sha256"))
+        inc = loader.mapping(top.get("include"), f"{source}: include")
+        comp = top.get("compiler")
+        compiler = None
+        if comp is not None:
+            comp = loader.mapping(comp, f"{source}: compiler")
+            compiler = Compiler(str(comp.get("path", "")), str(comp.get("version", "")))
+        size = lib.get("size")
+        return BuildInfo(
+            generated_by=loader.string(top, "generated_by", source),
+            target=loader.string(top, "target", source),
+            profile=top.get("profile"),
+            toolchain_file=top.get("toolchain_file"),
+            compiler=compiler,
+            cmake_version=str(top.get("cmake_version", "")),
+            flags=Flags(
+                cpu=_tuple(flags, "cpu", f"{source}: flags"),
+                c=_tuple(flags, "c", f"{source}: flags"),
+                cxx=_tuple(flags, "cxx", f"{source}: flags"),
+                optimization=flags.get("optimization"),
+                micro_ros_only=_tuple(flags, "micro_ros_only", f"{source}: flags"),
+            ),
+            transport=top.get("transport"),
+            packages=_tuple(top, "packages", source),
+            library=Library(
+                file=str(lib["file"]),
+                bytes=int(lib.get("bytes", 0)),
+                sha256=str(lib["sha256"]),
+                members=int(lib.get("members", 0)),
+                defined_global_symbols=int(lib.get("defined_global_symbols", 0)),
+                renamed_duplicate_members=int(lib.get("renamed_duplicate_members", 0)),
+                inputs=_tuple(lib, "inputs", f"{source}: library"),
+                size={str(k): int(v) for k, v in size.items()} if isinstance(size, dict) else None,
+            ),
+            include=Include(
+                dir=str(inc.get("dir", "include")),
+                files=int(inc.get("files", 0)),
+                bytes=int(inc.get("bytes", 0)),
+                packages=int(inc.get("packages", 0)),
+            ),
+            abi_check=dict(loader.mapping(top.get("abi_check"), f"{source}: abi_check")),
+            skipped_python_packages=_tuple(top, "skipped_python_packages", source),
+            idf_target=top.get("idf_target") or None,
+        )
+    except (TypeError, ValueError) as exc:
+        raise ConfigError(f"{source}: not a uros build-info file ({exc})") from None
+
+
+def read_build_info(out: Path, flag: str = "--from") -> BuildInfo:
+    path = out / BUILD_INFO
+    hint = "point at the output folder of `uros build` (default <workspace>/build/<target>)"
+    if not path.is_file():
+        raise ConfigError(f"{flag} {out}: no {BUILD_INFO} there, so it is not a uros build output", hint)
+    info = parse_build_info(loader.load_json(path, flag, hint), f"{flag} {path}")
+    if not info.generated_by.startswith(GENERATOR):
+        raise ConfigError(f"{flag} {path}: not written by uros", hint)
+    return info

@@ -1,0 +1,234 @@
+"""`uros build`: one target's libmicroros.a, include tree, CMake package and build-info.json.
+
+plan (validate every input) → probe the host → sync extra packages, dev_ws once → render the
+toolchain and colcon.meta → colcon → merge, check, stage → swap the output into place.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import shutil
+import time
+from pathlib import Path
+
+from uros_build import __version__, abi, colcon, console, export, hosttools, includes
+from uros_build import meta as meta_mod
+from uros_build import packages as packages_mod
+from uros_build.archive import BinTools, merge_archives
+from uros_build.buildinfo import BUILD_INFO, BuildInfo, Compiler, Flags, Include, Library
+from uros_build.errors import StepFailed
+from uros_build.hosttools import HostFacts
+from uros_build.plan import BuildArgs, BuildPlan, ProfileTarget, meta_transport, plan_build
+from uros_build.proc import Runner
+from uros_build.toolchain import (
+    CLOCK_HEADER_NAME,
+    CLOCK_HEADER_TEXT,
+    ToolchainRequest,
+    microros_flags,
+    render_toolchain,
+    tool_paths,
+)
+from uros_build.workspace import locked, swap_into_place, write_if_changed
+
+
+def build(args: BuildArgs) -> Path:
+    plan = plan_build(args)
+    ws = plan.workspace
+    ws.mark_ignored()
+    runner = Runner(ws.new_log("build", plan.target.key), verbose=plan.verbose)
+    console.step(f"uros build: target {plan.target.key}, workspace {ws.root}")
+    console.info(f"log: {runner.log_path}")
+    facts = hosttools.probe_host(
+        runner, plan.profile, plan.target_dir, check_libraries=plan.config is not None
+    )
+    if plan.config is not None:
+        ws.sync_extra_packages(plan.config)
+        if not ws.dev_built():
+            hosttools.build_dev_workspace(ws, plan.config, runner, plan.verbose, plan.jobs)
+    with locked(plan.target_dir):
+        started = time.monotonic()
+        toolchain_file = _prepare_toolchain(plan, facts)
+        meta_path = plan.target_dir / "colcon.meta"
+        write_if_changed(
+            meta_path, meta_mod.dump_meta(plan.meta, f"uros build --toolchain {plan.target.key}")
+        )
+        skipped = _run_colcon(plan, facts, runner, toolchain_file, meta_path)
+        staging = plan.output.with_name(f".{plan.output.name}.staging-{os.getpid()}")
+        try:
+            info = _stage_output(runner, plan, facts, staging, skipped)
+            (staging / BUILD_INFO).write_text(info.to_json(), encoding="utf-8")
+            swap_into_place(staging, plan.output)
+        except BaseException:
+            shutil.rmtree(staging, ignore_errors=True)
+            raise
+    lib = plan.output / "libmicroros.a"
+    console.step(
+        f"built {lib} ({lib.stat().st_size:,} bytes, {info.library.members} objects) "
+        f"and {info.include.files} headers in {plan.output / 'include'} ({time.monotonic() - started:.1f} s)"
+    )
+    return plan.output
+
+
+def _run_colcon(
+    plan: BuildPlan, facts: HostFacts, runner: Runner, toolchain_file: Path, meta_path: Path
+) -> tuple[str, ...]:
+    """colcon build into the target's own trees; returns the pure-Python packages left out."""
+    ws = plan.workspace
+    env, scrubbed = hosttools.colcon_env(ws, plan.config, facts.cmake_version)
+    if scrubbed:
+        console.warn(f"ignoring the sourced environment for this build: {', '.join(scrubbed)}")
+    skipped = tuple(packages_mod.host_only(packages_mod.discover(ws.source_dir)))
+    if skipped:
+        console.info(f"not building {len(skipped)} pure-Python packages: {', '.join(skipped)}")
+    colcon_plan = colcon.ColconPlan(
+        base_paths=(ws.source_dir,),
+        packages_ignore=skipped,
+        build_base=plan.target_dir / "build",
+        install_base=plan.target_dir / "install",
+        log_base=plan.target_dir / "log",
+        metas=(meta_path,),
+        toolchain_file=toolchain_file,
+        python=colcon.host_python(),
+        generator="Ninja" if shutil.which("ninja", path=env["PATH"]) else None,
+        verbose=plan.verbose,
+        packages_up_to=plan.packages_up_to,
+        parallel_workers=plan.jobs,
+    )
+    console.step("colcon build")
+    runner.run(
+        colcon.colcon_argv(colcon_plan, facts.colcon),
+        step="colcon build",
+        cwd=ws.root,
+        env=env,
+        hint=f"the full output is in {runner.log_path}",
+    )
+    return skipped
+
+
+def _prepare_toolchain(plan: BuildPlan, facts: HostFacts) -> Path:
+    target = plan.target
+    if not isinstance(target, ProfileTarget):
+        return target.toolchain_file
+    profile = target.profile
+    header = plan.target_dir / CLOCK_HEADER_NAME
+    if profile.micro_ros.declare_clock_gettime:
+        write_if_changed(header, CLOCK_HEADER_TEXT)
+    req = ToolchainRequest(
+        profile,
+        micro_ros=True,
+        gcc_major=facts.gcc_major,
+        clock_header=str(header) if profile.micro_ros.declare_clock_gettime else None,
+        tool_dir=facts.tool_dir,
+        command=f"uros build --toolchain {profile.name}",
+    )
+    path = plan.target_dir / "toolchain.cmake"
+    if write_if_changed(path, render_toolchain(req)):
+        _forget_configured_flags(plan.target_dir / "build")
+    return path
+
+
+def _forget_configured_flags(build_base: Path) -> None:
+    """A changed toolchain file must reach the compiles: CMake reads CMAKE_<LANG>_FLAGS_INIT only
+    when it creates the CMAKE_<LANG>_FLAGS cache entry, on the first configure
+    (https://cmake.org/cmake/help/latest/variable/CMAKE_LANG_FLAGS_INIT.html), so a reconfigure
+    would keep compiling with the old flags. Dropping each package's CMakeCache.txt makes colcon
+    configure afresh in the same folder; ninja then recompiles what the new flags change."""
+    for cache in sorted(build_base.glob("*/CMakeCache.txt")):
+        cache.unlink()
+
+
+def _bintools(plan: BuildPlan, facts: HostFacts) -> BinTools:
+    if isinstance(plan.target, ProfileTarget):
+        tools = tool_paths(plan.target.profile, facts.tool_dir)
+        return BinTools(ar=tools["ar"], ranlib=tools["ranlib"], nm=tools["nm"])
+    # A user toolchain file: use the archiver CMake recorded for it (the target's); the host
+    # binutils read foreign ELF archives too, as a fallback.
+    return hosttools.bintools_from_build(plan.target_dir / "build") or BinTools("ar", "ranlib", "nm")
+
+
+def _built_packages(install: Path) -> tuple[str, ...]:
+    # colcon records every package it installed into a merged prefix here.
+    marker = install / "share" / "colcon-core" / "packages"
+    return tuple(sorted(p.name for p in marker.iterdir())) if marker.is_dir() else ()
+
+
+def _sha256(path: Path) -> str:
+    digest = hashlib.sha256()
+    with path.open("rb") as handle:
+        for chunk in iter(lambda: handle.read(1 << 20), b""):
+            digest.update(chunk)
+    return digest.hexdigest()
+
+
+def _stage_output(
+    runner: Runner, plan: BuildPlan, facts: HostFacts, staging: Path, skipped: tuple[str, ...]
+) -> BuildInfo:
+    install = plan.target_dir / "install"
+    libs = sorted((install / "lib").glob("*.a"))
+    if not libs:
+        raise StepFailed(
+            f"colcon built no static library into {install / 'lib'}",
+            "check that the packages install their libraries: install(TARGETS ... ARCHIVE DESTINATION lib)",
+        )
+    if staging.exists():
+        shutil.rmtree(staging)
+    staging.mkdir(parents=True)
+    console.step(f"merging {len(libs)} libraries into libmicroros.a")
+    library = staging / "libmicroros.a"
+    report = merge_archives(runner, _bintools(plan, facts), libs, library, plan.target_dir / "merge")
+    profile = plan.profile
+    # Before the output is swapped in: a library that fails the check never replaces a good one.
+    if profile is None:
+        abi_check = {"checked": False, "reason": "your own toolchain file: no target profile to compare with"}
+    else:
+        console.step(f"checking every object against {profile.name}'s ELF facts")
+        abi_check = abi.check_library(runner, library, profile)
+        console.info(abi.describe(abi_check))
+    inc = includes.flatten_includes(install / "include", staging / "include")
+    size = None
+    if profile is not None:
+        size = hosttools.size_totals(runner, tool_paths(profile, facts.tool_dir)["size"], library)
+        firmware_tc = render_toolchain(
+            ToolchainRequest(profile, micro_ros=False, command=f"uros toolchain render {profile.name}")
+        )
+        (staging / "toolchain.cmake").write_text(firmware_tc, encoding="utf-8")
+        mr_req = ToolchainRequest(
+            profile, micro_ros=True, gcc_major=facts.gcc_major, clock_header=CLOCK_HEADER_NAME
+        )
+    target = plan.target
+    info = BuildInfo(
+        generated_by=f"uros {__version__}",
+        target=target.key,
+        profile=Path(profile.source).name if profile else None,
+        toolchain_file=None if isinstance(target, ProfileTarget) else str(target.toolchain_file),
+        compiler=Compiler(facts.gcc, facts.gcc_version) if profile else None,
+        cmake_version=facts.cmake_version,
+        flags=Flags(
+            cpu=profile.cpu_flags,
+            c=profile.c_flags,
+            cxx=profile.cxx_flags,
+            optimization=profile.optimization,
+            micro_ros_only=tuple(microros_flags(mr_req)),
+        )
+        if profile
+        else Flags(),
+        transport=meta_transport(plan.meta),
+        packages=_built_packages(install),
+        library=Library(
+            file="libmicroros.a",
+            bytes=library.stat().st_size,
+            sha256=_sha256(library),
+            members=report.members,
+            defined_global_symbols=report.symbols,
+            renamed_duplicate_members=report.renamed_duplicates,
+            inputs=report.inputs,
+            size=size,
+        ),
+        include=Include(dir="include", files=inc.files, bytes=inc.bytes, packages=inc.packages),
+        abi_check=abi_check,
+        skipped_python_packages=skipped,
+        idf_target=profile.idf_target or None if profile else None,
+    )
+    export.write_cmake_package(staging, info)
+    return info

@@ -1,0 +1,21 @@
+"""`uros check`: the build's ABI check on any library or object."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from uros_build import abi, console
+from uros_build.errors import ConfigError
+from uros_build.proc import Runner, new_run_log, user_log_dir
+from uros_build.profiles import find_profile, load_profile_file
+
+
+def check_library(library: Path, target: str | None, profile_path: Path | None, verbose: bool) -> None:
+    if (target is None) == (profile_path is None):
+        raise ConfigError("uros check needs one target", "pass --toolchain NAME or --profile FILE")
+    if not library.is_file():
+        raise ConfigError(f"{library}: no such file", "pass the path of a static library (.a) or an object")
+    profile = load_profile_file(profile_path) if profile_path is not None else find_profile(str(target))
+    runner = Runner(new_run_log(user_log_dir(), "check"), verbose=verbose)
+    summary = abi.check_library(runner, library.resolve(), profile)
+    console.step(f"{library}: {abi.describe(summary)}")

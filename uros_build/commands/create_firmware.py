@@ -1,0 +1,156 @@
+"""`uros create-firmware generate_lib`: a real micro-ROS firmware workspace from a distro manifest
+(the layout is in workspace.py): plan and check every input, check the target's tools, clone in
+parallel, write uros.lock, uros.yaml and colcon.meta, build the host tools once.
+"""
+
+from __future__ import annotations
+
+import shutil
+from collections.abc import Mapping
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+from uros_build import console, hosttools
+from uros_build import meta as meta_mod
+from uros_build.distros import Source
+from uros_build.errors import StepFailed, UrosError
+from uros_build.plan import CreateArgs, CreatePlan, plan_create
+from uros_build.proc import Runner, new_run_log
+from uros_build.workspace import (
+    CONFIG,
+    EXTRA,
+    LOCK,
+    USER_META,
+    Lock,
+    Workspace,
+    WorkspaceConfig,
+    save_config,
+    sync_tree,
+)
+
+
+def clone_argv(git: str, source: Source, dest: Path) -> list[list[str]]:
+    """git commands that put ``source`` at ``dest`` (pure)."""
+    quiet = [git, "-c", "advice.detachedHead=false"]
+    if source.is_commit:
+        return [
+            [*quiet, "clone", "--quiet", "--no-checkout", source.url, str(dest)],
+            [*quiet, "-C", str(dest), "checkout", "--quiet", "--detach", source.version],
+        ]
+    return [[*quiet, "clone", "--quiet", "--branch", source.version, source.url, str(dest)]]
+
+
+def _clone_all(
+    runner: Runner, git: str, root: Path, sources: Mapping[str, Source], jobs: int
+) -> dict[str, str]:
+    def one(item: tuple[str, Source]) -> tuple[str, str]:
+        path, source = item
+        dest = root / path
+        label = f"[{path}] "
+        try:
+            for argv in clone_argv(git, source, dest):
+                runner.run(argv, step=f"clone {path}", quiet=True, label=label)
+        except StepFailed as exc:
+            git_error = exc.message.split(": ", 1)[-1]
+            raise StepFailed(
+                f"cloning {path} from {source.url} at {source.version!r} failed: {git_error}",
+                f"check that the source has {source.version!r}, or override it: "
+                f"--mirror-override {source.repo.path}=URL@VERSION (log: {runner.log_path})",
+            ) from exc
+        head = runner.query([git, "-C", str(dest), "rev-parse", "HEAD"], step=f"read {path}")
+        return path, head.strip()
+
+    console.step(f"cloning {len(sources)} repositories ({jobs} at a time)")
+    with ThreadPoolExecutor(max_workers=max(1, jobs)) as pool:
+        results = list(pool.map(one, sorted(sources.items())))
+    return dict(results)
+
+
+def _ignore(root: Path, ws: str, paths: tuple[str, ...]) -> None:
+    for rel in paths:
+        folder = root / ws / rel
+        if folder.is_dir():
+            (folder / "COLCON_IGNORE").write_text("uros: ignored as micro_ros_setup does for this distro\n")
+        else:
+            console.warn(f"{ws}/{rel} is not in the workspace; nothing to ignore there")
+
+
+def _clear_sources(root: Path) -> None:
+    """--force: remove the cloned sources, keep what the user made (uros.yaml, colcon.meta, extras)."""
+    shutil.rmtree(root / "dev_ws", ignore_errors=True)
+    mcu = root / "mcu_ws"
+    if mcu.is_dir():
+        for child in mcu.iterdir():
+            if child.name != EXTRA:
+                shutil.rmtree(child) if child.is_dir() else child.unlink()
+
+
+def _remove_partial(root: Path, existed: bool) -> None:
+    if not existed:
+        shutil.rmtree(root, ignore_errors=True)
+        console.info(f"removed the partial workspace {root} (keep it with --keep-partial)")
+        return
+    shutil.rmtree(root / "dev_ws", ignore_errors=True)
+    for child in (root / "mcu_ws").iterdir() if (root / "mcu_ws").is_dir() else ():
+        if child.name != EXTRA:
+            shutil.rmtree(child, ignore_errors=True)
+    console.info(f"removed the partial sources in {root} (keep them with --keep-partial)")
+
+
+def _precheck(runner: Runner, plan: CreatePlan) -> str:
+    """git, cmake and (with --toolchain) the target's compiler, C library and C++ headers, checked
+    before anything is cloned, so a missing package costs seconds, not a clone and a dev_ws build."""
+    git = runner.which("git")
+    runner.which("cmake")
+    if plan.probe is not None:
+        tools, _ = hosttools.probe_target_tools(runner, plan.probe)
+        hosttools.check_target_prerequisites(runner, plan.probe, tools, plan.root / ".uros" / "probe")
+    return git
+
+
+def create_firmware(args: CreateArgs) -> Path:
+    plan = plan_create(args)
+    root, distro = plan.root, plan.distro
+    root.mkdir(parents=True, exist_ok=True)
+    runner = Runner(new_run_log(root / ".uros" / "log", "create-firmware"), verbose=args.verbose)
+    console.step(f"uros create-firmware {args.platform}: micro-ROS {distro.name} in {root}")
+    console.info(f"log: {runner.log_path}")
+    try:
+        git = _precheck(runner, plan)
+    except UrosError:
+        if not plan.existed:
+            shutil.rmtree(root, ignore_errors=True)
+        raise
+    if plan.existed:
+        _clear_sources(root)
+    if distro.status == "manifest-only":
+        console.warn(
+            f"the {distro.name} manifest was written from upstream facts and not built by uros's authors"
+        )
+    try:
+        commits = _clone_all(runner, git, root, plan.sources, args.jobs)
+        (root / LOCK).write_text(Lock.from_clones(distro.name, plan.sources, commits).to_json(), "utf-8")
+        _ignore(root, "mcu_ws", distro.colcon_ignore)
+        _ignore(root, "dev_ws", distro.dev_colcon_ignore)
+        extras = list(plan.existing.extra_packages) if plan.existing else []
+        for path, name in plan.extra_packages:
+            if str(path.resolve()) not in extras:
+                extras.append(str(path.resolve()))
+            sync_tree(path, root / "mcu_ws" / EXTRA / name)
+        cfg = WorkspaceConfig(distro.name, args.platform, plan.mirror, tuple(extras))
+        save_config(root, cfg)
+        if not (root / USER_META).exists():
+            preset = meta_mod.load_preset(distro.preset)
+            (root / USER_META).write_text(
+                meta_mod.dump_meta(preset, f"{distro.name} generate_lib defaults; edit freely"),
+                encoding="utf-8",
+            )
+        (root / "COLCON_IGNORE").write_text("uros: the firmware folder is not a package\n")
+        if args.build_dev:
+            hosttools.build_dev_workspace(Workspace(root), cfg, runner, args.verbose)
+    except (UrosError, KeyboardInterrupt):
+        if not args.keep_partial:
+            _remove_partial(root, plan.existed)
+        raise
+    console.step(f"created {root} ({len(commits)} repositories, locked in {LOCK}; edit {CONFIG} freely)")
+    return root

@@ -1,0 +1,45 @@
+"""`uros export cmake` and `uros export esp-idf`: packages around a build output."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from uros_build import console, export
+from uros_build.buildinfo import BuildInfo, read_build_info
+from uros_build.errors import ConfigError
+from uros_build.workspace import check_output_dir
+
+
+def _prepare(source: Path | None, output: Path) -> tuple[BuildInfo, Path]:
+    """Read the build-info of the output to export and copy that output to ``output``."""
+    src = (source or output).resolve()
+    info = read_build_info(src, "--from" if source else "--output")
+    out = output.resolve()
+    if src != out:
+        check_output_dir(out, force=False)
+        export.copy_build_output(src, out)
+    return info, out
+
+
+def export_cmake(source: Path | None, output: Path) -> Path:
+    info, out = _prepare(source, output)
+    written = export.write_cmake_package(out, info)
+    console.step(f"wrote {', '.join(p.name for p in written)} in {out}")
+    return out
+
+
+def export_esp_idf(source: Path | None, output: Path) -> Path:
+    src = (source or output).resolve()
+    info = read_build_info(src, "--from" if source else "--output")
+    if not info.idf_target:
+        raise ConfigError(
+            f"{src}: built for {info.target}, which is not an ESP-IDF target",
+            "build for esp32, esp32s2, esp32s3 or esp32c3 first: uros build --toolchain esp32s3",
+        )
+    info, out = _prepare(source, output)
+    written = export.write_esp_idf_component(out, info)
+    console.step(
+        f"wrote the ESP-IDF component {out} ({', '.join(p.name for p in written)}): copy it into your "
+        f"project's components/ and add its folder name to PRIV_REQUIRES"
+    )
+    return out

@@ -1,0 +1,93 @@
+"""The commands that print or render without building: `uros targets`, `uros distros`,
+`uros toolchain render`, `uros meta write`."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import Any
+
+from uros_build import console, defaults
+from uros_build import distros as distros_mod
+from uros_build import meta as meta_mod
+from uros_build.errors import ConfigError
+from uros_build.plan import meta_for, resolve_target
+from uros_build.profiles import find_profile, load_profile_file, shipped_profiles
+from uros_build.toolchain import CLOCK_HEADER_NAME, CLOCK_HEADER_TEXT, ToolchainRequest, render_toolchain
+from uros_build.workspace import write_if_changed
+
+
+def targets_table() -> list[dict[str, Any]]:
+    return [
+        {
+            "name": p.name,
+            "description": p.description,
+            "compiler": p.tool("gcc"),
+            "cpu_flags": list(p.cpu_flags),
+            "transport": p.transport,
+            "file": Path(p.source).name,
+        }
+        for p in shipped_profiles().values()
+    ]
+
+
+def distros_table() -> list[dict[str, Any]]:
+    rows = []
+    for name in distros_mod.known_distros():
+        d = distros_mod.load_distro(name)
+        rows.append(
+            {
+                "name": d.name,
+                "status": d.status,
+                "dev_repositories": len(d.dev),
+                "mcu_repositories": len(d.mcu),
+            }
+        )
+    return rows
+
+
+def write_output_file(path: Path | None, text: str, flag: str = "--output") -> None:
+    if path is None:
+        sys.stdout.write(text)
+        return
+    if path.is_dir():
+        raise ConfigError(f"{flag} {path}: is a folder", f"pass a file name, e.g. {path / 'out.txt'}")
+    write_if_changed(path, text)
+    console.info(f"wrote {path}")
+
+
+def render_toolchain_file(target: str, output: Path | None, micro_ros: bool, gcc_major: int | None) -> None:
+    """`uros toolchain render`: a target name or a profile .yaml -> toolchain text.
+
+    For micro-ROS with an output file, the clock_gettime declaration header the profile may need
+    is written beside it and referenced by absolute path, so the file works on its own.
+    """
+    profile = load_profile_file(Path(target)) if target.endswith((".yaml", ".yml")) else find_profile(target)
+    header: Path | None = None
+    if micro_ros and output is not None and profile.micro_ros.declare_clock_gettime:
+        header = output.resolve().with_name(CLOCK_HEADER_NAME)
+        write_if_changed(header, CLOCK_HEADER_TEXT)
+    command = f"uros toolchain render {target}" + (" --for micro-ros" if micro_ros else "")
+    req = ToolchainRequest(
+        profile,
+        micro_ros=micro_ros,
+        gcc_major=gcc_major,
+        clock_header=str(header) if header else None,
+        command=command,
+    )
+    write_output_file(output, render_toolchain(req))
+
+
+def write_meta(
+    preset: str,
+    target: str | None,
+    transport: str | None,
+    metas: tuple[Path, ...],
+    sets: tuple[str, ...],
+    output: Path | None,
+) -> None:
+    """`uros meta write`: the colcon.meta `uros build` would use (JSON, sorted keys)."""
+    resolved = resolve_target(target, None) if target else None
+    merged = meta_for(preset, resolved, transport, list(metas), list(sets))
+    text = meta_mod.dump_meta(merged, f"uros meta write --preset {preset or defaults.PRESET}")
+    write_output_file(output, text)

@@ -1,0 +1,12 @@
+"""Every default uros applies, in one place (the CLI shows them; the planners use them)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+DISTRO = "humble"  # both seed articles build micro-ROS humble
+PLATFORM = "generate_lib"  # a library for any MCU; the only platform uros creates
+PRESET = "default"  # the workspace distro's colcon.meta preset, else DISTRO's
+CLONE_JOBS = 4  # parallel git clones in create-firmware
+WORKSPACE = Path(".")  # uros build: the current folder
+FIRMWARE_DIR = Path("firmware")  # create-firmware --workspace / add-package --workspace

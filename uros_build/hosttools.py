@@ -1,0 +1,203 @@
+"""What the host and the target's tools are: compiler location and version, C library and C++
+headers, CMake's version, the colcon program, the archiver CMake chose, and the environment colcon
+runs in. Probes run tools through the runner and return frozen facts; nothing here decides what
+to build.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+
+from uros_build import colcon, console, toolsearch
+from uros_build import distros as distros_mod
+from uros_build.archive import BinTools
+from uros_build.errors import MissingToolError, StepFailed
+from uros_build.proc import Runner
+from uros_build.profiles import TargetProfile
+from uros_build.toolchain import tool_paths
+from uros_build.workspace import Workspace, WorkspaceConfig, dev_env
+
+
+@dataclass(frozen=True)
+class HostFacts:
+    cmake: str
+    cmake_version: str
+    colcon: str
+    gcc: str = ""  # the target's C compiler, absolute ("" for the user's own toolchain file)
+    gcc_version: str = ""
+    tool_dir: str | None = None  # where the target's tools are when not on PATH (ESP-IDF install)
+
+    @property
+    def gcc_major(self) -> int | None:
+        return major(self.gcc_version)
+
+
+def first_version(text: str) -> str:
+    """The first word that looks like a version (``cmake version 3.25.1`` -> ``3.25.1``)."""
+    lines = text.splitlines()
+    for line in lines:
+        for word in line.split():
+            if word[:1].isdigit() and "." in word:
+                return word
+    return lines[0].strip() if lines else ""
+
+
+def major(version: str) -> int | None:
+    head = version.split(".", 1)[0]
+    return int(head) if head.isdigit() else None
+
+
+def colcon_program() -> str:
+    """colcon beside uros's own Python (a venv's bin/), else whatever is on PATH."""
+    beside = Path(colcon.host_python()).parent / "colcon"
+    return str(beside) if beside.is_file() else "colcon"
+
+
+def cmake_version(runner: Runner) -> tuple[str, str]:
+    cmake = runner.which("cmake")
+    return cmake, first_version(runner.query([cmake, "--version"], step="cmake --version"))
+
+
+def locate_compiler(runner: Runner, profile: TargetProfile) -> str | None:
+    """None when <prefix>gcc is on PATH, else the profile's compiler_search folder holding it."""
+    gcc = profile.tool("gcc")
+    try:
+        runner.which(gcc, profile.install_hint or None)
+        return None
+    except MissingToolError:
+        if not profile.compiler_search:
+            raise
+    found = toolsearch.search_compiler(profile, os.environ, Path.home())
+    if found is None:
+        places = toolsearch.searched_places(profile, os.environ, Path.home())
+        raise MissingToolError(
+            f"'{gcc}' was found neither on PATH nor in {' or '.join(places)}", profile.install_hint or None
+        )
+    console.info(f"using {found / gcc} (not on PATH)")
+    return str(found)
+
+
+def check_target_prerequisites(
+    runner: Runner, profile: TargetProfile, tools: Mapping[str, str], scratch: Path
+) -> None:
+    """Real micro-ROS needs the target's C library and C++ headers (humble's rosidl_typesupport_c
+    has .cpp sources): say which package is missing before a long build fails on it."""
+    hint = profile.install_hint or None
+    libc = runner.query(
+        [tools["gcc"], *profile.cpu_flags, *profile.libc_flags, "-print-file-name=libc.a"], step="find libc"
+    ).strip()
+    if not libc or not Path(libc).is_absolute():
+        raise MissingToolError(f"{profile.tool('gcc')} has no C library (libc.a) for {profile.name}", hint)
+    probe = scratch / "uros_cxx_probe.cpp"
+    probe.parent.mkdir(parents=True, exist_ok=True)
+    probe.write_text("#include <cstdint>\nstd::uint8_t uros_probe;\n", encoding="utf-8")
+    try:
+        runner.query(
+            [tools["g++"], *profile.cpu_flags, *profile.libc_flags, "-fsyntax-only", str(probe)],
+            step="find C++ headers",
+        )
+    except StepFailed:
+        message = f"{profile.tool('g++')} has no C++ standard headers for {profile.name}"
+        raise MissingToolError(message, hint) from None
+
+
+def probe_target_tools(runner: Runner, profile: TargetProfile) -> tuple[dict[str, str], str | None]:
+    """The target's tools, each checked to exist (exit 3 naming the package otherwise)."""
+    tool_dir = locate_compiler(runner, profile)
+    tools = tool_paths(profile, tool_dir)
+    for tool in ("gcc", "g++", "ar", "ranlib", "nm", "size"):
+        tools[tool] = runner.which(tools[tool], profile.install_hint or None)
+    return tools, tool_dir
+
+
+def probe_host(
+    runner: Runner, profile: TargetProfile | None, scratch: Path, check_libraries: bool
+) -> HostFacts:
+    """Every tool a build needs, found before anything is built."""
+    cmake, version = cmake_version(runner)
+    colcon_prog = runner.which(colcon_program())
+    if profile is None:
+        return HostFacts(cmake, version, colcon_prog)
+    tools, tool_dir = probe_target_tools(runner, profile)
+    gcc_version = runner.query([tools["gcc"], "-dumpversion"], step="gcc -dumpversion").strip()
+    if check_libraries:
+        check_target_prerequisites(runner, profile, tools, scratch)
+    return HostFacts(cmake, version, colcon_prog, tools["gcc"], gcc_version, tool_dir)
+
+
+def bintools_from_build(build_base: Path) -> BinTools | None:
+    """The archiver CMake recorded for a user's toolchain file (CMakeCache.txt of any package)."""
+    for cache in sorted(build_base.glob("*/CMakeCache.txt")):
+        values: dict[str, str] = {}
+        for line in cache.read_text(encoding="utf-8", errors="replace").splitlines():
+            for key in ("CMAKE_AR", "CMAKE_RANLIB", "CMAKE_NM"):
+                if line.startswith(f"{key}:"):
+                    values[key] = line.split("=", 1)[1]
+        if values.get("CMAKE_AR") and values.get("CMAKE_NM"):
+            return BinTools(
+                ar=values["CMAKE_AR"], ranlib=values.get("CMAKE_RANLIB") or "ranlib", nm=values["CMAKE_NM"]
+            )
+    return None
+
+
+def size_totals(runner: Runner, size_tool: str, library: Path) -> dict[str, int]:
+    """text/data/bss of a whole archive (``size -t``'s TOTALS line)."""
+    text = runner.query([size_tool, "-t", str(library)], step="measure libmicroros.a")
+    for line in reversed(text.splitlines()):
+        parts = line.split()
+        if "(TOTALS)" in line and len(parts) >= 3 and all(p.isdigit() for p in parts[:3]):
+            return {"text": int(parts[0]), "data": int(parts[1]), "bss": int(parts[2])}
+    return {}
+
+
+def colcon_env(
+    ws: Workspace, cfg: WorkspaceConfig | None, cmake_version: str, with_dev: bool = True
+) -> tuple[dict[str, str], list[str]]:
+    """The environment colcon runs in: sourced ROS 2 scrubbed, uros's Python first, and for a
+    firmware workspace its dev_ws (as if sourced) and git redirects for build-time clones."""
+    git_config = None
+    if cfg is not None:
+        distro = distros_mod.load_distro(cfg.distro)
+        git_config = distros_mod.insteadof(distro.build_time_clones, cfg.mirror)
+    env, scrubbed = colcon.build_env(
+        os.environ,
+        python_bin_dir=str(Path(colcon.host_python()).parent),
+        cmake_major=major(cmake_version),
+        git_config=git_config,
+    )
+    if cfg is not None and with_dev:
+        env = dev_env(env, ws.dev_install)
+    return env, scrubbed
+
+
+def build_dev_workspace(
+    ws: Workspace, cfg: WorkspaceConfig, runner: Runner, verbose: bool, jobs: int | None = None
+) -> None:
+    """Build dev_ws (ament and friends) for the host, once; every target reuses it."""
+    _cmake, version = cmake_version(runner)
+    env, _ = colcon_env(ws, cfg, version, with_dev=False)
+    console.step("building the host tools workspace (dev_ws)")
+    plan = colcon.ColconPlan(
+        base_paths=(ws.dev_dir,),
+        build_base=ws.dev_dir / "build",
+        install_base=ws.dev_install,
+        log_base=ws.dev_dir / "log",
+        metas=(),
+        toolchain_file=None,
+        python=colcon.host_python(),
+        generator="Ninja" if shutil.which("ninja", path=env.get("PATH")) else None,
+        verbose=verbose,
+        parallel_workers=jobs,
+        ignore_regex=None,
+    )
+    runner.run(
+        colcon.colcon_argv(plan, runner.which(colcon_program())),
+        step="colcon build (dev_ws)",
+        cwd=ws.dev_dir,
+        env=env,
+    )
+    ws.mark_dev_built()

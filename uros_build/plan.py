@@ -1,0 +1,304 @@
+"""Raw command-line arguments → frozen, validated plans (pypa/cibuildwheel's options.py idea).
+
+Every input is read and checked here, before any process starts: the target, the profile, the
+metas, the workspace's uros.yaml and distro, the output folder. What comes out is a frozen value
+that the commands execute; the mapping itself is unit-tested without running anything.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+
+from uros_build import defaults, loader
+from uros_build import distros as distros_mod
+from uros_build import meta as meta_mod
+from uros_build.distros import Distro, Mirror, Source
+from uros_build.errors import ConfigError
+from uros_build.profiles import (
+    TargetProfile,
+    derive_profile,
+    find_profile,
+    load_profile_file,
+    shipped_profiles,
+)
+from uros_build.workspace import (
+    Workspace,
+    WorkspaceConfig,
+    check_extra_package,
+    check_output_dir,
+    load_config,
+    read_lock,
+    target_key,
+)
+
+# ---------------------------------------------------------------------------------------------
+# the target: a profile uros renders a toolchain file from, or the user's own toolchain file
+
+
+@dataclass(frozen=True)
+class ProfileTarget:
+    key: str  # folder-safe name: .uros/targets/<key>, build/<key>
+    profile: TargetProfile
+
+
+@dataclass(frozen=True)
+class ToolchainFileTarget:
+    key: str
+    toolchain_file: Path  # used unchanged; uros knows no ELF facts to check against
+
+
+Target = ProfileTarget | ToolchainFileTarget
+
+
+def resolve_target(
+    toolchain: str | None,
+    profile_path: Path | None,
+    compiler_prefix: str | None = None,
+    cflags: tuple[str, ...] = (),
+) -> Target:
+    derive = compiler_prefix is not None or bool(cflags)
+    if profile_path is not None:
+        if toolchain is not None:
+            raise ConfigError("--toolchain and --profile name a target twice", "pass only one of them")
+        profile = load_profile_file(profile_path)
+        if derive:
+            profile = derive_profile(profile, compiler_prefix, cflags)
+        return ProfileTarget(target_key(profile.name), profile)
+    if toolchain is None:
+        if derive:
+            profile = derive_profile(None, compiler_prefix, cflags)
+            return ProfileTarget(target_key(profile.name), profile)
+        raise ConfigError("no target given", f"pass --toolchain with one of: {', '.join(shipped_profiles())}")
+    if toolchain.endswith(".cmake") or "/" in toolchain:
+        if derive:
+            raise ConfigError(
+                f"--compiler-prefix/--cflags cannot change your own toolchain file {toolchain}",
+                "edit the file, or derive from a target name or a profile (--profile my-board.yaml)",
+            )
+        path = Path(toolchain).resolve()
+        if not path.is_file():
+            raise ConfigError(
+                f"--toolchain {toolchain}: no such file", "pass a target name or an existing .cmake file"
+            )
+        return ToolchainFileTarget(target_key(path.stem), path)
+    profile = find_profile(toolchain)
+    if derive:
+        profile = derive_profile(profile, compiler_prefix, cflags)
+        return ProfileTarget(target_key(profile.name), profile)
+    return ProfileTarget(profile.name, profile)
+
+
+def target_profile(target: Target | None) -> TargetProfile | None:
+    return target.profile if isinstance(target, ProfileTarget) else None
+
+
+# ---------------------------------------------------------------------------------------------
+# colcon.meta
+
+
+def meta_for(
+    preset: str,
+    target: Target | None,
+    transport: str | None,
+    user_metas: list[Path],
+    sets: list[str],
+    distro_preset: str | None = None,
+) -> meta_mod.Meta:
+    return meta_mod.build_meta(
+        meta_mod.load_preset(preset, distro_preset),
+        meta_mod.target_fragments(target_profile(target), transport),
+        [meta_mod.load_meta_file(p) for p in user_metas],
+        sets,
+    )
+
+
+def meta_transport(meta: meta_mod.Meta) -> str | None:
+    """The XRCE-DDS transport the merged meta selects (recorded in build-info.json)."""
+    args = meta.names.get("rmw_microxrcedds", {}).get("cmake-args", ())
+    for arg in args if isinstance(args, tuple) else ():
+        if arg.startswith("-DRMW_UXRCE_TRANSPORT="):
+            return arg.split("=", 1)[1]
+    return None
+
+
+# ---------------------------------------------------------------------------------------------
+# uros build
+
+
+@dataclass(frozen=True)
+class BuildArgs:
+    """What the command line said, unvalidated."""
+
+    workspace: Path = defaults.WORKSPACE
+    toolchain: str | None = None
+    profile: Path | None = None
+    metas: tuple[Path, ...] = ()
+    sets: tuple[str, ...] = ()
+    preset: str = defaults.PRESET
+    transport: str | None = None
+    output: Path | None = None
+    verbose: bool = False
+    force: bool = False
+    packages_up_to: tuple[str, ...] = ()
+    jobs: int | None = None
+    compiler_prefix: str | None = None
+    cflags: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class BuildPlan:
+    workspace: Workspace
+    config: WorkspaceConfig | None  # None: a plain colcon workspace, not made by create-firmware
+    distro: Distro | None
+    target: Target
+    meta: meta_mod.Meta
+    output: Path
+    target_dir: Path  # .uros/targets/<key>
+    packages_up_to: tuple[str, ...]
+    jobs: int | None
+    verbose: bool
+
+    @property
+    def profile(self) -> TargetProfile | None:
+        return target_profile(self.target)
+
+
+def plan_build(args: BuildArgs) -> BuildPlan:
+    """Validate every input of `uros build` (reads files, starts nothing)."""
+    ws = Workspace.open(args.workspace)
+    target = resolve_target(args.toolchain, args.profile, args.compiler_prefix, args.cflags)
+    cfg = load_config(ws.root)
+    distro = distros_mod.load_distro(cfg.distro) if cfg else None
+    user_metas = list(args.metas)
+    if cfg is not None and ws.user_meta.is_file():
+        user_metas.insert(0, ws.user_meta)
+    meta = meta_for(
+        args.preset, target, args.transport, user_metas, list(args.sets), distro.preset if distro else None
+    )
+    if args.jobs is not None and args.jobs < 1:
+        raise ConfigError(f"-j/--jobs {args.jobs}: must be 1 or more", "omit it to let colcon choose")
+    out = (args.output or ws.default_output(target.key)).resolve()
+    check_output_dir(out, args.force)
+    return BuildPlan(
+        workspace=ws,
+        config=cfg,
+        distro=distro,
+        target=target,
+        meta=meta,
+        output=out,
+        target_dir=ws.target_dir(target.key),
+        packages_up_to=args.packages_up_to,
+        jobs=args.jobs,
+        verbose=args.verbose,
+    )
+
+
+# ---------------------------------------------------------------------------------------------
+# uros create-firmware
+
+
+@dataclass(frozen=True)
+class CreateArgs:
+    directory: Path = defaults.FIRMWARE_DIR
+    distro: str = defaults.DISTRO
+    platform: str = defaults.PLATFORM
+    mirrors: tuple[str, ...] = ()
+    overrides: tuple[str, ...] = ()
+    config: Path | None = None
+    locked: bool = False
+    lock_file: Path | None = None
+    extra_packages: tuple[Path, ...] = ()
+    force: bool = False
+    keep_partial: bool = False
+    build_dev: bool = True
+    toolchain: str | None = None  # a target whose prerequisites are checked first
+    jobs: int = defaults.CLONE_JOBS
+    verbose: bool = False
+
+
+@dataclass(frozen=True)
+class CreatePlan:
+    root: Path
+    existed: bool  # the folder was there (empty, or a workspace re-created with --force)
+    existing: WorkspaceConfig | None
+    distro: Distro
+    mirror: Mirror
+    sources: Mapping[str, Source]  # workspace path (dev_ws/..., mcu_ws/...) -> what to clone
+    extra_packages: tuple[tuple[Path, str], ...]  # (folder, package name)
+    probe: TargetProfile | None  # check this target's compiler and C library before cloning
+    args: CreateArgs
+
+
+def plan_sources(distro: Distro, mirror: Mirror, locked: Mapping[str, str] | None) -> dict[str, Source]:
+    """Workspace path (dev_ws/..., mcu_ws/...) -> what to clone (pure)."""
+    sources = {}
+    for ws, repos in (("dev_ws", distro.dev), ("mcu_ws", distro.mcu)):
+        for repo in repos:
+            sources[f"{ws}/{repo.path}"] = distros_mod.resolve(repo, mirror, locked, prefix=f"{ws}/")
+    return sources
+
+
+def _mirror_from(args: CreateArgs, existing: WorkspaceConfig | None) -> Mirror:
+    parts: list[Mirror] = []
+    if existing is not None:
+        parts.append(existing.mirror)
+    if args.config is not None:
+        source = f"--config {args.config}"
+        data = loader.mapping(loader.load_yaml(args.config, "--config"), source)
+        parts.append(distros_mod.load_mirror_config(loader.mapping(data.get("mirror"), source), source))
+    parts.append(
+        Mirror(
+            tuple(distros_mod.parse_rule(s) for s in args.mirrors),
+            tuple(distros_mod.parse_override(s) for s in args.overrides),
+        )
+    )
+    return distros_mod.combine(*parts)
+
+
+def _check_sources(sources: Mapping[str, Source]) -> None:
+    for path, source in sources.items():
+        if distros_mod.is_local(source.url) and not distros_mod.local_path(source.url).exists():
+            raise ConfigError(
+                f"--mirror: {source.url} (for {path}, upstream {source.repo.url}) does not exist",
+                "fix the mirror rule, or point this repository elsewhere: "
+                f"--mirror-override {source.repo.path}=URL",
+            )
+
+
+def _existing(root: Path, force: bool) -> tuple[bool, WorkspaceConfig | None]:
+    """(existed, its config); an existing, non-empty folder needs --force."""
+    if not root.exists():
+        return False, None
+    if not any(root.iterdir()):
+        return True, None
+    if not force:
+        raise ConfigError(
+            f"--workspace {root}: already exists",
+            "use another --workspace, or pass --force to re-create its sources "
+            "(your colcon.meta, uros.yaml and mcu_ws/extra_packages/ are kept)",
+        )
+    return True, load_config(root)
+
+
+def plan_create(args: CreateArgs) -> CreatePlan:
+    if args.platform != defaults.PLATFORM:
+        raise ConfigError(
+            f"create-firmware: unknown platform {args.platform!r}", "uros supports `generate_lib` (any MCU)"
+        )
+    if args.jobs < 1:
+        raise ConfigError(f"-j/--jobs {args.jobs}: must be 1 or more")
+    distro = distros_mod.load_distro(args.distro)
+    root = args.directory.resolve()
+    extras = tuple((p, check_extra_package(p, "--extra-package")) for p in args.extra_packages)
+    locked: dict[str, str] | None = None
+    if args.locked or args.lock_file:
+        lock_path = args.lock_file or root / "uros.lock"
+        locked = read_lock(lock_path, "--lock-file" if args.lock_file else "--locked").commits()
+    existed, existing = _existing(root, args.force)
+    mirror = _mirror_from(args, existing)
+    sources = plan_sources(distro, mirror, locked)
+    _check_sources(sources)
+    probe = find_profile(args.toolchain) if args.toolchain is not None else None
+    return CreatePlan(root, existed, existing, distro, mirror, sources, extras, probe, args)
