@@ -1,0 +1,49 @@
+"""The house's floors: every module imports only its own floor or below (docs/architecture.md)."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+import import_graph  # noqa: E402
+
+
+def test_no_module_imports_one_above_it() -> None:
+    wrong = [
+        f"{module} ({import_graph.LAYERS[import_graph.layer_of(module)][0]}) imports {dep} "
+        f"({import_graph.LAYERS[import_graph.layer_of(dep)][0]})"
+        for module, deps in import_graph.imports().items()
+        for dep in deps
+        if import_graph.layer_of(dep) > import_graph.layer_of(module)
+    ]
+    assert not wrong
+
+
+def test_commands_do_not_import_each_other() -> None:
+    graph = import_graph.imports()
+    assert not [
+        (m, d)
+        for m, deps in graph.items()
+        if m.startswith("commands.")
+        for d in deps
+        if d.startswith("commands")
+    ]
+
+
+def test_the_graph_has_no_cycle() -> None:
+    graph = import_graph.imports()
+    state: dict[str, int] = {}
+
+    def visit(node: str, path: list[str]) -> None:
+        state[node] = 1
+        for dep in sorted(graph.get(node, ())):
+            if state.get(dep) == 1:
+                raise AssertionError(" -> ".join([*path, node, dep]))
+            if dep not in state:
+                visit(dep, [*path, node])
+        state[node] = 2
+
+    for node in sorted(graph):
+        if node not in state:
+            visit(node, [])

@@ -1,0 +1,225 @@
+"""The mapping from raw arguments to plans, tested without running anything (cibuildwheel's
+unit_test/main_tests idea): every input is validated before a process could start."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from uros_build import defaults
+from uros_build.distros import Distro, Mirror, MirrorRule, Override, Repo
+from uros_build.errors import ConfigError
+from uros_build.meta import Meta
+from uros_build.plan import (
+    BuildArgs,
+    CreateArgs,
+    ProfileTarget,
+    ToolchainFileTarget,
+    meta_transport,
+    plan_build,
+    plan_create,
+    plan_sources,
+    resolve_target,
+)
+
+
+def _ws(tmp_path: Path) -> Path:
+    pkg = tmp_path / "ws" / "pkg"
+    pkg.mkdir(parents=True)
+    (pkg / "package.xml").write_text("<package><name>pkg</name></package>", encoding="utf-8")
+    return tmp_path / "ws"
+
+
+# -- resolve_target ----------------------------------------------------------------------------
+
+
+def test_a_shipped_target_by_name() -> None:
+    target = resolve_target("cortex-m7", None)
+    assert isinstance(target, ProfileTarget)
+    assert target.key == "cortex-m7" and target.profile.name == "cortex-m7"
+
+
+def test_a_toolchain_file_is_used_unchanged(tmp_path: Path) -> None:
+    tc = tmp_path / "my board.cmake"
+    tc.write_text("set(CMAKE_SYSTEM_NAME Generic)\n", encoding="utf-8")
+    target = resolve_target(str(tc), None)
+    assert isinstance(target, ToolchainFileTarget)
+    assert target.key == "my_board" and target.toolchain_file == tc.resolve()
+
+
+def test_deriving_from_a_target_gets_its_own_key() -> None:
+    target = resolve_target("cortex-m4f", None, cflags=("-DBOARD=2",))
+    assert isinstance(target, ProfileTarget) and target.key == "cortex-m4f-custom"
+    assert target.profile.c_flags[-1] == "-DBOARD=2"
+
+
+def test_a_standalone_compiler_prefix() -> None:
+    target = resolve_target(None, None, compiler_prefix="riscv64-unknown-elf-", cflags=("-march=rv32imac",))
+    assert isinstance(target, ProfileTarget) and target.key == "custom-riscv64-unknown-elf"
+
+
+@pytest.mark.parametrize(
+    ("toolchain", "profile", "prefix", "cflags", "message"),
+    [
+        (None, None, None, (), "no target given"),
+        ("cortex-m9", None, None, (), "unknown target 'cortex-m9'"),
+        ("cortex-m7", Path("x.yaml"), None, (), "name a target twice"),
+        ("/nope/tc.cmake", None, None, (), "no such file"),
+        (None, None, None, ("-DX",), "--cflags without a target"),
+    ],
+)
+def test_bad_targets(
+    toolchain: str | None, profile: Path | None, prefix: str | None, cflags: tuple[str, ...], message: str
+) -> None:
+    with pytest.raises(ConfigError, match=message):
+        resolve_target(toolchain, profile, prefix, cflags)
+
+
+def test_a_toolchain_file_cannot_be_derived(tmp_path: Path) -> None:
+    tc = tmp_path / "tc.cmake"
+    tc.write_text("", encoding="utf-8")
+    with pytest.raises(ConfigError, match="cannot change your own toolchain file"):
+        resolve_target(str(tc), None, cflags=("-DX",))
+
+
+# -- meta_transport ----------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("args", "expected"),
+    [
+        (("-DRMW_UXRCE_TRANSPORT=udp", "-DX=1"), "udp"),
+        (("-DX=1",), None),
+        ("-DRMW_UXRCE_TRANSPORT=udp", None),  # a string, not a list: not a cmake-args list
+    ],
+)
+def test_meta_transport(args: tuple[str, ...] | str, expected: str | None) -> None:
+    assert meta_transport(Meta({"rmw_microxrcedds": {"cmake-args": args}})) == expected
+    assert meta_transport(Meta({})) is None
+
+
+# -- plan_build --------------------------------------------------------------------------------
+
+
+def test_plan_build_defaults(tmp_path: Path) -> None:
+    ws = _ws(tmp_path)
+    plan = plan_build(BuildArgs(workspace=ws, toolchain="cortex-m7"))
+    assert plan.output == ws.resolve() / "build" / "cortex-m7"
+    assert plan.target_dir == ws.resolve() / ".uros" / "targets" / "cortex-m7"
+    assert plan.config is None and plan.distro is None and plan.profile is not None
+    assert meta_transport(plan.meta) == "custom"  # the target's transport
+    assert "rcutils" in plan.meta.names  # no native 64-bit atomics on cortex-m7
+
+
+def test_plan_build_layers_sets_over_the_transport(tmp_path: Path) -> None:
+    plan = plan_build(
+        BuildArgs(workspace=_ws(tmp_path), toolchain="cortex-m7", transport="udp",
+                  sets=("rmw_microxrcedds.RMW_UXRCE_MAX_NODES=2",))
+    )  # fmt: skip
+    args = plan.meta.names["rmw_microxrcedds"]["cmake-args"]
+    assert "-DRMW_UXRCE_TRANSPORT=udp" in args and "-DRMW_UXRCE_MAX_NODES=2" in args
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        ({"jobs": 0}, "-j/--jobs 0: must be 1 or more"),
+        ({"transport": "can"}, "unknown transport 'can'"),
+        ({"preset": "ardent"}, "unknown preset 'ardent'"),
+        ({"sets": ("nodot",)}, "expected PACKAGE.OPTION=VALUE"),
+        ({"metas": (Path("/nope.meta"),)}, "no such file"),
+    ],
+)
+def test_plan_build_refuses_bad_input(tmp_path: Path, change: dict[str, object], message: str) -> None:
+    args = BuildArgs(workspace=_ws(tmp_path), toolchain="cortex-m7")
+    with pytest.raises(ConfigError, match=message):
+        plan_build(BuildArgs(**{**args.__dict__, **change}))  # type: ignore[arg-type]
+
+
+def test_plan_build_needs_packages(tmp_path: Path) -> None:
+    with pytest.raises(ConfigError, match="no package.xml found"):
+        plan_build(BuildArgs(workspace=tmp_path, toolchain="cortex-m7"))
+
+
+def test_plan_build_reads_the_workspace_config(tmp_path: Path) -> None:
+    ws = _ws(tmp_path)
+    (ws / "uros.yaml").write_text("distro: jazzy\n", encoding="utf-8")
+    plan = plan_build(BuildArgs(workspace=ws, toolchain="cortex-m7"))
+    assert plan.config is not None and plan.distro is not None and plan.distro.name == "jazzy"
+
+
+# -- plan_sources / plan_create ----------------------------------------------------------------
+
+
+def _distro() -> Distro:
+    return Distro(
+        name="humble", status="built-here", preset="humble",
+        dev=(Repo("ament/ament_cmake", "https://github.com/ament/ament_cmake.git", "humble"),),
+        mcu=(Repo("uros/rclc", "https://github.com/ros2/rclc.git", "humble"),
+             Repo("eProsima/Micro-CDR", "https://github.com/eProsima/Micro-CDR.git", "ros2")),
+        colcon_ignore=(), dev_colcon_ignore=(), build_time_clones=(),
+    )  # fmt: skip
+
+
+def test_plan_sources_applies_mirror_override_and_lock() -> None:
+    mirror = Mirror(
+        (MirrorRule("https://github.com/{owner}/{repo}", "/m/{owner}+{repo}/repo"),),
+        (Override("eProsima/Micro-CDR", None, "humble"),),
+    )
+    sources = plan_sources(_distro(), mirror, {"mcu_ws/uros/rclc": "a" * 40})
+    assert sorted(sources) == ["dev_ws/ament/ament_cmake", "mcu_ws/eProsima/Micro-CDR", "mcu_ws/uros/rclc"]
+    assert sources["dev_ws/ament/ament_cmake"].url == "/m/ament+ament_cmake/repo"
+    assert sources["mcu_ws/eProsima/Micro-CDR"].version == "humble"
+    rclc = sources["mcu_ws/uros/rclc"]
+    assert rclc.version == "a" * 40 and rclc.is_commit
+
+
+def test_plan_create_defaults(tmp_path: Path) -> None:
+    plan = plan_create(CreateArgs(directory=tmp_path / "fw"))
+    assert plan.distro.name == defaults.DISTRO and not plan.existed and plan.probe is None
+    assert all(p.startswith(("dev_ws/", "mcu_ws/")) for p in plan.sources)
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        ({"platform": "nuttx"}, "unknown platform 'nuttx'"),
+        ({"distro": "ardent"}, "unknown distro 'ardent'"),
+        ({"jobs": 0}, "must be 1 or more"),
+        ({"locked": True}, "no such lock file"),
+        ({"mirrors": ("nonsense",)}, "expected UPSTREAM=LOCAL"),
+        ({"toolchain": "cortex-m9"}, "unknown target"),
+        ({"extra_packages": (Path("/nope"),)}, "no such folder"),
+        ({"config": Path("/nope.yaml")}, "no such file"),
+    ],
+)
+def test_plan_create_refuses_bad_input(tmp_path: Path, change: dict[str, object], message: str) -> None:
+    args = CreateArgs(directory=tmp_path / "fw")
+    with pytest.raises(ConfigError, match=message):
+        plan_create(CreateArgs(**{**args.__dict__, **change}))  # type: ignore[arg-type]
+    assert not (tmp_path / "fw").exists()
+
+
+def test_plan_create_refuses_an_existing_folder_without_force(tmp_path: Path) -> None:
+    (tmp_path / "fw").mkdir()
+    (tmp_path / "fw" / "notes.txt").write_text("mine", encoding="utf-8")
+    with pytest.raises(ConfigError, match="already exists"):
+        plan_create(CreateArgs(directory=tmp_path / "fw"))
+
+
+def test_plan_create_reads_a_config_file(tmp_path: Path) -> None:
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text("mirror:\n  rules: ['https://github.com/{owner}/{repo}=https://git.example/{repo}']\n")
+    plan = plan_create(CreateArgs(directory=tmp_path / "fw", config=cfg))
+    assert plan.sources["mcu_ws/uros/rclc"].url == "https://git.example/rclc"
+
+
+@pytest.mark.parametrize(
+    ("text", "message"), [("- a\n- b\n", "expected a mapping"), ("mirror: [\n", "not valid YAML")]
+)
+def test_plan_create_refuses_a_bad_config_file(tmp_path: Path, text: str, message: str) -> None:
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(text, encoding="utf-8")
+    with pytest.raises(ConfigError, match=message):
+        plan_create(CreateArgs(directory=tmp_path / "fw", config=cfg))

@@ -1,0 +1,141 @@
+"""The workspace model: uros.yaml, uros.lock, extra-package sync, dev_ws environment."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from uros_build.commands.create_firmware import clone_argv
+from uros_build.distros import Repo, Source
+from uros_build.errors import ConfigError
+from uros_build.workspace import (
+    Lock,
+    WorkspaceConfig,
+    config_text,
+    dev_env,
+    load_config,
+    parse_config,
+    parse_lock,
+    read_lock,
+    save_config,
+    sync_tree,
+)
+
+
+def test_config_round_trip(tmp_path: Path) -> None:
+    text = "distro: jazzy\nmirror:\n  rules: ['https://github.com/{owner}/{repo}=/m/{owner}+{repo}/repo']\n"
+    (tmp_path / "uros.yaml").write_text(text, encoding="utf-8")
+    cfg = load_config(tmp_path)
+    assert cfg is not None and cfg.distro == "jazzy" and cfg.platform == "generate_lib"
+    assert cfg.mirror.rules[0].pattern == "https://github.com/{owner}/{repo}"
+    save_config(tmp_path, cfg)
+    assert load_config(tmp_path) == cfg
+    assert config_text(cfg).startswith("# Written by uros")
+
+
+def test_no_config_is_not_a_firmware_workspace(tmp_path: Path) -> None:
+    assert load_config(tmp_path) is None
+
+
+@pytest.mark.parametrize(
+    ("data", "message"),
+    [
+        (["distro: humble"], "expected a mapping"),
+        ({}, "distro: is required but missing"),
+        ({"distro": 3}, "distro: must be a non-empty string"),
+        ({"distro": "humble", "extra_packages": "abc"}, "extra_packages: must be a list of strings"),
+        ({"distro": "humble", "mirror": ["x"]}, "mirror: expected a mapping"),
+        ({"distro": "humble", "colour": "red"}, "colour: unknown key"),
+    ],
+)
+def test_bad_config(data: object, message: str) -> None:
+    with pytest.raises(ConfigError, match=message) as info:
+        parse_config(data, "uros.yaml")
+    assert info.value.message.startswith("uros.yaml")
+
+
+def test_bad_config_yaml_names_the_line(tmp_path: Path) -> None:
+    (tmp_path / "uros.yaml").write_text("distro: humble\nmirror: [\n", encoding="utf-8")
+    with pytest.raises(ConfigError, match=r"uros.yaml:3:1: not valid YAML"):
+        load_config(tmp_path)
+
+
+def test_lock_round_trip(tmp_path: Path) -> None:
+    repo = Repo("uros/rclc", "https://github.com/ros2/rclc.git", "humble")
+    lock = Lock.from_clones(
+        "humble", {"mcu_ws/uros/rclc": Source(repo, "/m/rclc", "humble")}, {"mcu_ws/uros/rclc": "c" * 40}
+    )
+    (tmp_path / "uros.lock").write_text(lock.to_json(), encoding="utf-8")
+    back = read_lock(tmp_path / "uros.lock", "--locked")
+    assert back == lock and back.commits() == {"mcu_ws/uros/rclc": "c" * 40}
+    data = json.loads(lock.to_json())
+    assert list(data) == sorted(data) and data["repositories"]["mcu_ws/uros/rclc"]["source"] == "/m/rclc"
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("{", "not valid JSON"),
+        ("[]", "expected a mapping"),
+        ('{"repositories": {"a": {}}}', "commit: is required"),
+        ('{"repositories": []}', "repositories: expected a mapping"),
+    ],
+)
+def test_bad_lock(tmp_path: Path, text: str, message: str) -> None:
+    (tmp_path / "uros.lock").write_text(text, encoding="utf-8")
+    with pytest.raises(ConfigError, match=message):
+        read_lock(tmp_path / "uros.lock", "--locked")
+
+
+def test_parse_lock_keeps_every_field() -> None:
+    lock = parse_lock({"distro": "humble", "repositories": {"p": {"commit": "x", "url": "u"}}}, "l")
+    assert lock.repositories["p"].url == "u" and lock.distro == "humble"
+
+
+def test_sync_tree_touches_only_what_changed(tmp_path: Path) -> None:
+    src, dst = tmp_path / "src", tmp_path / "dst"
+    (src / "msg").mkdir(parents=True)
+    (src / "msg" / "A.msg").write_text("int32 a\n")
+    (src / "package.xml").write_text("<package/>")
+    (src / ".git").mkdir()
+    (src / ".git" / "HEAD").write_text("ref")
+    assert sync_tree(src, dst) == 2
+    assert not (dst / ".git").exists()
+    assert sync_tree(src, dst) == 0
+    (src / "msg" / "A.msg").write_text("int32 a\nint32 b\n")
+    (src / "package.xml").unlink()
+    assert sync_tree(src, dst) == 2
+    assert (dst / "msg" / "A.msg").read_text().endswith("int32 b\n") and not (dst / "package.xml").exists()
+
+
+def test_dev_env_is_what_sourcing_dev_ws_gives(tmp_path: Path) -> None:
+    (tmp_path / "lib/python3.11/site-packages").mkdir(parents=True)
+    env = dev_env({"PATH": "/usr/bin", "PYTHONPATH": "/x"}, tmp_path)
+    assert env["AMENT_PREFIX_PATH"] == str(tmp_path) == env["CMAKE_PREFIX_PATH"]
+    assert env["PATH"] == f"{tmp_path / 'bin'}:/usr/bin"
+    assert env["PYTHONPATH"] == f"{tmp_path / 'lib/python3.11/site-packages'}:/x"
+
+
+def test_clone_argv_branch_and_commit() -> None:
+    repo = Repo("uros/rcl", "https://github.com/ros2/rcl.git", "humble")
+    assert clone_argv("git", Source(repo, "/m/rcl", "humble"), Path("/w/rcl")) == [
+        [
+            "git",
+            "-c",
+            "advice.detachedHead=false",
+            "clone",
+            "--quiet",
+            "--branch",
+            "humble",
+            "/m/rcl",
+            "/w/rcl",
+        ]
+    ]
+    pinned = clone_argv("git", Source(repo, "/m/rcl", "d" * 40), Path("/w/rcl"))
+    assert [a[3:5] for a in pinned] == [["clone", "--quiet"], ["-C", "/w/rcl"]]
+
+
+def test_workspace_config_defaults() -> None:
+    assert WorkspaceConfig("humble").extra_packages == ()
