@@ -30,7 +30,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
             "abi",
             "archive",
         ),
-    ),  # fmt: skip
+    ),
     ("workspace model", ("workspace",)),
     ("plans and probes", ("plan", "hosttools")),
     ("commands", ("commands",)),

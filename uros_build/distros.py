@@ -15,12 +15,14 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import yaml
-
-from uros_build import resources
+from uros_build import loader, meta, resources
 from uros_build.errors import ConfigError
 
 _DISTRO_KEYS = {"name", "status", "preset", "colcon_ignore", "dev_colcon_ignore", "build_time_clones"}
+# built-here: built end to end by uros's authors (the distro.yaml says where it is recorded);
+# manifest-only: written from upstream facts, never built (create-firmware warns); buildable-here
+# lies between them.
+STATUSES = ("built-here", "buildable-here", "manifest-only")
 _SHA = re.compile(r"^[0-9a-f]{40}$")
 
 
@@ -34,7 +36,7 @@ class Repo:
 @dataclass(frozen=True)
 class Distro:
     name: str
-    status: str  # built-here | buildable-here | manifest-only
+    status: str  # one of STATUSES
     preset: str
     dev: tuple[Repo, ...]
     mcu: tuple[Repo, ...]
@@ -43,26 +45,25 @@ class Distro:
     build_time_clones: tuple[str, ...]
 
 
-def _yaml(path: Path) -> Any:
-    try:
-        return yaml.safe_load(path.read_text(encoding="utf-8"))
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f":{mark.line + 1}" if mark is not None else ""
-        raise ConfigError(f"{path}{where}: not valid YAML: {getattr(exc, 'problem', exc)}") from exc
-
-
 def parse_repos(data: Any, source: str) -> tuple[Repo, ...]:
-    if not isinstance(data, dict) or not isinstance(data.get("repositories"), dict):
-        raise ConfigError(f"{source}: expected a vcstool file with a 'repositories:' mapping")
+    """A vcstool ``.repos`` file: ``repositories: {path: {type: git, url: URL, version: V}}``."""
+    top = loader.mapping(data, source, {"repositories"}, required=("repositories",))
+    entries = loader.mapping(top["repositories"], f"{source}: repositories")
     repos = []
-    for path, entry in data["repositories"].items():
-        if not isinstance(entry, dict) or entry.get("type", "git") != "git":
-            raise ConfigError(f"{source}: repositories.{path}: expected type: git with url and version")
-        url, version = entry.get("url"), entry.get("version")
-        if not isinstance(url, str) or not isinstance(version, (str, int, float)):
-            raise ConfigError(f"{source}: repositories.{path}: url and version are required")
-        repos.append(Repo(str(path), url, str(version)))
+    for path, entry in entries.items():
+        if not isinstance(path, str) or not path:
+            raise ConfigError(
+                f"{source}: repositories: {path!r}: a workspace path must be a non-empty string"
+            )
+        where = f"{source}: repositories.{path}"
+        item = loader.mapping(entry, where, {"type", "url", "version"}, required=("url", "version"))
+        loader.one_of(item, "type", where, ("git",), "git")
+        if not isinstance(item["version"], str):
+            raise ConfigError(
+                f"{where}: version: must be a string (branch, tag or commit), got {item['version']!r}",
+                "quote versions that YAML would read as a number, e.g. version: '2.0'",
+            )
+        repos.append(Repo(path, loader.string(item, "url", where), loader.string(item, "version", where)))
     return tuple(sorted(repos, key=lambda r: r.path))
 
 
@@ -71,29 +72,45 @@ def known_distros() -> list[str]:
     return sorted(p.name for p in root.iterdir() if (p / "distro.yaml").is_file())
 
 
+def parse_distro(info: Any, source: str, folder: str, dev: tuple[Repo, ...], mcu: tuple[Repo, ...]) -> Distro:
+    """A ``distro.yaml`` (already parsed) of the folder ``meta/distros/<folder>``."""
+    top = loader.mapping(info, source, _DISTRO_KEYS, required=("name",))
+    name = loader.string(top, "name", source)
+    if name != folder:
+        raise ConfigError(f"{source}: name: {name!r} differs from its folder name {folder!r}")
+    preset = loader.string(top, "preset", source, name)
+    if preset not in meta.presets():
+        raise ConfigError(
+            f"{source}: preset: {preset!r} is not a shipped preset (known: {', '.join(meta.presets())})"
+        )
+    clones = loader.mapping_list(top, "build_time_clones", source, {"url", "by"}, required=("url",))
+    return Distro(
+        name=name,
+        status=loader.one_of(top, "status", source, STATUSES, "manifest-only"),
+        preset=preset,
+        dev=dev,
+        mcu=mcu,
+        colcon_ignore=loader.string_list(top, "colcon_ignore", source),
+        dev_colcon_ignore=loader.string_list(top, "dev_colcon_ignore", source),
+        build_time_clones=tuple(
+            loader.string(c, "url", f"{source}: build_time_clones[{i}]") for i, c in enumerate(clones)
+        ),
+    )
+
+
 def load_distro(name: str) -> Distro:
     if name not in known_distros():
         raise ConfigError(
             f"--distro: unknown distro {name!r}", f"known distros: {', '.join(known_distros())}"
         )
     root = resources.meta_dir() / "distros" / name
-    info = _yaml(root / "distro.yaml")
-    source = str(root / "distro.yaml")
-    if not isinstance(info, dict):
-        raise ConfigError(f"{source}: expected a mapping")
-    unknown = sorted(set(info) - _DISTRO_KEYS)
-    if unknown:
-        raise ConfigError(f"{source}: {unknown[0]}: unknown key (known: {', '.join(sorted(_DISTRO_KEYS))})")
-    clones = info.get("build_time_clones") or []
-    return Distro(
-        name=str(info["name"]),
-        status=str(info.get("status", "manifest-only")),
-        preset=str(info.get("preset", name)),
-        dev=parse_repos(_yaml(root / "dev.repos"), str(root / "dev.repos")),
-        mcu=parse_repos(_yaml(root / "mcu.repos"), str(root / "mcu.repos")),
-        colcon_ignore=tuple(info.get("colcon_ignore") or ()),
-        dev_colcon_ignore=tuple(info.get("dev_colcon_ignore") or ()),
-        build_time_clones=tuple(str(c["url"]) for c in clones),
+    dev, mcu = root / "dev.repos", root / "mcu.repos"
+    return parse_distro(
+        loader.load_yaml(root / "distro.yaml"),
+        str(root / "distro.yaml"),
+        name,
+        parse_repos(loader.load_yaml(dev), str(dev)),
+        parse_repos(loader.load_yaml(mcu), str(mcu)),
     )
 
 
@@ -127,17 +144,34 @@ class Mirror:
     rules: tuple[MirrorRule, ...] = ()
     overrides: tuple[Override, ...] = ()
 
-    def is_empty(self) -> bool:
-        return not self.rules and not self.overrides
+
+MIRROR_PLACEHOLDERS = ("{owner}", "{repo}")
+_RULE_HINT = "for example --mirror 'https://github.com/{owner}/{repo}=/srv/mirror/{owner}+{repo}/repo'"
 
 
 def parse_rule(spec: str, flag: str = "--mirror") -> MirrorRule:
+    """``UPSTREAM=LOCAL``; both sides may use ``{owner}`` and ``{repo}`` (LOCAL only those of UPSTREAM)."""
     pattern, eq, target = spec.partition("=")
     if not eq or not pattern or not target:
-        raise ConfigError(
-            f"{flag} {spec!r}: expected UPSTREAM=LOCAL",
-            "for example --mirror 'https://github.com/{owner}/{repo}=/srv/mirror/{owner}+{repo}/repo'",
-        )
+        raise ConfigError(f"{flag} {spec!r}: expected UPSTREAM=LOCAL", _RULE_HINT)
+    known = ", ".join(MIRROR_PLACEHOLDERS)
+    for side, text in (("UPSTREAM", pattern), ("LOCAL", target)):
+        found = re.findall(r"\{[^{}]*\}", text)
+        unknown = [p for p in found if p not in MIRROR_PLACEHOLDERS]
+        if unknown:
+            raise ConfigError(
+                f"{flag} {spec!r}: unknown placeholder {unknown[0]} in {side} (known: {known})", _RULE_HINT
+            )
+        rest = re.sub(r"\{[^{}]*\}", "", text)
+        if "{" in rest or "}" in rest:
+            raise ConfigError(f"{flag} {spec!r}: unbalanced {{ or }} in {side} (known: {known})", _RULE_HINT)
+    for placeholder in MIRROR_PLACEHOLDERS:
+        if pattern.count(placeholder) > 1:
+            raise ConfigError(f"{flag} {spec!r}: {placeholder} appears twice in UPSTREAM", _RULE_HINT)
+        if placeholder in target and placeholder not in pattern:
+            raise ConfigError(
+                f"{flag} {spec!r}: LOCAL uses {placeholder}, which UPSTREAM does not match", _RULE_HINT
+            )
     return MirrorRule(pattern, target)
 
 
@@ -161,15 +195,15 @@ def owner_repo(url: str) -> str | None:
     return f"{match.group(1)}/{match.group(2)}" if match else None
 
 
-def load_mirror_config(data: Mapping[str, Any], source: str) -> Mirror:
+def load_mirror_config(data: Any, source: str) -> Mirror:
     """The ``mirror:`` section of a uros.yaml: ``rules: [UP=LOCAL]``, ``overrides: {repo: URL[@V]}``."""
-    rules = data.get("rules") or []
-    overrides = data.get("overrides") or {}
-    if not isinstance(rules, list) or not isinstance(overrides, dict):
-        raise ConfigError(f"{source}: mirror: expected rules: [..] and overrides: {{repo: url}}")
+    where = f"{source}: mirror"
+    top = loader.mapping(data, where, {"rules", "overrides"})
+    rules = loader.string_list(top, "rules", where)
+    overrides = loader.string_map(top, "overrides", where)
     return Mirror(
-        tuple(parse_rule(str(r), f"{source}: mirror.rules") for r in rules),
-        tuple(parse_override(f"{k}={v}", f"{source}: mirror.overrides") for k, v in overrides.items()),
+        tuple(parse_rule(r, f"{where}.rules") for r in rules),
+        tuple(parse_override(f"{k}={v}", f"{where}.overrides") for k, v in overrides.items()),
     )
 
 

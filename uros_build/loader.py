@@ -87,3 +87,64 @@ def string_list(data: Mapping[str, Any], key: str, source: str) -> tuple[str, ..
     if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
         raise ConfigError(f"{source}: {key}: must be a list of strings, got {value!r}")
     return tuple(value)
+
+
+def boolean(data: Mapping[str, Any], key: str, source: str, default: bool = False) -> bool:
+    value = data.get(key, default)
+    if not isinstance(value, bool):
+        raise ConfigError(f"{source}: {key}: must be true or false, got {value!r}")
+    return value
+
+
+def integer(data: Mapping[str, Any], key: str, source: str, default: int | None = None) -> int:
+    value = data.get(key, default)
+    if value is None:
+        raise ConfigError(f"{source}: {key}: is required but missing")
+    if not isinstance(value, int) or isinstance(value, bool):
+        raise ConfigError(f"{source}: {key}: must be a whole number, got {value!r}")
+    return value
+
+
+def one_of(
+    data: Mapping[str, Any], key: str, source: str, choices: tuple[str, ...], default: str | None = None
+) -> str:
+    """A string that must be one of ``choices``."""
+    value = string(data, key, source, default)
+    if value not in choices:
+        raise ConfigError(f"{source}: {key}: {value!r} is not one of {', '.join(choices)}")
+    return value
+
+
+def string_map(data: Mapping[str, Any], key: str, source: str) -> Mapping[str, str]:
+    """A mapping of names to strings (``name: value`` lines), in file order; absent is empty."""
+    value = data.get(key)
+    if value is None:
+        return {}
+    if (
+        not isinstance(value, Mapping)
+        or not all(isinstance(k, str) for k in value)
+        or not all(isinstance(v, str) for v in value.values())
+    ):
+        raise ConfigError(f"{source}: {key}: must be a mapping of names to strings, got {value!r}")
+    return dict(value)
+
+
+def mapping_list(
+    data: Mapping[str, Any],
+    key: str,
+    source: str,
+    known: set[str] | None = None,
+    required: tuple[str, ...] = (),
+) -> tuple[Mapping[str, Any], ...]:
+    """A list of mappings, each checked like :func:`mapping` and named ``source: key[i]``."""
+    value = data.get(key)
+    if value is None:
+        return ()
+    if not isinstance(value, list):
+        raise ConfigError(f"{source}: {key}: must be a list of mappings, got {value!r}")
+    items = []
+    for i, item in enumerate(value):
+        if not isinstance(item, Mapping):
+            raise ConfigError(f"{source}: {key}[{i}]: must be a mapping (key: value lines), got {item!r}")
+        items.append(mapping(item, f"{source}: {key}[{i}]", known, required))
+    return tuple(items)

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from uros_build import __version__, resources
+from uros_build import __version__, defaults, loader, resources
 from uros_build.errors import ConfigError
 from uros_build.profiles import TargetProfile
 
@@ -74,9 +74,11 @@ def parse_meta(text: str, source: str) -> Meta:
 
 
 def load_meta_file(path: Path, flag: str = "--meta") -> Meta:
-    if not path.is_file():
+    if not path.exists():
         raise ConfigError(f"{flag} {path}: no such file", "pass the path of an existing colcon.meta file")
-    return parse_meta(path.read_text(encoding="utf-8"), str(path))
+    # read through the loader (one-line errors for a folder, non-UTF-8 text, no permission); parsed
+    # here, since colcon.meta needs duplicate keys rejected, which loader.load_json does not do
+    return parse_meta(loader.read_text(path, flag), str(path))
 
 
 def load_shipped(relative: str) -> Meta:
@@ -88,13 +90,10 @@ def presets() -> list[str]:
     return sorted(p.stem for p in (resources.meta_dir() / "presets").glob("*.json"))
 
 
-DEFAULT_PRESET = "humble"
-
-
 def load_preset(name: str, distro_preset: str | None = None) -> Meta:
-    """``default`` means the workspace distro's preset, else humble's (both seeds use humble)."""
-    if name == "default":
-        name = distro_preset or DEFAULT_PRESET
+    """``default`` means the workspace distro's preset, else the default distro's."""
+    if name == defaults.PRESET:
+        name = distro_preset or defaults.DISTRO
     if name not in presets():
         raise ConfigError(
             f"--preset: unknown preset {name!r}", f"known presets: default, {', '.join(presets())}"

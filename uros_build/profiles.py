@@ -4,6 +4,10 @@ A profile is everything uros knows about one MCU target: which cross compiler, w
 flags, which defines only micro-ROS needs (MICROROSFLAGS), what the colcon.meta must add, and
 which ELF facts every object built for it must show. Unknown keys and wrong types are errors
 naming the file and the key; nothing past this module sees a raw dict.
+
+The same keys, with these comments as descriptions, are a JSON Schema (draft 2020-12) in
+``meta/schemas/profile.schema.json`` (``uros_build/_data/meta/schemas/`` in a wheel), for editors
+that check YAML as it is typed; tests/unit/test_schemas.py keeps it equal to these dataclasses.
 """
 
 from __future__ import annotations
@@ -14,9 +18,7 @@ from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import Any
 
-import yaml
-
-from uros_build import resources
+from uros_build import loader, resources
 from uros_build.errors import ConfigError
 
 TRANSPORTS = ("custom", "udp", "serial")
@@ -90,58 +92,51 @@ class TargetProfile:
         return f"{self.compiler_prefix}{name}"
 
 
+_HINT = "see toolchains/cortex-m7.yaml for a complete profile (uros targets lists them)"
+
+
 def _fail(source: Path | str, key: str, problem: str, hint: str | None = None) -> ConfigError:
-    return ConfigError(
-        f"{source}: {key}: {problem}",
-        hint or "see toolchains/cortex-m7.yaml for a complete profile (uros targets lists them)",
-    )
+    return ConfigError(f"{source}: {key}: {problem}", hint or _HINT)
 
 
-def _str_list(source: Path | str, key: str, value: Any) -> tuple[str, ...]:
-    if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
-        raise _fail(source, key, f"must be a list of strings, got {value!r}")
-    return tuple(value)
-
-
-def _convert(source: Path | str, key: str, annotation: str, value: Any) -> Any:
+def _convert(data: Mapping[str, Any], key: str, source: str, annotation: str) -> Any:
     if annotation == "str":
-        if not isinstance(value, str):
-            raise _fail(source, key, f"must be a string, got {value!r}")
-        return value
+        return loader.string(data, key, source)
     if annotation == "int":
-        if not isinstance(value, int) or isinstance(value, bool):
-            raise _fail(source, key, f"must be a whole number, got {value!r}")
-        return value
+        return loader.integer(data, key, source)
     if annotation == "bool":
-        if not isinstance(value, bool):
-            raise _fail(source, key, f"must be true or false, got {value!r}")
-        return value
+        return loader.boolean(data, key, source)
     if annotation == "tuple[str, ...]":
-        return _str_list(source, key, value)
+        return loader.string_list(data, key, source)
     if annotation == "tuple[tuple[str, str], ...]":
-        if not isinstance(value, dict) or not all(isinstance(v, str) for v in value.values()):
-            raise _fail(source, key, f"must be a mapping of names to strings, got {value!r}")
-        return tuple(sorted((str(k), v) for k, v in value.items()))
+        return tuple(sorted(loader.string_map(data, key, source).items()))
     if annotation == "MicroRosFlags":
-        return _build(MicroRosFlags, source, value, prefix=f"{key}.")
+        return _build(MicroRosFlags, source, data[key], prefix=f"{key}.")
     if annotation == "ElfFacts":
-        return _build(ElfFacts, source, value, prefix=f"{key}.")
+        return _build(ElfFacts, source, data[key], prefix=f"{key}.")
     raise AssertionError(f"no converter for {annotation}")  # a programming error, not input
 
 
-def _build(cls: Any, source: Path | str, data: Any, prefix: str = "") -> Any:
-    if not isinstance(data, Mapping):
-        raise _fail(source, prefix.rstrip(".") or "(top level)", "must be a mapping")
+def _build(cls: Any, source: str, data: Any, prefix: str = "") -> Any:
+    """``cls`` from one mapping of the file. Keys are checked as dotted paths from the top of the
+    file (``elf.machine``), so every message names the key as the file spells it."""
+    where = f"{source}: {prefix.rstrip('.')}" if prefix else source
+    top = {f"{prefix}{k}": v for k, v in loader.mapping(data, where).items()}
     known = {f.name: f for f in fields(cls) if f.name != "source"}
-    unknown = sorted(set(data) - set(known))
-    if unknown:
-        raise _fail(source, prefix + str(unknown[0]), f"unknown key (known: {', '.join(sorted(known))})")
+    required = tuple(
+        prefix + name
+        for name, f in known.items()
+        if f.default is f.default_factory  # both MISSING: a required field
+    )
+    loader.mapping(top, source, {prefix + name for name in known}, required)
     values: dict[str, Any] = {}
     for name, f in known.items():
-        if name in data:
-            values[name] = _convert(source, prefix + name, str(f.type), data[name])
-        elif f.default is f.default_factory:  # both MISSING: a required field
-            raise _fail(source, prefix + name, "is required but missing")
+        key = prefix + name
+        if key not in top:
+            continue
+        if top[key] is None:
+            raise ConfigError(f"{source}: {key}: has no value (give one or leave the key out)")
+        values[name] = _convert(top, key, source, str(f.type))
     return cls(**values)
 
 
@@ -183,7 +178,10 @@ def _validate(profile: TargetProfile, source: Path | str) -> TargetProfile:
 
 
 def parse_profile(data: Any, source: Path | str) -> TargetProfile:
-    profile: TargetProfile = _build(TargetProfile, source, data)
+    try:
+        profile: TargetProfile = _build(TargetProfile, str(source), data)
+    except ConfigError as exc:
+        raise ConfigError(exc.message, exc.hint or _HINT) from None
     return _validate(profile, source)
 
 
@@ -236,17 +234,7 @@ def derive_profile(
 
 
 def load_profile_file(path: Path) -> TargetProfile:
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise ConfigError(f"{path}: cannot read profile: {exc.strerror}", "check the --profile path") from exc
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f":{mark.line + 1}" if mark is not None else ""
-        raise ConfigError(f"{path}{where}: not valid YAML: {getattr(exc, 'problem', exc)}") from exc
-    return parse_profile(data, path)
+    return parse_profile(loader.load_yaml(path), path)
 
 
 def shipped_profiles() -> dict[str, TargetProfile]:

@@ -197,7 +197,13 @@ def test_target_prerequisites_are_checked_before_cloning(upstream: Path, tmp_pat
     assert not fw.exists()
     # cortex-m7's compiler, newlib and C++ headers are installed here (.ci/run installs them)
     run_uros(
-        "create-firmware", "--workspace", str(fw), "--no-dev-build", "--toolchain", "cortex-m7", *_mirror(upstream)
+        "create-firmware",
+        "--workspace",
+        str(fw),
+        "--no-dev-build",
+        "--toolchain",
+        "cortex-m7",
+        *_mirror(upstream),
     )
     assert (fw / "uros.lock").is_file()
 

@@ -159,7 +159,7 @@ def test_wheel_installs_and_runs_elsewhere(tmp_path: Path) -> None:
     assert "cortex-m7" in targets and "wheel-probe" in targets
     tc = cli("toolchain", "render", "cortex-m7")
     assert "set(CMAKE_SYSTEM_NAME Generic)" in tc and "# uros wheel probe" in tc
-    assert "-DRMW_UXRCE_TRANSPORT=custom" in cli("meta", "write", "--target", "cortex-m7")
+    assert "-DRMW_UXRCE_TRANSPORT=custom" in cli("meta", "write", "--toolchain", "cortex-m7")
     assert "-DRMW_UXRCE_TRANSPORT=wheel-probe" in cli("meta", "write", "--transport", "wheel-probe")
     for name in ("microrosConfig.cmake.j2", "toolchain.cmake.j2", "esp-idf-component.cmake.j2"):
         assert name in in_wheel["templates"]

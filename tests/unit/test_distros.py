@@ -1,10 +1,12 @@
 from __future__ import annotations
 
+import re
 from pathlib import Path
+from typing import Any
 
 import pytest
 
-from uros_build import distros, firmware
+from uros_build import distros, resources
 from uros_build.distros import Mirror, MirrorRule, Repo
 from uros_build.errors import ConfigError
 
@@ -59,7 +61,13 @@ def test_humble_matches_micro_ros_setup() -> None:
     assert "https://github.com/yaml/libyaml.git" in d.build_time_clones
 
 
-@pytest.mark.parametrize("name", ["humble", "iron", "jazzy", "kilted", "rolling"])
+def test_distros_are_discovered_from_meta() -> None:
+    names = distros.known_distros()
+    assert {"humble", "iron", "jazzy", "kilted", "rolling"} <= set(names)
+    assert names == sorted(names)
+
+
+@pytest.mark.parametrize("name", distros.known_distros())
 def test_every_distro_is_consistent(name: str) -> None:
     d = distros.load_distro(name)
     paths = {r.path for r in d.mcu}
@@ -86,6 +94,115 @@ def test_every_distro_is_consistent(name: str) -> None:
     from uros_build import meta
 
     meta.load_preset(d.preset)
+
+
+def _distro_data() -> dict[str, Any]:
+    return {
+        "name": "humble",
+        "status": "built-here",
+        "preset": "humble",
+        "colcon_ignore": ["ros2/rcl"],
+        "dev_colcon_ignore": [],
+        "build_time_clones": [{"url": "https://github.com/yaml/libyaml.git", "by": "libyaml_vendor"}],
+    }
+
+
+def test_parse_distro() -> None:
+    d = distros.parse_distro(_distro_data(), "distro.yaml", "humble", (), ())
+    assert d.colcon_ignore == ("ros2/rcl",)
+    assert d.build_time_clones == ("https://github.com/yaml/libyaml.git",)
+    minimal = distros.parse_distro({"name": "humble"}, "distro.yaml", "humble", (), ())
+    assert minimal.status == "manifest-only" and minimal.preset == "humble" and minimal.colcon_ignore == ()
+
+
+@pytest.mark.parametrize(
+    ("change", "expected"),
+    [
+        ({"name": None}, "distro.yaml: name: is required but missing"),
+        ({"name": "iron"}, "distro.yaml: name: 'iron' differs from its folder name 'humble'"),
+        ({"name": 2}, "distro.yaml: name: must be a non-empty string, got 2"),
+        ({"colcon_ignore": "abc"}, "distro.yaml: colcon_ignore: must be a list of strings, got 'abc'"),
+        ({"dev_colcon_ignore": [1]}, "distro.yaml: dev_colcon_ignore: must be a list of strings"),
+        (
+            {"status": "built"},
+            "distro.yaml: status: 'built' is not one of built-here, buildable-here, manifest-only",
+        ),
+        ({"preset": "ardent"}, "distro.yaml: preset: 'ardent' is not a shipped preset"),
+        ({"build_time_clones": [{"by": "x"}]}, r"distro.yaml: build_time_clones\[0\]: url: is required"),
+        ({"build_time_clones": [{"url": "u", "why": "x"}]}, r"build_time_clones\[0\]: why: unknown key"),
+        ({"build_time_clones": "u"}, "distro.yaml: build_time_clones: must be a list of mappings"),
+        ({"build_time_clones": [{"url": 3}]}, r"build_time_clones\[0\]: url: must be a non-empty string"),
+        ({"colcon_ignores": []}, r"distro.yaml: colcon_ignores: unknown key \(known: build_time_clones,"),
+    ],
+)
+def test_bad_distro_names_file_and_key(change: dict[str, Any], expected: str) -> None:
+    data = {k: v for k, v in {**_distro_data(), **change}.items() if v is not None}
+    with pytest.raises(ConfigError, match=expected) as info:
+        distros.parse_distro(data, "distro.yaml", "humble", (), ())
+    assert "\n" not in info.value.message
+
+
+def test_distro_that_is_not_a_mapping() -> None:
+    with pytest.raises(ConfigError, match=r"distro.yaml: expected a mapping"):
+        distros.parse_distro(["name: humble"], "distro.yaml", "humble", (), ())
+
+
+def _fake_meta(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, distro_yaml: str, mcu_repos: str) -> Path:
+    folder = tmp_path / "meta" / "distros" / "demo"
+    folder.mkdir(parents=True)
+    (tmp_path / "meta" / "presets").mkdir()
+    (tmp_path / "meta" / "presets" / "demo.json").write_text('{"names": {}}', encoding="utf-8")
+    (folder / "distro.yaml").write_text(distro_yaml, encoding="utf-8")
+    (folder / "dev.repos").write_text("repositories: {}\n", encoding="utf-8")
+    (folder / "mcu.repos").write_text(mcu_repos, encoding="utf-8")
+    monkeypatch.setattr(resources, "meta_dir", lambda: tmp_path / "meta")
+    return folder
+
+
+def test_load_distro_from_files(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    repos = "repositories:\n  uros/rclc:\n    type: git\n    url: https://github.com/ros2/rclc.git\n    version: humble\n"
+    _fake_meta(tmp_path, monkeypatch, "name: demo\nstatus: buildable-here\n", repos)
+    d = distros.load_distro("demo")
+    assert d.status == "buildable-here" and d.mcu == (
+        Repo("uros/rclc", "https://github.com/ros2/rclc.git", "humble"),
+    )
+
+
+def test_load_distro_names_the_file(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    folder = _fake_meta(tmp_path, monkeypatch, "name: demo\ncolcon_ignore: abc\n", "repositories: {}\n")
+    with pytest.raises(ConfigError) as info:
+        distros.load_distro("demo")
+    assert (
+        info.value.message == f"{folder / 'distro.yaml'}: colcon_ignore: must be a list of strings, got 'abc'"
+    )
+
+
+def test_load_distro_bad_repos_yaml(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    folder = _fake_meta(tmp_path, monkeypatch, "name: demo\n", "repositories:\n  a: [\n")
+    with pytest.raises(ConfigError, match=rf"^{re.escape(str(folder / 'mcu.repos'))}:3:1: not valid YAML"):
+        distros.load_distro("demo")
+
+
+@pytest.mark.parametrize(
+    ("data", "expected"),
+    [
+        ({}, "r.repos: repositories: is required but missing"),
+        ({"repositories": []}, "r.repos: repositories: expected a mapping"),
+        ({"repositories": {"a/b": {"version": "x"}}}, r"r.repos: repositories.a/b: url: is required"),
+        (
+            {"repositories": {"a/b": {"url": "u", "version": 2.0}}},
+            r"repositories.a/b: version: must be a string",
+        ),
+        (
+            {"repositories": {"a/b": {"type": "hg", "url": "u", "version": "x"}}},
+            "type: 'hg' is not one of git",
+        ),
+        ({"repositories": {"a/b": {"url": "u", "version": "x", "branch": "y"}}}, "branch: unknown key"),
+    ],
+)
+def test_bad_repos_file(data: Any, expected: str) -> None:
+    with pytest.raises(ConfigError, match=expected):
+        distros.parse_repos(data, "r.repos")
 
 
 def test_unknown_distro_lists_known() -> None:
@@ -128,36 +245,61 @@ def test_override_parsing() -> None:
         distros.parse_rule("https://github.com/{owner}/{repo}")
 
 
+@pytest.mark.parametrize(
+    ("spec", "expected"),
+    [
+        (
+            "https://github.com/{user}/{repo}=/m/{user}+{repo}",
+            r"unknown placeholder \{user\} in UPSTREAM \(known: \{owner\}, \{repo\}\)",
+        ),
+        ("https://github.com/{owner}/{repo}=/m/{name}", r"unknown placeholder \{name\} in LOCAL"),
+        ("https://github.com/{owner}/{repo}=/m/{}", r"unknown placeholder \{\} in LOCAL"),
+        (
+            "https://github.com/{owner}=/m/{owner}+{repo}",
+            r"LOCAL uses \{repo\}, which UPSTREAM does not match",
+        ),
+        ("https://github.com/{owner}/{owner}=/m/{owner}", r"\{owner\} appears twice in UPSTREAM"),
+        ("https://github.com/{owner}/{repo}=/m/{owner", r"unbalanced \{ or \} in LOCAL"),
+    ],
+)
+def test_mirror_rule_placeholders(spec: str, expected: str) -> None:
+    with pytest.raises(ConfigError, match=expected) as info:
+        distros.parse_rule(spec)
+    assert info.value.message.startswith(f"--mirror {spec!r}: ")
+
+
+def test_mirror_config_unknown_placeholder_names_file_and_rule() -> None:
+    rule = "https://github.com/{user}/{repo}=/m/{repo}"
+    with pytest.raises(ConfigError) as info:
+        distros.load_mirror_config({"rules": [rule]}, "uros.yaml")
+    assert info.value.message == (
+        f"uros.yaml: mirror.rules {rule!r}: unknown placeholder {{user}} in UPSTREAM (known: {{owner}}, {{repo}})"
+    )
+
+
+@pytest.mark.parametrize(
+    ("data", "expected"),
+    [
+        ({"rule": []}, r"uros.yaml: mirror: rule: unknown key \(known: overrides, rules\)"),
+        ({"rules": "https://a/{repo}=/m/{repo}"}, "uros.yaml: mirror: rules: must be a list of strings"),
+        ({"overrides": ["a/b=@x"]}, "uros.yaml: mirror: overrides: must be a mapping of names to strings"),
+        ({"overrides": {"a/b": 2}}, "uros.yaml: mirror: overrides: must be a mapping of names to strings"),
+        ([], "uros.yaml: mirror: expected a mapping"),
+    ],
+)
+def test_bad_mirror_config(data: Any, expected: str) -> None:
+    with pytest.raises(ConfigError, match=expected):
+        distros.load_mirror_config(data, "uros.yaml")
+
+
+def test_mirror_config_round_trip() -> None:
+    data = {"rules": ["https://github.com/{owner}/{repo}=/m/{owner}+{repo}"], "overrides": {"a/b": "/x@ros2"}}
+    mirror = distros.load_mirror_config(data, "uros.yaml")
+    assert distros.mirror_to_config(mirror) == data
+    assert distros.load_mirror_config(None, "uros.yaml") == Mirror()
+
+
 def test_insteadof_for_build_time_clones() -> None:
     mirror = Mirror((MirrorRule("https://github.com/{owner}/{repo}", "/m/{owner}+{repo}/repo"),))
     cfg = distros.insteadof(["https://github.com/yaml/libyaml.git"], mirror)
     assert cfg == {"url./m/yaml+libyaml/repo.insteadOf": "https://github.com/yaml/libyaml.git"}
-
-
-def test_clone_argv_branch_and_commit() -> None:
-    src = distros.Source(Repo("ros2/rcl", "u", "humble"), "/m/rcl", "humble")
-    assert firmware.clone_argv("git", src, Path("/w/rcl")) == [
-        [
-            "git",
-            "-c",
-            "advice.detachedHead=false",
-            "clone",
-            "--quiet",
-            "--branch",
-            "humble",
-            "/m/rcl",
-            "/w/rcl",
-        ]
-    ]
-    pinned = distros.Source(Repo("ros2/rcl", "u", "humble"), "/m/rcl", "b" * 40)
-    argvs = firmware.clone_argv("git", pinned, Path("/w/rcl"))
-    assert argvs[0][-3:] == ["--no-checkout", "/m/rcl", "/w/rcl"] and argvs[1][-1] == "b" * 40
-
-
-def test_dev_env_is_sourced_setup_without_a_shell(tmp_path: Path) -> None:
-    site = tmp_path / "lib" / "python3.11" / "site-packages"
-    site.mkdir(parents=True)
-    env = firmware.dev_env({"PATH": "/usr/bin", "PYTHONPATH": "/x"}, tmp_path)
-    assert env["AMENT_PREFIX_PATH"] == str(tmp_path) and env["CMAKE_PREFIX_PATH"] == str(tmp_path)
-    assert env["PATH"] == f"{tmp_path}/bin:/usr/bin"
-    assert env["PYTHONPATH"] == f"{site}:/x"

@@ -6,7 +6,7 @@ import sys
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-import import_graph  # noqa: E402
+import import_graph
 
 
 def test_no_module_imports_one_above_it() -> None:

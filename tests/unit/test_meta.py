@@ -1,6 +1,7 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import pytest
 from golden import check_golden
@@ -58,6 +59,22 @@ def test_dump_is_deterministic_and_sorted() -> None:
 def test_bad_meta_names_file_and_problem(text: str, expected: str) -> None:
     with pytest.raises(ConfigError, match=expected):
         meta.parse_meta(text, "m.meta")
+
+
+def test_meta_file_problems_are_one_line(tmp_path: Path) -> None:
+    path = tmp_path / "colcon.meta"
+    path.write_bytes(b'{"names": {"caf\xe9": {}}}')
+    with pytest.raises(ConfigError) as info:
+        meta.load_meta_file(path)
+    assert info.value.message == f"--meta {path}: not UTF-8 text (byte 15)"
+    with pytest.raises(ConfigError, match=r"no such file") as info:
+        meta.load_meta_file(tmp_path / "nope.meta")
+    assert info.value.hint == "pass the path of an existing colcon.meta file"
+    with pytest.raises(ConfigError, match=r"is a folder, not a file"):
+        meta.load_meta_file(tmp_path)
+    path.write_text('{"names": {"a": {}},\n "names": {}}', encoding="utf-8")
+    with pytest.raises(ConfigError, match=r"colcon.meta: duplicate key 'names'"):
+        meta.load_meta_file(path)
 
 
 def test_unknown_transport() -> None:

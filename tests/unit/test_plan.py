@@ -138,7 +138,7 @@ def test_plan_build_refuses_bad_input(tmp_path: Path, change: dict[str, object],
 
 
 def test_plan_build_needs_packages(tmp_path: Path) -> None:
-    with pytest.raises(ConfigError, match="no package.xml found"):
+    with pytest.raises(ConfigError, match=r"no package\.xml found"):
         plan_build(BuildArgs(workspace=tmp_path, toolchain="cortex-m7"))
 
 

@@ -72,6 +72,42 @@ def test_missing_field(tmp_path: Path) -> None:
         load_profile_file(_write(tmp_path, data))
 
 
+def test_nested_keys_are_named_with_dots(tmp_path: Path) -> None:
+    with pytest.raises(ConfigError, match=r"board.yaml: elf.machine: is required but missing") as info:
+        load_profile_file(_write(tmp_path, {**_base(), "elf": {"elf_class": "ELF32"}}))
+    assert info.value.hint is not None and "cortex-m7.yaml" in info.value.hint
+    with pytest.raises(
+        ConfigError, match=r"board.yaml: micro_ros.strip_attributes_below_gcc: must be a whole"
+    ):
+        load_profile_file(_write(tmp_path, {**_base(), "micro_ros": {"strip_attributes_below_gcc": "6"}}))
+    with pytest.raises(ConfigError, match=r"board.yaml: elf: expected a mapping"):
+        load_profile_file(_write(tmp_path, {**_base(), "elf": "ARM"}))
+    with pytest.raises(
+        ConfigError, match=r"board.yaml: elf.attributes: must be a mapping of names to strings"
+    ):
+        load_profile_file(_write(tmp_path, {**_base(), "elf": {"machine": "ARM", "attributes": ["x"]}}))
+
+
+def test_key_without_value(tmp_path: Path) -> None:
+    with pytest.raises(ConfigError, match=r"board.yaml: idf_target: has no value"):
+        load_profile_file(_write(tmp_path, {**_base(), "idf_target": None}))
+
+
+def test_profile_file_problems_are_one_line(tmp_path: Path) -> None:
+    path = tmp_path / "board.yaml"
+    path.write_bytes(b"name: caf\xe9\n")
+    with pytest.raises(ConfigError, match=r"board.yaml: not UTF-8 text \(byte 9\)$"):
+        load_profile_file(path)
+    path.write_text("name: board\ncpu_flags: [-mthumb\nelf: {}\n", encoding="utf-8")
+    with pytest.raises(ConfigError, match=r"board.yaml:3:4: not valid YAML"):
+        load_profile_file(path)
+    with pytest.raises(ConfigError, match=r"nope.yaml: no such file"):
+        load_profile_file(tmp_path / "nope.yaml")
+    path.write_text("- name: board\n", encoding="utf-8")
+    with pytest.raises(ConfigError, match=r"board.yaml: expected a mapping \(key: value lines\), got list"):
+        load_profile_file(path)
+
+
 def test_unknown_target_lists_known() -> None:
     with pytest.raises(ConfigError) as info:
         find_profile("cortex-m99")
