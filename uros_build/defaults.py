@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-DISTRO = "humble"  # both seed articles build micro-ROS humble
+DISTRO = "humble"  # the STM32H7 and ESP32-S3 guides uros grew from both build humble
 PLATFORM = "generate_lib"  # a library for any MCU; the only platform uros creates
 PRESET = "default"  # the workspace distro's colcon.meta preset, else DISTRO's
 CLONE_JOBS = 4  # parallel git clones in create-firmware

@@ -26,7 +26,8 @@ TRANSPORTS = ("custom", "udp", "serial")
 
 @dataclass(frozen=True)
 class MicroRosFlags:
-    """Compile settings that apply to micro-ROS only, never to the firmware (seed 001's MICROROSFLAGS)."""
+    """Compile settings that apply to micro-ROS only, never to the firmware (the MICROROSFLAGS of
+    micro-ROS's STM32 guides)."""
 
     # Plain -D defines, e.g. "CLOCK_MONOTONIC=0" for newlib, which has no monotonic clock id.
     defines: tuple[str, ...] = ()

@@ -43,7 +43,7 @@ class ToolchainRequest:
 
 
 def microros_flags(req: ToolchainRequest) -> list[str]:
-    """The flags that apply only while compiling micro-ROS (seed 001's MICROROSFLAGS)."""
+    """The flags that apply only while compiling micro-ROS (the MICROROSFLAGS of micro-ROS's STM32 guides)."""
     mr = req.profile.micro_ros
     flags = [f"-D{d}" for d in mr.defines]
     if (

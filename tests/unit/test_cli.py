@@ -28,3 +28,29 @@ def test_every_command_has_help() -> None:
         result = runner.invoke(cli, [*path, "--help"])
         assert result.exit_code == 0, (path, result.output)
         assert "Usage: " in result.output
+
+
+def test_old_spellings_work_but_stay_out_of_help() -> None:
+    runner = CliRunner()
+    for path, old, new in (
+        (("create-firmware",), "--dir", "--workspace"),
+        (("check",), "--target", "--toolchain"),
+        (("meta", "write"), "--target", "--toolchain"),
+        (("build",), "--dir", "--workspace"),
+    ):
+        text = runner.invoke(cli, [*path, "--help"]).output
+        assert new in text and old not in text, (path, text)
+    result = runner.invoke(cli, ["meta", "write", "--target", "cortex-m7"])
+    assert result.exit_code == 0 and "rcutils" in result.output
+
+
+def test_one_vocabulary_for_outputs() -> None:
+    runner = CliRunner()
+    for path in (
+        ("toolchain", "render"),
+        ("meta", "write"),
+        ("export", "cmake"),
+        ("interface", "new"),
+        ("build",),
+    ):
+        assert "-o, --output" in runner.invoke(cli, [*path, "--help"]).output, path
