@@ -1,6 +1,9 @@
 from __future__ import annotations
 
+from pathlib import Path
+
 import click
+import pytest
 from click.testing import CliRunner
 
 from uros_build.cli import cli
@@ -54,3 +57,25 @@ def test_one_vocabulary_for_outputs() -> None:
         ("build",),
     ):
         assert "-o, --output" in runner.invoke(cli, [*path, "--help"]).output, path
+
+
+def test_an_unexpected_error_is_one_line_and_the_traceback_goes_to_a_log(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    from uros_build import cli as cli_mod
+    from uros_build import proc
+    from uros_build.commands import listings
+
+    def broken() -> list[dict[str, object]]:
+        raise RuntimeError("boom")
+
+    monkeypatch.setattr(listings, "targets_table", broken)
+    monkeypatch.setattr(proc, "user_log_dir", lambda: tmp_path)
+    monkeypatch.setattr(proc, "_current_log", None)
+    with pytest.raises(SystemExit) as exit_info:
+        cli_mod.main(["targets"])
+    assert exit_info.value.code == 1
+    err = capsys.readouterr().err
+    assert "internal error: RuntimeError: boom" in err and "Traceback" not in err
+    logs = list(tmp_path.glob("*-error-*.log"))
+    assert len(logs) == 1 and "Traceback" in logs[0].read_text() and str(logs[0]) in err.replace("\n", "")
