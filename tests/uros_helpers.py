@@ -41,3 +41,23 @@ def build_firmware_project(source: Path, package: Path, build: Path, *cmake_args
     if done.returncode != 0:
         raise AssertionError(f"firmware build failed:\n{done.stdout}\n{done.stderr}")
     return build / "firmware.elf"
+
+
+def env_without(programs: tuple[str, ...], shadow: Path) -> dict[str, str]:
+    """The environment with ``programs`` gone from PATH: every PATH folder holding one of them is
+    replaced by a folder of links to everything else in it (made under ``shadow``)."""
+    env = os.environ.copy()
+    folders = []
+    for i, entry in enumerate(p for p in env.get("PATH", "").split(os.pathsep) if p):
+        folder = Path(entry)
+        if not any((folder / p).exists() for p in programs):
+            folders.append(entry)
+            continue
+        copy = shadow / f"path{i}"
+        copy.mkdir(parents=True, exist_ok=True)
+        for item in folder.iterdir():
+            if item.name not in programs and not (copy / item.name).exists():
+                (copy / item.name).symlink_to(item)
+        folders.append(str(copy))
+    env["PATH"] = os.pathsep.join(folders)
+    return env

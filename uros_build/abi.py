@@ -198,9 +198,7 @@ def verify(objects: Sequence[ObjectFacts], profile: TargetProfile, library: str)
     }
 
 
-def check_library(
-    runner: Runner, library: Path, profile: TargetProfile
-) -> dict[str, Any]:
+def check_library(runner: Runner, library: Path, profile: TargetProfile) -> dict[str, Any]:
     """Read every object of ``library`` in one readelf run and verify it against ``profile``."""
     argv = readelf_argv(library, profile.elf, symbols=profile.native_64bit_atomics)
     argv[0] = runner.which(READELF, READELF_HINT)

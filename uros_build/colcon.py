@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import shutil
 import sys
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -37,6 +38,15 @@ def host_python() -> str:
     from the last run's, and a reconfigure regenerates every interface package's code."""
     stable = Path(sys.prefix) / "bin" / "python3"
     return str(stable) if stable.is_file() else sys.executable
+
+
+def generator(env: Mapping[str, str]) -> str | None:
+    """Ninja where it is installed, unless the user chose a generator through CMake's own
+    CMAKE_GENERATOR variable (https://cmake.org/cmake/help/latest/envvar/CMAKE_GENERATOR.html),
+    which colcon-cmake and CMake then use; None leaves the choice to them."""
+    if env.get("CMAKE_GENERATOR"):
+        return None
+    return "Ninja" if shutil.which("ninja", path=env.get("PATH")) else None
 
 
 @dataclass(frozen=True)

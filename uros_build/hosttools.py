@@ -7,7 +7,6 @@ to build.
 from __future__ import annotations
 
 import os
-import shutil
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -189,7 +188,7 @@ def build_dev_workspace(
         metas=(),
         toolchain_file=None,
         python=colcon.host_python(),
-        generator="Ninja" if shutil.which("ninja", path=env.get("PATH")) else None,
+        generator=colcon.generator(env),
         verbose=verbose,
         parallel_workers=jobs,
         ignore_regex=None,

@@ -26,6 +26,7 @@ from uros_build.profiles import (
 from uros_build.workspace import (
     Workspace,
     WorkspaceConfig,
+    check_build_folder,
     check_extra_package,
     check_output_dir,
     load_config,
@@ -291,6 +292,7 @@ def plan_create(args: CreateArgs) -> CreatePlan:
         raise ConfigError(f"-j/--jobs {args.jobs}: must be 1 or more")
     distro = distros_mod.load_distro(args.distro)
     root = args.directory.resolve()
+    check_build_folder(root, "--workspace")
     extras = tuple((p, check_extra_package(p, "--extra-package")) for p in args.extra_packages)
     locked: dict[str, str] | None = None
     if args.locked or args.lock_file:

@@ -18,7 +18,7 @@ from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import Any
 
-from uros_build import loader, resources
+from uros_build import loader, resources, templating
 from uros_build.errors import ConfigError
 
 TRANSPORTS = ("custom", "udp", "serial")
@@ -155,10 +155,23 @@ def _validate(profile: TargetProfile, source: Path | str) -> TargetProfile:
         raise _fail(
             source, "compiler_prefix", f"{profile.compiler_prefix!r} is not a prefix like 'arm-none-eabi-'"
         )
+    # CMake writes CMAKE_SYSTEM_PROCESSOR unescaped into CMakeFiles/<version>/CMakeSystem.cmake,
+    # which it then runs: anything but a plain word there would be code (measured, CMake 3.25).
+    if not re.fullmatch(r"[A-Za-z0-9_.+-]+", profile.system_processor):
+        raise _fail(source, "system_processor", f"{profile.system_processor!r} is not a word like 'arm'")
+    unusable = templating.cmake_unusable(profile.compiler_prefix)
+    if unusable is not None:
+        raise _fail(
+            source,
+            "compiler_prefix",
+            f"{profile.compiler_prefix!r} holds {unusable!r}, which CMake cannot use in a tool path",
+            "move or link the toolchain to a folder without it",
+        )
     for key in ("cpu_flags", "libc_flags", "c_flags", "cxx_flags", "link_flags"):
         for flag in getattr(profile, key):
-            # One flag per entry: an empty one or a line break cannot be passed on as one word.
-            if not flag or any(c in flag for c in "\n\r\0"):
+            # One flag per entry: an empty one, or one with a line break or another control
+            # character (which ends a build.ninja line), cannot be passed on as one word.
+            if not flag or any(ord(c) < 32 or ord(c) == 127 for c in flag):
                 raise _fail(source, key, f"{flag!r} is not a single compiler flag")
     for pattern in profile.compiler_search:
         for placeholder in re.findall(r"\{[^}]*\}", pattern):

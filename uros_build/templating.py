@@ -1,7 +1,19 @@
-"""Jinja2 environment over the shipped ``templates/`` folder (strict: an undefined name is a bug)."""
+"""Jinja2 environment over the shipped ``templates/`` folder (strict: an undefined name is a bug),
+and the escapes every value rendered into a CMake file goes through.
+
+A value reaches a CMake file in one of three places, each with its own escape:
+
+- inside a quoted argument (``set(X "...")``): :func:`cmake_quote`;
+- inside a ``#`` comment: :func:`cmake_comment` (a line break would end the comment and start code);
+- in a compile-flags string (``CMAKE_<LANG>_FLAGS_INIT``): :func:`cmake_flags`, which also escapes
+  for the shell and for the build tool, since CMake writes these strings into build.ninja or
+  flags.make verbatim ("a command-line string fragment",
+  https://cmake.org/cmake/help/latest/variable/CMAKE_LANG_FLAGS_INIT.html).
+"""
 
 from __future__ import annotations
 
+import re
 import shlex
 from collections.abc import Iterable
 from functools import cache
@@ -10,24 +22,93 @@ from typing import Any
 import jinja2
 
 from uros_build import resources
+from uros_build.errors import ConfigError
+
+_QUOTED_ESCAPES = {"\\": "\\\\", '"': '\\"', "$": "\\$", "\n": "\\n", "\r": "\\r", "\t": "\\t"}
+# What CMake itself cannot carry in a path (a tool, a source or build folder, the toolchain file):
+# it writes such paths unescaped into files it reads back (CMakeFiles/<version>/CMakeSystem.cmake
+# include()s the toolchain file, CMake<LANG>Compiler.cmake sets the compiler) and into build
+# files. Measured with CMake 3.25 and both generators: '"' and '\' break those files, ';' splits
+# the path into a list, '${...}', '$ENV{...}' and '$(...)' are expanded; a plain '$x' works.
+_PATH_UNUSABLE = re.compile(r'["\\;]|\$[A-Za-z_]*\{|\$\(')
+
+
+def cmake_unusable(path: str) -> str | None:
+    """The part of ``path`` that CMake cannot use in a path, or None."""
+    found = _PATH_UNUSABLE.search(path)
+    return found.group(0) if found else None
+
+
+def _control(text: str) -> str | None:
+    return next((c for c in text if ord(c) < 32 or ord(c) == 127), None)
 
 
 def cmake_quote(text: str) -> str:
-    """A CMake quoted-argument body: escape what CMake would interpret."""
-    return text.replace("\\", "\\\\").replace('"', '\\"').replace("$", "\\$")
+    """The body of a CMake quoted argument holding exactly ``text``: nothing in it is expanded
+    (``${...}``, ``$ENV{...}``), nothing ends the argument, and a line break stays an escape, so
+    the value cannot become code (https://cmake.org/cmake/help/latest/manual/cmake-language.7.html#quoted-argument)."""
+    bad = _control(text.replace("\n", "").replace("\r", "").replace("\t", ""))
+    if bad is not None:
+        raise ConfigError(
+            f"{text!r}: holds the control character {bad!r}, which cannot be written into a CMake file",
+            "remove it from the name, path or flag",
+        )
+    return "".join(_QUOTED_ESCAPES.get(c, c) for c in text)
+
+
+def cmake_comment(text: str) -> str:
+    """``text`` for a ``#`` comment: anything unprintable (a line break would end the comment and
+    make the rest CMake code) is shown as its Python escape."""
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
+
+
+def cmake_path(text: str) -> str:
+    """A tool path for a quoted argument; a path CMake itself cannot use is refused."""
+    bad = cmake_unusable(text)
+    if bad is not None:
+        raise ConfigError(
+            f"{text}: CMake cannot use a tool path containing {bad!r}",
+            "move or link the toolchain to a folder without it (and point --compiler-prefix there)",
+        )
+    return cmake_quote(text)
+
+
+def shell_words(flags: Iterable[str]) -> str:
+    """Compiler flags as one shell command-line fragment: a flag with a space, quote, ';' or '$' is
+    single-quoted as one word, so that it reaches the compiler intact (never split, never
+    expanded, never run as a command)."""
+    words = []
+    for flag in flags:
+        bad = _control(flag)
+        if bad is not None:
+            raise ConfigError(
+                f"compiler flag {flag!r}: holds the control character {bad!r}",
+                "one flag per --cflags / list entry, without line breaks or tabs",
+            )
+        safe = all(c.isalnum() or c in "-_=+./,:@%^" for c in flag)
+        words.append(flag if safe and flag else shlex.quote(flag))
+    return " ".join(words)
 
 
 def cmake_flags(flags: Iterable[str]) -> str:
-    """Join compiler flags into one CMake flags string, safe for the shell CMake's generators use.
+    """Compile flags for ``CMAKE_<LANG>_FLAGS_INIT`` (quoted-argument body).
 
-    Flags are kept as a list until here; a flag with a space, quote or ';' is shell-quoted as one
-    word so that it reaches the compiler intact (never split, never run as a command).
+    Three layers: the shell (:func:`shell_words`), the build tool, and CMake's quoted argument.
+    CMake copies these flags unescaped into build.ninja (``FLAGS = ...``) and flags.make
+    (``C_FLAGS = ...``), where ninja and make both read ``$5``/``$x``/``${HOME}`` as their own
+    variables and ``$$`` as one ``$`` (https://ninja-build.org/manual.html#ref_lexer,
+    https://www.gnu.org/software/make/manual/html_node/Reference.html); so every ``$`` is doubled.
+    Only Ninja and Makefile generators are meant (the toolchain file checks the generator where
+    a flag holds a ``$``). Linker flags are not for this filter: see :func:`cmake_link_flags`.
     """
-    words = []
-    for flag in flags:
-        safe = all(c.isalnum() or c in "-_=+./,:@%^" for c in flag)
-        words.append(flag if safe and flag else shlex.quote(flag))
-    return cmake_quote(" ".join(words))
+    return cmake_quote(shell_words(flags).replace("$", "$$"))
+
+
+def cmake_link_flags(flags: Iterable[str]) -> str:
+    """Linker flags for ``CMAKE_EXE_LINKER_FLAGS_INIT``: CMake itself escapes ``$`` in these for
+    Ninja (``LINK_FLAGS = ...$$...``), and the Makefile generators run link lines from link.txt
+    without make, so a ``$`` is written once (measured with CMake 3.25, both generators)."""
+    return cmake_quote(shell_words(flags))
 
 
 @cache
@@ -41,7 +122,10 @@ def _env() -> jinja2.Environment:
         autoescape=False,
     )
     env.filters["cmake_flags"] = cmake_flags
+    env.filters["cmake_link_flags"] = cmake_link_flags
     env.filters["cmake_quote"] = cmake_quote
+    env.filters["cmake_comment"] = cmake_comment
+    env.filters["cmake_path"] = cmake_path
     return env
 
 

@@ -40,6 +40,17 @@ class ToolchainRequest:
     clock_header: str | None = None  # absolute path of the clock_gettime declaration header
     tool_dir: str | None = None  # where the compilers are, when not on PATH
     command: str = "uros toolchain render"
+    # The workspace folder: written as "." in __FILE__ and debug paths, so that two checkouts in
+    # different folders give byte-identical libraries (rcutils' logging macros use __FILE__).
+    prefix_map: str | None = None
+
+
+# -ffile-prefix-map appeared in GCC 8 (https://gcc.gnu.org/gcc-8/changes.html).
+_PREFIX_MAP_SINCE_GCC = 8
+# Flags that only matter while compiling (the preprocessor's and the path maps): a '$' in them
+# cannot break a link line. The first group takes the next word as its value when given alone.
+_COMPILE_ONLY_WITH_VALUE = ("-D", "-U", "-I", "-include", "-imacros", "-isystem", "-iquote", "-idirafter")
+_COMPILE_ONLY_PREFIXES = (*_COMPILE_ONLY_WITH_VALUE, "-ffile-prefix-map=", "-fmacro-prefix-map=")
 
 
 def microros_flags(req: ToolchainRequest) -> list[str]:
@@ -54,7 +65,27 @@ def microros_flags(req: ToolchainRequest) -> list[str]:
         flags.append("-D__attribute__(x)=")
     if mr.declare_clock_gettime and req.clock_header:
         flags += ["-include", req.clock_header]
+    if req.prefix_map and (req.gcc_major is None or req.gcc_major >= _PREFIX_MAP_SINCE_GCC):
+        # -ffile-prefix-map implies -fmacro-prefix-map (__FILE__) and -fdebug-prefix-map
+        # (https://gcc.gnu.org/onlinedocs/gcc/Overall-Options.html#index-ffile-prefix-map).
+        flags.append(f"-ffile-prefix-map={req.prefix_map}=.")
     return flags
+
+
+def link_unsafe_flags(flags: list[str]) -> list[str]:
+    """Compile flags holding a '$' that would also matter on a link line. CMake passes
+    CMAKE_<LANG>_FLAGS to link commands too, and the Makefile generators run those from link.txt
+    without make, so the '$$' written for make would reach the linker doubled."""
+    unsafe, value_next = [], False
+    for flag in flags:
+        if value_next:
+            value_next = False
+            continue
+        if flag in _COMPILE_ONLY_WITH_VALUE:
+            value_next = True
+        elif "$" in flag and not flag.startswith(_COMPILE_ONLY_PREFIXES):
+            unsafe.append(flag)
+    return unsafe
 
 
 def tool_paths(profile: TargetProfile, tool_dir: str | None) -> dict[str, str]:
@@ -66,6 +97,8 @@ def render_toolchain(req: ToolchainRequest) -> str:
     p = req.profile
     base = [*p.cpu_flags, *p.libc_flags, *(f"-D{d}" for d in p.defines)]
     extra = microros_flags(req) if req.micro_ros else []
+    c_flags, cxx_flags = [*base, *p.c_flags, *extra], [*base, *p.cxx_flags, *extra]
+    compile_flags = [*c_flags, *cxx_flags, p.optimization]
     return templating.render(
         "toolchain.cmake.j2",
         version=__version__,
@@ -76,8 +109,11 @@ def render_toolchain(req: ToolchainRequest) -> str:
         micro_ros=req.micro_ros,
         microros_flags=extra,
         tools=tool_paths(p, req.tool_dir),
-        c_flags=[*base, *p.c_flags, *extra],
-        cxx_flags=[*base, *p.cxx_flags, *extra],
+        c_flags=c_flags,
+        cxx_flags=cxx_flags,
         asm_flags=list(p.cpu_flags),
         link_flags=[*p.cpu_flags, *p.libc_flags, *p.link_flags],
+        dollar=any("$" in f for f in compile_flags),
+        # uros builds static libraries only; a firmware links executables with these flags
+        link_unsafe=[] if req.micro_ros else link_unsafe_flags([*c_flags, *cxx_flags]),
     )

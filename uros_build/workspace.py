@@ -249,6 +249,7 @@ class Workspace:
                 f"{flag} {path}: no such folder",
                 "pass a colcon workspace, or create one with `uros create-firmware generate_lib`",
             )
+        check_build_folder(root, flag)
         ws = cls(root)
         if not ws.has_packages():
             raise ConfigError(
@@ -356,6 +357,24 @@ class Workspace:
             changed = sync_tree(src, self.extra_dir / name)
             if changed:
                 console.info(f"extra package {name}: {changed} file(s) updated from {src}")
+
+
+# What colcon and CMake cannot build in. colcon's generated environment scripts source paths in
+# double quotes (colcon_core/shell/template/command_prefix.sh.em: . "<prefix>/share/<pkg>/package.sh"),
+# where the shell expands '$' and '`' and ends at '"'; CMake writes folder paths unescaped into
+# files it reads back (CMakeFiles/<version>/CMakeSystem.cmake), where '\' and ';' break them.
+# Spaces, "'", '#', parentheses and '=' were built through: tests/integration/test_escaping.py.
+_FOLDER_UNUSABLE = re.compile(r'[$`"\\;\x00-\x1f\x7f]')
+
+
+def check_build_folder(root: Path, flag: str) -> None:
+    """A workspace's folder is where colcon and CMake build: refuse a path they cannot use."""
+    bad = _FOLDER_UNUSABLE.search(str(root))
+    if bad is not None:
+        raise ConfigError(
+            f"{flag} {root}: colcon and CMake cannot build in a folder whose path holds {bad.group(0)!r}",
+            "rename or move the folder (spaces and ' are fine)",
+        )
 
 
 # ---------------------------------------------------------------------------------------------

@@ -40,7 +40,7 @@ def test_profile_optimisation_is_the_one_that_applies() -> None:
 def test_flags_with_spaces_quotes_and_semicolons_stay_one_word() -> None:
     assert cmake_flags(["-DA=1", "-include", "/a b/h.h"]) == "-DA=1 -include '/a b/h.h'"
     assert cmake_flags(['-DNAME="x;y"']) == "'-DNAME=\\\"x;y\\\"'"
-    assert cmake_flags(["-DP=$HOME"]) == "'-DP=\\$HOME'"
+    assert cmake_flags(["-DP=$HOME"]) == "'-DP=\\$\\$HOME'"  # CMake, then ninja/make
 
 
 def test_esp32s3_micro_ros_toolchain_golden() -> None:

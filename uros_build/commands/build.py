@@ -90,7 +90,7 @@ def _run_colcon(
         metas=(meta_path,),
         toolchain_file=toolchain_file,
         python=colcon.host_python(),
-        generator="Ninja" if shutil.which("ninja", path=env["PATH"]) else None,
+        generator=colcon.generator(env),
         verbose=plan.verbose,
         packages_up_to=plan.packages_up_to,
         parallel_workers=plan.jobs,
@@ -121,6 +121,7 @@ def _prepare_toolchain(plan: BuildPlan, facts: HostFacts) -> Path:
         clock_header=str(header) if profile.micro_ros.declare_clock_gettime else None,
         tool_dir=facts.tool_dir,
         command=f"uros build --toolchain {profile.name}",
+        prefix_map=str(plan.workspace.root),
     )
     path = plan.target_dir / "toolchain.cmake"
     if write_if_changed(path, render_toolchain(req)):
@@ -193,8 +194,13 @@ def _stage_output(
             ToolchainRequest(profile, micro_ros=False, command=f"uros toolchain render {profile.name}")
         )
         (staging / "toolchain.cmake").write_text(firmware_tc, encoding="utf-8")
+        # recorded without the workspace's folder, so that build-info.json does not depend on it
         mr_req = ToolchainRequest(
-            profile, micro_ros=True, gcc_major=facts.gcc_major, clock_header=CLOCK_HEADER_NAME
+            profile,
+            micro_ros=True,
+            gcc_major=facts.gcc_major,
+            clock_header=CLOCK_HEADER_NAME,
+            prefix_map="<workspace>",
         )
     target = plan.target
     info = BuildInfo(

@@ -3,7 +3,7 @@
 # This file compiles micro-ROS itself: it carries the micro-ROS-only flags (MICROROSFLAGS).
 # Firmware must use the toolchain.cmake written next to libmicroros.a, which has none of them.
 set(CMAKE_SYSTEM_NAME Generic)
-set(CMAKE_SYSTEM_PROCESSOR riscv)
+set(CMAKE_SYSTEM_PROCESSOR "riscv")
 set(CMAKE_CROSSCOMPILING ON)
 # No startup code or linker script here: CMake's compiler checks must not try to link a program.
 set(CMAKE_TRY_COMPILE_TARGET_TYPE STATIC_LIBRARY)
