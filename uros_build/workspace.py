@@ -363,7 +363,7 @@ class Workspace:
 # double quotes (colcon_core/shell/template/command_prefix.sh.em: . "<prefix>/share/<pkg>/package.sh"),
 # where the shell expands '$' and '`' and ends at '"'; CMake writes folder paths unescaped into
 # files it reads back (CMakeFiles/<version>/CMakeSystem.cmake), where '\' and ';' break them.
-# Spaces, "'", '#', parentheses and '=' were built through: tests/integration/test_escaping.py.
+# Spaces, "'", '#', parentheses and '=' were built through: tests/integration/test_escaping_build.py.
 _FOLDER_UNUSABLE = re.compile(r'[$`"\\;\x00-\x1f\x7f]')
 
 
