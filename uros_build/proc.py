@@ -6,7 +6,8 @@ the environment it runs in *as a difference from uros's own* (so a failed colcon
 repeated by hand from the log). Two ways to run:
 
 - :meth:`Runner.run` streams merged stdout/stderr line by line into the log (and to the console
-  with ``--verbose``): builds, clones.
+  with ``--verbose``): builds, clones; messages in English (``LC_MESSAGES=C``), since the first
+  error line is picked out of them.
 - :meth:`Runner.query` returns stdout alone, with stderr kept apart in the log and ``LC_ALL=C``
   set, for tools whose output uros parses (ar, nm, readelf, size, gcc): a warning on stderr or a
   translated "Machine:" line can never reach a parser.
@@ -115,6 +116,20 @@ def user_log_dir() -> Path:
     return Path(os.environ.get("TMPDIR") or "/tmp") / f"uros-{uid}" / "log"
 
 
+def messages_in_c(env: Mapping[str, str]) -> dict[str, str]:
+    """``env`` with the tools' messages in English, the rest of the user's locale kept: uros picks
+    the first error line out of what builds and clones print (gcc's "error:", git's "Remote branch
+    ... not found"), and translated messages would hide it. LC_ALL would override LC_MESSAGES, so
+    its value moves to LANG, the lowest-priority setting
+    (https://www.gnu.org/software/gettext/manual/html_node/Locale-Environment-Variables.html);
+    LANGUAGE is ignored where LC_MESSAGES is C."""
+    out = dict(env)
+    if out.get("LC_ALL"):
+        out["LANG"] = out.pop("LC_ALL")
+    out["LC_MESSAGES"] = "C"
+    return out
+
+
 def env_difference(env: Mapping[str, str], base: Mapping[str, str]) -> list[str]:
     """``export``/``unset`` lines that turn ``base`` into ``env`` (sorted, shell-quoted)."""
     lines = [f"unset {k}" for k in sorted(set(base) - set(env))]
@@ -181,6 +196,7 @@ class Runner:
         ``quiet`` keeps the ``+ argv`` echo out of the console (it is always in the log);
         ``label`` prefixes every logged line (``[uros/rclc] ``) when commands run in parallel.
         """
+        env = messages_in_c(env if env is not None else os.environ)
         argv = self._prepare(argv, hint, cwd, env, label)
         if not quiet:
             console.info(format_argv(argv))

@@ -23,3 +23,30 @@ def m7_build(tmp_path_factory: pytest.TempPathFactory) -> Path:
     ws = make_fixture_workspace(tmp_path_factory.mktemp("m7"))
     run_uros("build", "--toolchain", "cortex-m7", "--workspace", str(ws), "--meta", str(ws / "fixture.meta"))
     return ws
+
+
+@pytest.fixture(scope="session")
+def spanish_env(tmp_path_factory: pytest.TempPathFactory) -> dict[str, str]:
+    """The environment of a Spanish-speaking user (es_ES.UTF-8): the installed locale, or one
+    compiled with localedef into a temporary LOCPATH; skipped where neither is possible. Checked
+    to be in effect: readelf prints "Máquina:" there."""
+    import os
+    import subprocess
+
+    need("readelf")
+    env = {**os.environ, "LANG": "es_ES.UTF-8", "LC_ALL": "es_ES.UTF-8", "LANGUAGE": "es"}
+    installed = subprocess.run(["locale", "-a"], capture_output=True, text=True).stdout.split()
+    if not {"es_ES.utf8", "es_ES.UTF-8"} & set(installed):
+        if shutil.which("localedef") is None:
+            pytest.skip("no es_ES locale and no localedef to compile one")
+        folder = tmp_path_factory.mktemp("locale")
+        made = subprocess.run(
+            ["localedef", "-i", "es_ES", "-f", "UTF-8", str(folder / "es_ES.UTF-8")], capture_output=True
+        )
+        if made.returncode != 0:
+            pytest.skip(f"localedef could not compile es_ES.UTF-8: {made.stderr.decode()[:200]}")
+        env["LOCPATH"] = str(folder)
+    header = subprocess.run(["readelf", "-h", "/bin/sh"], capture_output=True, text=True, env=env).stdout
+    if "Máquina:" not in header:
+        pytest.skip("readelf has no Spanish messages here (binutils' translations are not installed)")
+    return env

@@ -326,3 +326,16 @@ def test_distros_and_interface_checks_through_the_cli(tmp_path: Path) -> None:
     assert proc.returncode == 2
     assert f"error: {bad}:1: default value '3.5' is not an integer for type int32" in proc.stderr
     assert not (tmp_path / "my_msgs").exists()
+
+
+def test_clone_error_is_in_english_in_a_spanish_locale(
+    upstream: Path, tmp_path: Path, spanish_env: dict[str, str]
+) -> None:
+    """git speaks Spanish there ("Rama remota ... no encontrada"); uros's error line quotes git, so
+    the tools it runs print their messages in English (LC_MESSAGES=C)."""
+    fw = tmp_path / "fw"
+    args = ["create-firmware", "--workspace", str(fw), "--no-dev-build", *_mirror(upstream)]
+    proc = run_uros(*args, "--mirror-override", "uros/rclc=@no-such-branch", check=False, env=spanish_env)
+    assert proc.returncode == 4, proc.stderr
+    line = next(x for x in proc.stderr.splitlines() if x.startswith("error:"))
+    assert "Remote branch no-such-branch not found" in line, line
