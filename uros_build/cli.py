@@ -271,9 +271,7 @@ def export_esp_idf(output: Path, source: Path | None) -> None:
     "--extra-package", "extra_packages", multiple=True, type=_PATH,
     help="A package folder (e.g. custom interfaces) to build with micro-ROS (repeatable).",
 )  # fmt: skip
-@click.option(
-    "--force", is_flag=True, help="Re-create an existing workspace's sources (keeps your meta and extras)."
-)
+@click.option("--force", is_flag=True, help="Re-clone the repositories its uros.lock lists (keeps the rest).")
 @click.option("--keep-partial", is_flag=True, help="Keep what was created when a step fails.")
 @click.option(
     "--no-dev-build", is_flag=True, help="Do not build the host tools now (the first `uros build` will)."

@@ -24,6 +24,9 @@ from uros_build.profiles import (
     shipped_profiles,
 )
 from uros_build.workspace import (
+    CONFIG,
+    LOCK,
+    Lock,
     Workspace,
     WorkspaceConfig,
     check_build_folder,
@@ -224,6 +227,7 @@ class CreatePlan:
     root: Path
     existed: bool  # the folder was there (empty, or a workspace re-created with --force)
     existing: WorkspaceConfig | None
+    previous: Lock | None  # the lock of the workspace re-created with --force: what uros cloned
     distro: Distro
     mirror: Mirror
     sources: Mapping[str, Source]  # workspace path (dev_ws/..., mcu_ws/...) -> what to clone
@@ -268,19 +272,40 @@ def _check_sources(sources: Mapping[str, Source]) -> None:
             )
 
 
-def _existing(root: Path, force: bool) -> tuple[bool, WorkspaceConfig | None]:
-    """(existed, its config); an existing, non-empty folder needs --force."""
+def _existing(root: Path, force: bool) -> tuple[bool, WorkspaceConfig | None, Lock | None]:
+    """(existed, its config, its lock). An existing, non-empty folder needs --force, and --force
+    needs a workspace uros made: only what its uros.lock lists is ever replaced."""
     if not root.exists():
-        return False, None
+        return False, None, None
+    if not root.is_dir():
+        raise ConfigError(f"--workspace {root}: is a file", "pass a new or empty folder")
     if not any(root.iterdir()):
-        return True, None
+        return True, None, None
     if not force:
         raise ConfigError(
             f"--workspace {root}: already exists",
-            "use another --workspace, or pass --force to re-create its sources "
-            "(your colcon.meta, uros.yaml and mcu_ws/extra_packages/ are kept)",
+            "use another --workspace, or pass --force to re-clone the repositories its uros.lock "
+            "lists (everything else is kept: colcon.meta, uros.yaml, your packages)",
         )
-    return True, load_config(root)
+    cfg = load_config(root)
+    lock = read_lock(root / LOCK, "--workspace") if (root / LOCK).is_file() else None
+    if cfg is None and lock is None:
+        raise ConfigError(
+            f"--workspace {root}: not a workspace made by uros create-firmware (no {CONFIG}, no {LOCK})",
+            "--force re-creates only uros's own clones: use a new or empty folder",
+        )
+    return True, cfg, lock
+
+
+def _check_destinations(root: Path, sources: Mapping[str, Source], previous: Lock | None) -> None:
+    """Every folder about to be cloned into is free, or a clone the previous lock lists."""
+    ours = set(previous.repositories) if previous else set()
+    for path in sorted(sources):
+        if (root / path).exists() and path not in ours:
+            raise ConfigError(
+                f"--workspace {root}: {path} exists and is not in {LOCK}, so uros did not clone it",
+                "move it away (uros never replaces what it did not write), or use a new folder",
+            )
 
 
 def plan_create(args: CreateArgs) -> CreatePlan:
@@ -298,9 +323,10 @@ def plan_create(args: CreateArgs) -> CreatePlan:
     if args.locked or args.lock_file:
         lock_path = args.lock_file or root / "uros.lock"
         locked = read_lock(lock_path, "--lock-file" if args.lock_file else "--locked").commits()
-    existed, existing = _existing(root, args.force)
+    existed, existing, previous = _existing(root, args.force)
     mirror = _mirror_from(args, existing)
     sources = plan_sources(distro, mirror, locked)
     _check_sources(sources)
+    _check_destinations(root, sources, previous)
     probe = find_profile(args.toolchain) if args.toolchain is not None else None
-    return CreatePlan(root, existed, existing, distro, mirror, sources, extras, probe, args)
+    return CreatePlan(root, existed, existing, previous, distro, mirror, sources, extras, probe, args)

@@ -135,12 +135,32 @@ class Lock:
         return json.dumps(data, indent=2, sort_keys=True) + "\n"
 
 
+def check_clone_path(path: str, where: str) -> str:
+    """A repository's place in the workspace: inside dev_ws/ or mcu_ws/, never elsewhere. A lock
+    names what `create-firmware --force` deletes, so a path like '../..' or 'mcu_ws' must not
+    pass."""
+    parts = path.split("/")
+    if (
+        len(parts) < 2
+        or parts[0] not in ("dev_ws", "mcu_ws")
+        or any(p in ("", ".", "..") for p in parts)
+        or parts[:2] == ["mcu_ws", EXTRA]
+        or "\\" in path
+    ):
+        raise ConfigError(
+            f"{where}: {path!r} is not a repository folder inside dev_ws/ or mcu_ws/",
+            "uros.lock is written by `uros create-firmware`: restore it, or re-create the workspace",
+        )
+    return path
+
+
 def parse_lock(data: Any, source: str) -> Lock:
     top = loader.mapping(data, source, required=("repositories",))
     repos = loader.mapping(top["repositories"], f"{source}: repositories")
     out = {}
     for path, entry in repos.items():
         where = f"{source}: repositories.{path}"
+        check_clone_path(str(path), f"{source}: repositories")
         item = loader.mapping(entry, where, required=("commit",))
         out[str(path)] = LockedRepo(
             url=str(item.get("url", "")),
@@ -156,6 +176,19 @@ def read_lock(path: Path, flag: str) -> Lock:
     if not path.is_file():
         raise ConfigError(f"{flag} {path}: no such lock file", hint)
     return parse_lock(loader.load_json(path, flag, hint), f"{flag} {path}")
+
+
+def clone_state(status: str) -> tuple[str, int]:
+    """(HEAD commit, number of changed tracked files) from ``git status --porcelain=v2 --branch
+    --untracked-files=no`` (https://git-scm.com/docs/git-status#_porcelain_format_version_2)."""
+    head = ""
+    changed = 0
+    for line in status.splitlines():
+        if line.startswith("# branch.oid "):
+            head = line.split()[2]
+        elif line and not line.startswith("#"):
+            changed += 1
+    return head, changed
 
 
 # ---------------------------------------------------------------------------------------------

@@ -339,3 +339,98 @@ def test_clone_error_is_in_english_in_a_spanish_locale(
     assert proc.returncode == 4, proc.stderr
     line = next(x for x in proc.stderr.splitlines() if x.startswith("error:"))
     assert "Remote branch no-such-branch not found" in line, line
+
+
+def _pkg(folder: Path, name: str) -> None:
+    folder.mkdir(parents=True)
+    (folder / "package.xml").write_text(f"<package format='3'><name>{name}</name></package>\n")
+
+
+def _tree(root: Path) -> dict[str, bytes]:
+    """Every file under ``root`` but uros's run logs."""
+    files = (p for p in sorted(root.rglob("*")) if p.is_file() and ".uros" not in p.parts)
+    return {str(p.relative_to(root)): p.read_bytes() for p in files}
+
+
+def test_force_replaces_only_what_uros_cloned(upstream: Path, tmp_path: Path) -> None:
+    """Issue 8 item 3: --force deleted the user's own mcu_ws packages. Only the repositories
+    uros.lock lists are re-cloned; the user's packages, next to them or inside their folders, stay."""
+    fw = tmp_path / "firmware"
+    base = ["create-firmware", "--workspace", str(fw), "--no-dev-build", *_mirror(upstream)]
+    run_uros(*base)
+    mine = {
+        "mcu_ws/my_board": "my_board",  # beside the clones
+        "mcu_ws/uros/my_driver": "my_driver",  # inside a folder that holds clones
+        "dev_ws/my_tool": "my_tool",
+    }
+    for rel, name in mine.items():
+        _pkg(fw / rel, name)
+    (fw / "mcu_ws/notes.txt").write_text("keep me\n")
+    (fw / "mcu_ws/uros/rclc/HISTORY").unlink()  # a clone with a deleted file: the user's edit
+    proc = run_uros(*base, "--force", check=False)
+    assert proc.returncode == 2 and "mcu_ws/uros/rclc has 1 changed file(s)" in proc.stderr
+    assert (fw / "mcu_ws/uros/rcl/README").is_file()  # refused before anything was removed
+    _git("checkout", "--", "HISTORY", cwd=fw / "mcu_ws/uros/rclc")
+    new_head = _commit(upstream / "micro-ROS+rcl", "moved on again")
+    run_uros(*base, "--force")
+    for rel, name in mine.items():
+        assert name in (fw / rel / "package.xml").read_text(), rel
+    assert (fw / "mcu_ws/notes.txt").read_text() == "keep me\n"
+    assert _git("rev-parse", "HEAD", cwd=fw / "mcu_ws/uros/rcl") == new_head
+    assert json.loads((fw / "uros.lock").read_text())["repositories"]["mcu_ws/uros/rcl"]["commit"] == new_head
+    # a --force that fails half-way removes what it cloned, and only that
+    proc = run_uros(*base, "--force", "--mirror-override", "uros/rclc=@no-such-branch", check=False)
+    assert proc.returncode == 4, proc.stderr
+    for rel, name in mine.items():
+        assert name in (fw / rel / "package.xml").read_text(), rel
+    assert (fw / "mcu_ws/notes.txt").is_file() and not (fw / "mcu_ws/uros/rcl").exists()
+
+
+def test_force_keeps_a_clone_with_local_commits(upstream: Path, tmp_path: Path) -> None:
+    fw = tmp_path / "firmware"
+    base = ["create-firmware", "--workspace", str(fw), "--no-dev-build", *_mirror(upstream)]
+    run_uros(*base)
+    mine = _commit(fw / "mcu_ws/uros/rclc", "my fix")
+    before = _tree(fw)
+    proc = run_uros(*base, "--force", check=False)
+    assert proc.returncode == 2, proc.stderr
+    errors = [x for x in proc.stderr.splitlines() if x.startswith("error:")]
+    assert len(errors) == 1 and f"mcu_ws/uros/rclc is at {mine[:12]}, not at its locked commit" in errors[0]
+    assert _tree(fw) == before
+
+
+@pytest.mark.parametrize(
+    ("setup", "expected"),
+    [
+        # a folder uros did not make: refused even with --force (issue 8 item 3)
+        ("no-uros-files", "not a workspace made by uros create-firmware (no uros.yaml, no uros.lock)"),
+        # uros.yaml but no lock: a folder uros is about to clone into holds the user's files
+        ("no-lock", "mcu_ws/uros/rclc exists and is not in uros.lock, so uros did not clone it"),
+        # a lock naming a folder outside the clones
+        ("crafted-lock", "'../mine' is not a repository folder inside dev_ws/ or mcu_ws/"),
+    ],
+)
+def test_force_refuses_folders_uros_did_not_make(
+    upstream: Path, tmp_path: Path, setup: str, expected: str
+) -> None:
+    fw = tmp_path / "firmware"
+    _pkg(fw / "mcu_ws/uros/rclc", "my_rclc")
+    _pkg(tmp_path / "mine", "mine")
+    if setup == "no-lock":
+        (fw / "uros.yaml").write_text("distro: humble\n")
+    if setup == "crafted-lock":
+        (fw / "uros.lock").write_text(json.dumps({"repositories": {"../mine": {"commit": "c" * 40}}}))
+    before = _tree(tmp_path)
+    proc = run_uros(
+        "create-firmware",
+        "--workspace",
+        str(fw),
+        "--no-dev-build",
+        "--force",
+        *_mirror(upstream),
+        check=False,
+    )
+    assert proc.returncode == 2, proc.stderr
+    errors = [x for x in proc.stderr.splitlines() if x.startswith("error:")]
+    assert len(errors) == 1 and expected in errors[0], proc.stderr
+    assert _tree(tmp_path) == before

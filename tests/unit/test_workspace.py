@@ -79,7 +79,13 @@ def test_lock_round_trip(tmp_path: Path) -> None:
     [
         ("{", "not valid JSON"),
         ("[]", "expected a mapping"),
-        ('{"repositories": {"a": {}}}', "commit: is required"),
+        ('{"repositories": {"mcu_ws/a": {}}}', "commit: is required"),
+        # what --force deletes: only repository folders inside dev_ws/ or mcu_ws/
+        ('{"repositories": {"../..": {"commit": "c"}}}', "is not a repository folder inside"),
+        ('{"repositories": {"mcu_ws": {"commit": "c"}}}', "is not a repository folder inside"),
+        ('{"repositories": {"mcu_ws/../x": {"commit": "c"}}}', "is not a repository folder inside"),
+        ('{"repositories": {"mcu_ws/extra_packages/a": {"commit": "c"}}}', "is not a repository folder"),
+        ('{"repositories": {"/etc/x": {"commit": "c"}}}', "is not a repository folder inside"),
         ('{"repositories": []}', "repositories: expected a mapping"),
     ],
 )
@@ -90,8 +96,19 @@ def test_bad_lock(tmp_path: Path, text: str, message: str) -> None:
 
 
 def test_parse_lock_keeps_every_field() -> None:
-    lock = parse_lock({"distro": "humble", "repositories": {"p": {"commit": "x", "url": "u"}}}, "l")
-    assert lock.repositories["p"].url == "u" and lock.distro == "humble"
+    lock = parse_lock({"distro": "humble", "repositories": {"dev_ws/p": {"commit": "x", "url": "u"}}}, "l")
+    assert lock.repositories["dev_ws/p"].url == "u" and lock.distro == "humble"
+
+
+def test_clone_state_reads_head_and_changes() -> None:
+    from uros_build.workspace import clone_state
+
+    clean = "# branch.oid 0123abc\n# branch.head humble\n"
+    assert clone_state(clean) == ("0123abc", 0)
+    dirty = (
+        clean + "1 .M N... 100644 100644 100644 a b src/rcl.c\n2 R. N... 100644 100644 100644 a b R100 n\to\n"
+    )
+    assert clone_state(dirty) == ("0123abc", 2)
 
 
 def test_sync_tree_touches_only_what_changed(tmp_path: Path) -> None:

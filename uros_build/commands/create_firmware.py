@@ -6,14 +6,14 @@ parallel, write uros.lock, uros.yaml and colcon.meta, build the host tools once.
 from __future__ import annotations
 
 import shutil
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 from uros_build import console, hosttools
 from uros_build import meta as meta_mod
 from uros_build.distros import Source
-from uros_build.errors import StepFailed, UrosError
+from uros_build.errors import ConfigError, StepFailed, UrosError
 from uros_build.plan import CreateArgs, CreatePlan, plan_create
 from uros_build.proc import Runner, new_run_log
 from uros_build.workspace import (
@@ -24,6 +24,7 @@ from uros_build.workspace import (
     Lock,
     Workspace,
     WorkspaceConfig,
+    clone_state,
     save_config,
     sync_tree,
 )
@@ -75,25 +76,52 @@ def _ignore(root: Path, ws: str, paths: tuple[str, ...]) -> None:
             console.warn(f"{ws}/{rel} is not in the workspace; nothing to ignore there")
 
 
-def _clear_sources(root: Path) -> None:
-    """--force: remove the cloned sources, keep what the user made (uros.yaml, colcon.meta, extras)."""
-    shutil.rmtree(root / "dev_ws", ignore_errors=True)
-    mcu = root / "mcu_ws"
-    if mcu.is_dir():
-        for child in mcu.iterdir():
-            if child.name != EXTRA:
-                shutil.rmtree(child) if child.is_dir() else child.unlink()
+def _check_untouched(runner: Runner, git: str, root: Path, previous: Lock) -> None:
+    """--force re-clones what uros cloned; a clone with the user's edits or commits holds the
+    user's work, so it is refused before anything is removed."""
+    hint = "save your work elsewhere (or remove the folder yourself); --force re-clones it"
+    for path, repo in sorted(previous.repositories.items()):
+        folder = root / path
+        if not folder.exists():
+            continue
+        if not (folder / ".git").exists():
+            raise ConfigError(f"--workspace {root}: {path} is in {LOCK} but is no git clone any more", hint)
+        status = runner.query(
+            [git, "-C", str(folder), "status", "--porcelain=v2", "--branch", "--untracked-files=no"],
+            step=f"read {path}",
+        )
+        head, changed = clone_state(status)
+        if changed:
+            raise ConfigError(f"--workspace {root}: {path} has {changed} changed file(s) (git status)", hint)
+        if head != repo.commit:
+            raise ConfigError(
+                f"--workspace {root}: {path} is at {head[:12]}, not at its locked commit {repo.commit[:12]}",
+                hint,
+            )
 
 
-def _remove_partial(root: Path, existed: bool) -> None:
+def _remove_clones(root: Path, paths: Iterable[str]) -> None:
+    """Remove these clones (and the folders they leave empty) and dev_ws's build trees: all of it
+    written by uros. Everything else in the workspace stays."""
+    stops = {root / "dev_ws", root / "mcu_ws", root}
+    for path in sorted(paths, reverse=True):
+        folder = root / path
+        shutil.rmtree(folder, ignore_errors=True)
+        parent = folder.parent
+        while parent not in stops and parent.is_dir() and not any(parent.iterdir()):
+            parent.rmdir()
+            parent = parent.parent
+    for tree in ("build", "install", "log"):
+        shutil.rmtree(root / "dev_ws" / tree, ignore_errors=True)
+
+
+def _remove_partial(root: Path, existed: bool, cloned: Iterable[str]) -> None:
     if not existed:
         shutil.rmtree(root, ignore_errors=True)
         console.info(f"removed the partial workspace {root} (keep it with --keep-partial)")
         return
-    shutil.rmtree(root / "dev_ws", ignore_errors=True)
-    for child in (root / "mcu_ws").iterdir() if (root / "mcu_ws").is_dir() else ():
-        if child.name != EXTRA:
-            shutil.rmtree(child, ignore_errors=True)
+    # Every folder cloned into was free or uros's own (plan._check_destinations).
+    _remove_clones(root, cloned)
     console.info(f"removed the partial sources in {root} (keep them with --keep-partial)")
 
 
@@ -117,12 +145,14 @@ def create_firmware(args: CreateArgs) -> Path:
     console.info(f"log: {runner.log_path}")
     try:
         git = _precheck(runner, plan)
+        if plan.previous is not None:
+            _check_untouched(runner, git, root, plan.previous)
     except UrosError:
         if not plan.existed:
             shutil.rmtree(root, ignore_errors=True)
         raise
-    if plan.existed:
-        _clear_sources(root)
+    if plan.previous is not None:
+        _remove_clones(root, plan.previous.repositories)
     if distro.status == "manifest-only":
         console.warn(
             f"the {distro.name} manifest was written from upstream facts and not built by uros's authors"
@@ -150,7 +180,7 @@ def create_firmware(args: CreateArgs) -> Path:
             hosttools.build_dev_workspace(Workspace(root), cfg, runner, args.verbose)
     except (UrosError, KeyboardInterrupt):
         if not args.keep_partial:
-            _remove_partial(root, plan.existed)
+            _remove_partial(root, plan.existed, plan.sources)
         raise
     console.step(f"created {root} ({len(commits)} repositories, locked in {LOCK}; edit {CONFIG} freely)")
     return root
