@@ -96,57 +96,72 @@ def _tuple(data: Mapping[str, Any], key: str, source: str) -> tuple[str, ...]:
     return loader.string_list(data, key, source)
 
 
+def _optional(data: Mapping[str, Any], key: str, source: str) -> str | None:
+    value = data.get(key)
+    if value is not None and not isinstance(value, str):
+        raise ConfigError(f"{source}: {key}: must be a string, got {value!r}")
+    return value or None
+
+
+def _count(data: Mapping[str, Any], key: str, source: str) -> int:
+    value = loader.integer(data, key, source, 0)
+    if value < 0:
+        raise ConfigError(f"{source}: {key}: must be 0 or more, got {value}")
+    return value
+
+
 def parse_build_info(data: Any, source: str) -> BuildInfo:
     """The dataclass from parsed JSON; a ConfigError naming the key on anything malformed."""
     top = loader.mapping(data, source)
-    try:
-        flags = loader.mapping(top.get("flags"), f"{source}: flags")
-        lib = loader.mapping(top.get("library"), f"{source}: library", required=("file", "sha256"))
-        inc = loader.mapping(top.get("include"), f"{source}: include")
-        comp = top.get("compiler")
-        compiler = None
-        if comp is not None:
-            comp = loader.mapping(comp, f"{source}: compiler")
-            compiler = Compiler(str(comp.get("path", "")), str(comp.get("version", "")))
-        size = lib.get("size")
-        return BuildInfo(
-            generated_by=loader.string(top, "generated_by", source),
-            target=loader.string(top, "target", source),
-            profile=top.get("profile"),
-            toolchain_file=top.get("toolchain_file"),
-            compiler=compiler,
-            cmake_version=str(top.get("cmake_version", "")),
-            flags=Flags(
-                cpu=_tuple(flags, "cpu", f"{source}: flags"),
-                c=_tuple(flags, "c", f"{source}: flags"),
-                cxx=_tuple(flags, "cxx", f"{source}: flags"),
-                optimization=flags.get("optimization"),
-                micro_ros_only=_tuple(flags, "micro_ros_only", f"{source}: flags"),
-            ),
-            transport=top.get("transport"),
-            packages=_tuple(top, "packages", source),
-            library=Library(
-                file=str(lib["file"]),
-                bytes=int(lib.get("bytes", 0)),
-                sha256=str(lib["sha256"]),
-                members=int(lib.get("members", 0)),
-                defined_global_symbols=int(lib.get("defined_global_symbols", 0)),
-                renamed_duplicate_members=int(lib.get("renamed_duplicate_members", 0)),
-                inputs=_tuple(lib, "inputs", f"{source}: library"),
-                size={str(k): int(v) for k, v in size.items()} if isinstance(size, dict) else None,
-            ),
-            include=Include(
-                dir=str(inc.get("dir", "include")),
-                files=int(inc.get("files", 0)),
-                bytes=int(inc.get("bytes", 0)),
-                packages=int(inc.get("packages", 0)),
-            ),
-            abi_check=dict(loader.mapping(top.get("abi_check"), f"{source}: abi_check")),
-            skipped_python_packages=_tuple(top, "skipped_python_packages", source),
-            idf_target=top.get("idf_target") or None,
-        )
-    except (TypeError, ValueError) as exc:
-        raise ConfigError(f"{source}: not a uros build-info file ({exc})") from None
+    flags = loader.mapping(top.get("flags"), f"{source}: flags")
+    lib_where = f"{source}: library"
+    lib = loader.mapping(top.get("library"), lib_where, required=("file", "sha256"))
+    inc = loader.mapping(top.get("include"), f"{source}: include")
+    comp = top.get("compiler")
+    compiler = None
+    if comp is not None:
+        comp = loader.mapping(comp, f"{source}: compiler")
+        compiler = Compiler(str(comp.get("path", "")), str(comp.get("version", "")))
+    size = None
+    if lib.get("size") is not None:
+        sizes = loader.mapping(lib["size"], f"{lib_where}: size")
+        size = {str(k): _count(sizes, k, f"{lib_where}: size") for k in sizes}
+    return BuildInfo(
+        generated_by=loader.string(top, "generated_by", source),
+        target=loader.string(top, "target", source),
+        profile=_optional(top, "profile", source),
+        toolchain_file=_optional(top, "toolchain_file", source),
+        compiler=compiler,
+        cmake_version=str(top.get("cmake_version", "")),
+        flags=Flags(
+            cpu=_tuple(flags, "cpu", f"{source}: flags"),
+            c=_tuple(flags, "c", f"{source}: flags"),
+            cxx=_tuple(flags, "cxx", f"{source}: flags"),
+            optimization=_optional(flags, "optimization", f"{source}: flags"),
+            micro_ros_only=_tuple(flags, "micro_ros_only", f"{source}: flags"),
+        ),
+        transport=_optional(top, "transport", source),
+        packages=_tuple(top, "packages", source),
+        library=Library(
+            file=loader.string(lib, "file", lib_where),
+            bytes=_count(lib, "bytes", lib_where),
+            sha256=loader.string(lib, "sha256", lib_where),
+            members=_count(lib, "members", lib_where),
+            defined_global_symbols=_count(lib, "defined_global_symbols", lib_where),
+            renamed_duplicate_members=_count(lib, "renamed_duplicate_members", lib_where),
+            inputs=_tuple(lib, "inputs", lib_where),
+            size=size,
+        ),
+        include=Include(
+            dir=loader.string(inc, "dir", f"{source}: include", "include"),
+            files=_count(inc, "files", f"{source}: include"),
+            bytes=_count(inc, "bytes", f"{source}: include"),
+            packages=_count(inc, "packages", f"{source}: include"),
+        ),
+        abi_check=dict(loader.mapping(top.get("abi_check"), f"{source}: abi_check")),
+        skipped_python_packages=_tuple(top, "skipped_python_packages", source),
+        idf_target=_optional(top, "idf_target", source),
+    )
 
 
 def read_build_info(out: Path, flag: str = "--from") -> BuildInfo:

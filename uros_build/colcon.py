@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import sys
 from collections.abc import Mapping
@@ -153,3 +154,18 @@ def build_env(
             env[f"GIT_CONFIG_KEY_{i}"] = key
             env[f"GIT_CONFIG_VALUE_{i}"] = value
     return env, scrubbed
+
+
+# colcon's console_cohesion+/console_direct+ line for a package whose build failed:
+# "Failed   <<< fx_dup [0.05s, exited with code 1]" (colcon_core/event_handler/console_start_end.py)
+_FAILED = re.compile(r"^Failed\s+<<< (\S+)")
+
+
+def failed_packages(lines: list[str] | tuple[str, ...]) -> list[str]:
+    """The packages colcon reports as failed, in the order it reported them."""
+    return [m[1] for m in map(_FAILED.match, lines) if m]
+
+
+def package_log(log_base: Path, package: str) -> Path:
+    """colcon's full log of one package in its latest build (colcon-core's log layout)."""
+    return log_base / "latest_build" / package / "stdout_stderr.log"

@@ -36,6 +36,10 @@ class StepFailed(UrosError):
 
     exit_code = 4
 
+    def __init__(self, message: str, hint: str | None = None, output: tuple[str, ...] = ()) -> None:
+        super().__init__(message, hint)
+        self.output = output  # what the command printed, for a caller that can explain it better
+
 
 class VerifyError(UrosError):
     """The output does not hold what the inputs had (lost archive members, wrong ABI)."""

@@ -11,7 +11,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
-from uros_build import colcon, console, toolsearch
+from uros_build import abi, colcon, console, toolsearch
 from uros_build import distros as distros_mod
 from uros_build.archive import BinTools
 from uros_build.errors import MissingToolError, StepFailed
@@ -122,6 +122,9 @@ def probe_host(
     if profile is None:
         return HostFacts(cmake, version, colcon_prog)
     tools, tool_dir = probe_target_tools(runner, profile)
+    # the ABI check reads the library with the host's readelf after the build: found now, a
+    # missing one costs seconds rather than the whole build
+    runner.which(abi.READELF, abi.READELF_HINT)
     gcc_version = runner.query([tools["gcc"], "-dumpversion"], step="gcc -dumpversion").strip()
     if check_libraries:
         check_target_prerequisites(runner, profile, tools, scratch)

@@ -11,7 +11,7 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
-from uros_build import __version__
+from uros_build import __version__, loader
 from uros_build.errors import ConfigError
 
 PRIMITIVES = {
@@ -58,9 +58,15 @@ def _check_lines(lines: list[tuple[int, str]], source: str) -> set[str]:
             deps.add(pkg)
         constant = _CONSTANT_DEF.match(rest)
         if constant is not None:
-            if not _CONST.match(constant.group("name")):
-                name = constant.group("name")
+            name = constant.group("name")
+            if not _CONST.match(name):
                 raise ConfigError(f"{source}:{number}: constant {name!r} must be UPPER_CASE")
+            if pkg is not None or base not in PRIMITIVES or match.group("array") is not None:
+                raise ConfigError(
+                    f"{source}:{number}: constant {name!r} must have a primitive type, no array"
+                )
+            value = rest.split("=", 1)[1].strip()
+            _check_default(base, value, f"{source}:{number}", "constant value")
             continue
         name, *default = rest.split(None, 1)
         if not _FIELD.match(name):
@@ -76,8 +82,9 @@ def _check_lines(lines: list[tuple[int, str]], source: str) -> set[str]:
 _INTEGERS = {"byte", "char", "int8", "uint8", "int16", "uint16", "int32", "uint32", "int64", "uint64"}
 
 
-def _check_default(type_name: str, value: str, where: str) -> None:
-    """The default-value rules rosidl_adapter applies to scalar primitives (parse_primitive_value_string)."""
+def _check_default(type_name: str, value: str, where: str, what: str = "default value") -> None:
+    """The value rules rosidl_adapter applies to scalar primitives, for defaults and constants
+    alike (parse_primitive_value_string)."""
     problem = None
     if type_name in _INTEGERS:
         try:
@@ -101,7 +108,7 @@ def _check_default(type_name: str, value: str, where: str) -> None:
     elif type_name == "bool" and value.lower() not in ("true", "false", "0", "1"):
         problem = "is not true/false"
     if problem:
-        raise ConfigError(f"{where}: default value {value!r} {problem} for type {type_name}")
+        raise ConfigError(f"{where}: {what} {value!r} {problem} for type {type_name}")
 
 
 def read_interface(path: Path, kind: str) -> InterfaceFile:
@@ -114,7 +121,7 @@ def read_interface(path: Path, kind: str) -> InterfaceFile:
         raise ConfigError(
             f"{flag} {path}: {path.stem!r} is not a valid type name", "use CamelCase, e.g. CmdVel.msg"
         )
-    text = path.read_text(encoding="utf-8")
+    text = loader.read_text(path, flag, "rosidl reads interface files as UTF-8: save it so")
     lines = list(enumerate(text.splitlines(), start=1))
     if kind == "srv":
         separators = [n for n, line in lines if line.strip() == "---"]

@@ -66,6 +66,13 @@ def parse_meta(text: str, source: str) -> Meta:
                 if not all(isinstance(v, str) for v in value):
                     raise ConfigError(f"{source}: names.{pkg}.{opt} must be a list of strings", hint)
                 out[pkg][opt] = tuple(value)
+            elif opt.endswith("-args"):
+                # colcon hands these to argparse as lists: a string is read one character at a
+                # time, which CMake then rejects as "Unknown argument -"
+                raise ConfigError(
+                    f"{source}: names.{pkg}.{opt} must be a list of strings, got {value!r}",
+                    f'write it as a list: "{opt}": [{json.dumps(value)}]',
+                )
             elif isinstance(value, str | bool | int | float):
                 out[pkg][opt] = value
             else:

@@ -2,10 +2,14 @@
 
 from __future__ import annotations
 
+import difflib
 import os
 import xml.etree.ElementTree as ET
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
+
+from uros_build.errors import ConfigError
 
 # Every dependency but tests and docs: a generator package's exec and export dependencies run
 # while its dependents build (iron's rosidl_generator_c imports rosidl_pycommon, an
@@ -40,16 +44,28 @@ def discover(source_dir: Path) -> list[PackageInfo]:
         if "package.xml" not in filenames:
             continue
         dirnames[:] = []  # packages do not nest
+        xml = Path(dirpath) / "package.xml"
+        # colcon only logs an unreadable manifest (at debug level) and then builds the folder as a
+        # plain CMake or Python package, without its dependencies: say so before it does.
+        hint = "fix it, or leave the package out with an empty COLCON_IGNORE file in its folder"
         try:
-            root = ET.parse(Path(dirpath) / "package.xml").getroot()
-        except ET.ParseError:
-            continue  # colcon reports it
+            root = ET.parse(xml).getroot()
+        except ET.ParseError as exc:
+            raise ConfigError(f"{xml}: not a valid package.xml ({exc})", hint) from None
+        except OSError as exc:
+            raise ConfigError(f"{xml}: cannot read: {exc.strerror}", hint) from None
         name = (root.findtext("name") or "").strip()
+        if not name:
+            raise ConfigError(f"{xml}: has no <name>", hint)
         build_type = (root.findtext("export/build_type") or "ament_cmake").strip()
         deps = frozenset((e.text or "").strip() for tag in _BUILD_DEPS for e in root.findall(tag))
-        if name:
-            found.append(PackageInfo(name, build_type, deps, Path(dirpath)))
+        found.append(PackageInfo(name, build_type, deps, Path(dirpath)))
     return sorted(found, key=lambda p: p.name)
+
+
+def closest(name: str, names: Iterable[str]) -> list[str]:
+    """Package names that look like ``name`` (a typo in --set or a meta file), best first."""
+    return difflib.get_close_matches(name, list(names), n=3, cutoff=0.6)
 
 
 def host_only(packages: list[PackageInfo]) -> list[str]:

@@ -14,8 +14,10 @@ from pathlib import Path
 from uros_build import defaults, loader
 from uros_build import distros as distros_mod
 from uros_build import meta as meta_mod
+from uros_build import packages as packages_mod
 from uros_build.distros import Distro, Mirror, Source
 from uros_build.errors import ConfigError
+from uros_build.packages import PackageInfo
 from uros_build.profiles import (
     TargetProfile,
     derive_profile,
@@ -31,8 +33,10 @@ from uros_build.workspace import (
     WorkspaceConfig,
     check_build_folder,
     check_extra_package,
+    check_folder_target,
     check_output_dir,
     load_config,
+    parse_config,
     read_lock,
     target_key,
 )
@@ -163,10 +167,33 @@ class BuildPlan:
     packages_up_to: tuple[str, ...]
     jobs: int | None
     verbose: bool
+    packages: tuple[PackageInfo, ...] = ()  # every package colcon will find in the workspace
+    warnings: tuple[str, ...] = ()  # inputs that are valid but likely not what the user meant
 
     @property
     def profile(self) -> TargetProfile | None:
         return target_profile(self.target)
+
+
+def _closest(name: str, names: set[str]) -> str:
+    near = packages_mod.closest(name, names)
+    return f" (closest: {', '.join(near)})" if near else ""
+
+
+def unknown_packages(metas: list[meta_mod.Meta], sets: tuple[str, ...], names: set[str]) -> list[str]:
+    """Warnings for --meta and --set entries that name no package of the workspace: colcon
+    ignores them without a word, so a typo would silently build with the default (pure)."""
+    out = []
+    for meta in metas:
+        for pkg in meta.names:
+            if pkg not in names:
+                near = _closest(pkg, names)
+                out.append(f"--meta {meta.source}: names.{pkg}: no package {pkg} in the workspace{near}")
+    for item in sets:
+        pkg = item.partition(".")[0]
+        if pkg not in names:
+            out.append(f"--set {item}: no package {pkg} in the workspace{_closest(pkg, names)}")
+    return out
 
 
 def plan_build(args: BuildArgs) -> BuildPlan:
@@ -183,7 +210,17 @@ def plan_build(args: BuildArgs) -> BuildPlan:
     )
     if args.jobs is not None and args.jobs < 1:
         raise ConfigError(f"-j/--jobs {args.jobs}: must be 1 or more", "omit it to let colcon choose")
+    packages = packages_mod.discover(ws.source_dir)
+    names = {p.name for p in packages}
+    for pkg in args.packages_up_to:
+        if pkg not in names:
+            raise ConfigError(
+                f"--packages-up-to {pkg}: no package {pkg} in {ws.source_dir}{_closest(pkg, names)}",
+                "name a package of the workspace (a folder with a package.xml)",
+            )
+    warnings = unknown_packages([meta_mod.load_meta_file(p) for p in args.metas], args.sets, names)
     out = (args.output or ws.default_output(target.key)).resolve()
+    check_folder_target(out, "--output")
     check_output_dir(out, args.force)
     return BuildPlan(
         workspace=ws,
@@ -196,6 +233,8 @@ def plan_build(args: BuildArgs) -> BuildPlan:
         packages_up_to=args.packages_up_to,
         jobs=args.jobs,
         verbose=args.verbose,
+        packages=tuple(packages),
+        warnings=tuple(warnings),
     )
 
 
@@ -250,9 +289,10 @@ def _mirror_from(args: CreateArgs, existing: WorkspaceConfig | None) -> Mirror:
     if existing is not None:
         parts.append(existing.mirror)
     if args.config is not None:
-        source = f"--config {args.config}"
-        data = loader.mapping(loader.load_yaml(args.config, "--config"), source)
-        parts.append(distros_mod.load_mirror_config(loader.mapping(data.get("mirror"), source), source))
+        given = parse_config(
+            loader.load_yaml(args.config, "--config"), f"--config {args.config}", partial=True
+        )
+        parts.append(given.mirror)
     parts.append(
         Mirror(
             tuple(distros_mod.parse_rule(s) for s in args.mirrors),

@@ -58,19 +58,33 @@ _ERROR_PATTERNS = tuple(
         # is what a user needs rather than the CMake stack around it
         r"^\s*Error processing '|^\s*([\w.]+\.)?(Invalid\w+|\w+Error): ",
         r"CMake Error",
+        # colcon's own errors (duplicate package names, a bad option in a meta file)
+        r"^\[[\d.]+s\] ERROR:colcon",
         r"\berror: |\bError: |^fatal: ",
         r"^FAILED: |\*\*\* ",
     )
 )
+_COLCON_LOG_PREFIX = re.compile(r"^\[[\d.]+s\] ERROR:[\w.]+:\s*")
+_LONGEST = 300
 
 
 def first_error(lines: Sequence[str]) -> str | None:
+    """The most telling line of ``lines``, one line: a header that ends in ':' ("CMake Error at
+    CMakeLists.txt:4 (message):", colcon's "Duplicate package names not supported:") carries the
+    indented lines that follow it (the message itself), up to a blank line."""
     for pattern in _ERROR_PATTERNS:
-        for line in lines:
+        for i, line in enumerate(lines):
             if pattern.search(line):
-                text = line.strip()
+                text = _COLCON_LOG_PREFIX.sub("", line.strip())
+                if text.endswith(":"):
+                    for more in lines[i + 1 : i + 8]:
+                        if not more.strip() or not (more[:1].isspace() or more.startswith("- ")):
+                            break
+                        if more.strip().startswith("Call Stack"):
+                            break
+                        text += " " + more.strip()
                 # ninja's FAILED lines list every output of the step: keep the message one line
-                return text if len(text) <= 300 else text[:297] + "..."
+                return text if len(text) <= _LONGEST else text[: _LONGEST - 3] + "..."
     return lines[-1].strip() if lines else None
 
 
@@ -276,7 +290,9 @@ class Runner:
         cause = first_error(lines)
         detail = f": {cause}" if cause else ""
         raise StepFailed(
-            f"{step} failed (exit {code}){detail}", hint or f"the full output is in {self.log_path}"
+            f"{step} failed (exit {code}){detail}",
+            hint or f"the full output is in {self.log_path}",
+            output=tuple(lines),
         )
 
 

@@ -61,10 +61,12 @@ class WorkspaceConfig:
 _CONFIG_KEYS = {"distro", "platform", "mirror", "extra_packages"}
 
 
-def parse_config(data: Any, source: str) -> WorkspaceConfig:
-    top = loader.mapping(data, source, _CONFIG_KEYS, required=("distro",))
+def parse_config(data: Any, source: str, partial: bool = False) -> WorkspaceConfig:
+    """``partial``: a --config file, read for its mirror section, may leave the distro out (its
+    other keys are checked all the same)."""
+    top = loader.mapping(data, source, _CONFIG_KEYS, required=() if partial else ("distro",))
     return WorkspaceConfig(
-        distro=loader.string(top, "distro", source),
+        distro=loader.string(top, "distro", source) if "distro" in top or not partial else "",
         platform=loader.string(top, "platform", source, "generate_lib"),
         mirror=distros_mod.load_mirror_config(
             loader.mapping(top.get("mirror"), f"{source}: mirror"), f"{source}"
@@ -423,7 +425,13 @@ def locked(folder: Path) -> Iterator[None]:
     """One build per target tree at a time: a second `uros build` waits, then reuses the trees."""
     folder.mkdir(parents=True, exist_ok=True)
     with (folder / ".lock").open("w") as handle:
-        fcntl.flock(handle, fcntl.LOCK_EX)
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            console.info(
+                f"waiting for another uros build of this target to finish (it holds {folder / '.lock'})"
+            )
+            fcntl.flock(handle, fcntl.LOCK_EX)
         try:
             yield
         finally:
@@ -439,6 +447,30 @@ def write_if_changed(path: Path, text: str) -> bool:
     tmp.write_text(text, encoding="utf-8")
     tmp.replace(path)
     return True
+
+
+def _nearest_existing(path: Path) -> Path:
+    while not path.exists() and path != path.parent:
+        path = path.parent
+    return path
+
+
+def check_folder_target(path: Path, flag: str) -> None:
+    """A folder uros will create or fill: it, or the nearest of its parents that exists, must
+    be a folder, not a file (else a traceback from mkdir after the work is done)."""
+    found = _nearest_existing(path)
+    if found.exists() and not found.is_dir():
+        what = "is a file" if found == path else f"is inside {found}, which is a file"
+        raise ConfigError(f"{flag} {path}: {what}", "pass a folder (it is created if missing)")
+
+
+def check_file_target(path: Path, flag: str) -> None:
+    """A file uros will write: not a folder, and the nearest existing parent is a folder."""
+    if path.is_dir():
+        raise ConfigError(f"{flag} {path}: is a folder", f"pass a file name, e.g. {path / 'out.txt'}")
+    found = _nearest_existing(path.parent)
+    if found.exists() and not found.is_dir():
+        raise ConfigError(f"{flag} {path}: {found} is a file, not a folder", "pass a path in a folder")
 
 
 def check_output_dir(out: Path, force: bool, flag: str = "--output") -> None:

@@ -20,7 +20,7 @@ from uros_build.buildinfo import BUILD_INFO, BuildInfo, Compiler, Flags, Include
 from uros_build.errors import StepFailed
 from uros_build.hosttools import HostFacts
 from uros_build.plan import BuildArgs, BuildPlan, ProfileTarget, meta_transport, plan_build
-from uros_build.proc import Runner
+from uros_build.proc import Runner, first_error
 from uros_build.toolchain import (
     CLOCK_HEADER_NAME,
     CLOCK_HEADER_TEXT,
@@ -39,6 +39,8 @@ def build(args: BuildArgs) -> Path:
     runner = Runner(ws.new_log("build", plan.target.key), verbose=plan.verbose)
     console.step(f"uros build: target {plan.target.key}, workspace {ws.root}")
     console.info(f"log: {runner.log_path}")
+    for warning in plan.warnings:
+        console.warn(warning)
     facts = hosttools.probe_host(
         runner, plan.profile, plan.target_dir, check_libraries=plan.config is not None
     )
@@ -78,7 +80,7 @@ def _run_colcon(
     env, scrubbed = hosttools.colcon_env(ws, plan.config, facts.cmake_version)
     if scrubbed:
         console.warn(f"ignoring the sourced environment for this build: {', '.join(scrubbed)}")
-    skipped = tuple(packages_mod.host_only(packages_mod.discover(ws.source_dir)))
+    skipped = tuple(packages_mod.host_only(list(plan.packages)))
     if skipped:
         console.info(f"not building {len(skipped)} pure-Python packages: {', '.join(skipped)}")
     colcon_plan = colcon.ColconPlan(
@@ -96,14 +98,32 @@ def _run_colcon(
         parallel_workers=plan.jobs,
     )
     console.step("colcon build")
-    runner.run(
-        colcon.colcon_argv(colcon_plan, facts.colcon),
-        step="colcon build",
-        cwd=ws.root,
-        env=env,
-        hint=f"the full output is in {runner.log_path}",
-    )
+    try:
+        runner.run(
+            colcon.colcon_argv(colcon_plan, facts.colcon),
+            step="colcon build",
+            cwd=ws.root,
+            env=env,
+            hint=f"the full output is in {runner.log_path}",
+        )
+    except StepFailed as exc:
+        raise _colcon_failure(exc, colcon_plan.log_base, runner.log_path) from None
     return skipped
+
+
+def _colcon_failure(exc: StepFailed, log_base: Path, run_log: Path) -> StepFailed:
+    """Name the package that failed and its own first error, read from colcon's log of that
+    package (the interleaved output of parallel packages can put another's line first)."""
+    failed = colcon.failed_packages(exc.output)
+    if not failed:
+        return exc
+    package = failed[0]
+    log = colcon.package_log(log_base, package)
+    lines = log.read_text(encoding="utf-8", errors="replace").splitlines() if log.is_file() else []
+    cause = first_error(lines) or first_error(exc.output) or "no error line in its output"
+    others = f" (also failed: {', '.join(failed[1:])})" if failed[1:] else ""
+    where = f"its log: {log}; everything: {run_log}" if lines else f"the full output is in {run_log}"
+    return StepFailed(f"colcon build failed in package {package}{others}: {cause}", where, exc.output)
 
 
 def _prepare_toolchain(plan: BuildPlan, facts: HostFacts) -> Path:

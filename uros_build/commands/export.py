@@ -7,7 +7,7 @@ from pathlib import Path
 from uros_build import console, export
 from uros_build.buildinfo import BuildInfo, read_build_info
 from uros_build.errors import ConfigError
-from uros_build.workspace import check_output_dir
+from uros_build.workspace import check_folder_target, check_output_dir
 
 
 def _prepare(source: Path | None, output: Path) -> tuple[BuildInfo, Path]:
@@ -16,6 +16,7 @@ def _prepare(source: Path | None, output: Path) -> tuple[BuildInfo, Path]:
     info = read_build_info(src, "--from" if source else "--output")
     out = output.resolve()
     if src != out:
+        check_folder_target(out, "--output")
         check_output_dir(out, force=False)
         export.copy_build_output(src, out)
     return info, out

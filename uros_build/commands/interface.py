@@ -6,6 +6,7 @@ from pathlib import Path
 
 from uros_build import console, interfaces
 from uros_build.errors import ConfigError
+from uros_build.workspace import check_folder_target
 
 
 def interface_new(name: str, msgs: list[Path], srvs: list[Path], output: Path | None, force: bool) -> Path:
@@ -14,6 +15,7 @@ def interface_new(name: str, msgs: list[Path], srvs: list[Path], output: Path | 
     ]
     texts = interfaces.package_files(name, files)
     dest = (output or Path(name)).resolve()
+    check_folder_target(dest, "--output")
     if dest.exists() and any(dest.iterdir()) and not force:
         raise ConfigError(f"interface new: {dest} already exists", "choose another --output, or pass --force")
     for rel, text in texts.items():

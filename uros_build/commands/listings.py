@@ -14,7 +14,7 @@ from uros_build.errors import ConfigError
 from uros_build.plan import meta_for, resolve_target
 from uros_build.profiles import find_profile, load_profile_file, shipped_profiles
 from uros_build.toolchain import CLOCK_HEADER_NAME, CLOCK_HEADER_TEXT, ToolchainRequest, render_toolchain
-from uros_build.workspace import write_if_changed
+from uros_build.workspace import check_file_target, write_if_changed
 
 
 def targets_table() -> list[dict[str, Any]]:
@@ -50,9 +50,11 @@ def write_output_file(path: Path | None, text: str, flag: str = "--output") -> N
     if path is None:
         sys.stdout.write(text)
         return
-    if path.is_dir():
-        raise ConfigError(f"{flag} {path}: is a folder", f"pass a file name, e.g. {path / 'out.txt'}")
-    write_if_changed(path, text)
+    check_file_target(path, flag)
+    try:
+        write_if_changed(path, text)
+    except OSError as exc:
+        raise ConfigError(f"{flag} {path}: cannot write: {exc.strerror}") from None
     console.info(f"wrote {path}")
 
 
@@ -64,6 +66,8 @@ def render_toolchain_file(target: str, output: Path | None, micro_ros: bool, gcc
     """
     profile = load_profile_file(Path(target)) if target.endswith((".yaml", ".yml")) else find_profile(target)
     header: Path | None = None
+    if output is not None:
+        check_file_target(output, "--output")  # before the header is written beside it
     if micro_ros and output is not None and profile.micro_ros.declare_clock_gettime:
         header = output.resolve().with_name(CLOCK_HEADER_NAME)
         write_if_changed(header, CLOCK_HEADER_TEXT)

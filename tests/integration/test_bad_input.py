@@ -1,0 +1,373 @@
+"""Bad input answered in one line through the real CLI (issue 8, "Bad input that still gives a
+traceback or a useless line"): the file or flag named, the fix in the hint, a non-zero exit, no
+traceback, and the first error of a failed build carrying the package and the reason."""
+
+from __future__ import annotations
+
+import fcntl
+import json
+import shutil
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import pytest
+from conftest import need
+from fixture_ws import make_fixture_workspace
+from uros_helpers import env_without, run_uros
+
+pytestmark = pytest.mark.integration
+
+Setup = Callable[[Path], list[str]]
+
+
+def _one_error(proc: subprocess.CompletedProcess[str]) -> str:
+    errors = [line for line in proc.stderr.splitlines() if line.startswith("error:")]
+    assert len(errors) == 1, proc.stderr
+    assert "Traceback" not in proc.stderr and "internal error" not in proc.stderr, proc.stderr
+    return errors[0]
+
+
+def _ws(tmp: Path) -> Path:
+    return make_fixture_workspace(tmp / "ws")
+
+
+def _build(tmp: Path, *more: str) -> list[str]:
+    return ["build", "--toolchain", "cortex-m7", "--workspace", str(_ws(tmp)), *more]
+
+
+def _file(tmp: Path, name: str, data: bytes | str) -> Path:
+    path = tmp / name
+    path.write_bytes(data.encode() if isinstance(data, str) else data)
+    return path
+
+
+def _uros_yaml(text: str) -> Setup:
+    def setup(tmp: Path) -> list[str]:
+        args = _build(tmp)
+        (tmp / "ws" / "uros.yaml").write_text(text)
+        return args
+
+    return setup
+
+
+def _config(text: str) -> Setup:
+    def setup(tmp: Path) -> list[str]:
+        cfg = _file(tmp, "c.yaml", text)
+        return ["create-firmware", "--workspace", str(tmp / "fw"), "--no-dev-build", "--config", str(cfg)]
+
+    return setup
+
+
+def _msg(text: bytes | str, name: str = "Wheel.msg") -> Setup:
+    def setup(tmp: Path) -> list[str]:
+        msg = _file(tmp, name, text)
+        return ["interface", "new", "my_msgs", "--msg", str(msg), "--output", str(tmp / "my_msgs")]
+
+    return setup
+
+
+def _a_file(tmp: Path) -> Path:
+    return _file(tmp, "notes.txt", "mine\n")
+
+
+def _broken_package_xml(tmp: Path) -> list[str]:
+    args = _build(tmp)
+    (tmp / "ws/mcu_ws/src/fx_dup/package.xml").write_text("<package><name>fx_dup")
+    return args
+
+
+CASES: dict[str, tuple[Setup, int, str]] = {
+    "uros.yaml extra_packages is a string": (
+        _uros_yaml("distro: humble\nextra_packages: abc\n"),
+        2,
+        "uros.yaml: extra_packages: must be a list of strings, got 'abc'",
+    ),
+    "uros.yaml is a list": (
+        _uros_yaml("- humble\n"),
+        2,
+        "uros.yaml: expected a mapping (key: value lines), got list",
+    ),
+    "uros.yaml mirror is a number": (
+        _uros_yaml("distro: humble\nmirror: 3\n"),
+        2,
+        "uros.yaml: mirror: expected a mapping",
+    ),
+    "--config extra_packages is a string": (
+        _config("extra_packages: abc\n"),
+        2,
+        "c.yaml: extra_packages: must be a list of strings, got 'abc'",
+    ),
+    "--config with an unknown key": (
+        _config("colour: red\n"),
+        2,
+        "colour: unknown key (known: distro, extra_packages",
+    ),
+    "--config mirror rules of numbers": (
+        _config("mirror: {rules: [1]}\n"),
+        2,
+        "mirror: rules: must be a list of strings",
+    ),
+    "--mirror with {user}": (
+        lambda tmp: [
+            "create-firmware",
+            "--workspace",
+            str(tmp / "fw"),
+            "--no-dev-build",
+            "--mirror",
+            "https://github.com/{user}/{repo}=/m/{user}+{repo}",
+        ],
+        2,
+        "unknown placeholder {user} in UPSTREAM (known: {owner}, {repo})",
+    ),
+    "--meta not UTF-8": (
+        lambda tmp: _build(tmp, "--meta", str(_file(tmp, "bad.meta", b'{"names": {"a\xff": {}}}'))),
+        2,
+        "bad.meta: not UTF-8 text (byte 13)",
+    ),
+    "--meta cmake-args is a string": (
+        lambda tmp: _build(
+            tmp, "--meta", str(_file(tmp, "s.meta", '{"names": {"fx_time": {"cmake-args": "-DA=1"}}}'))
+        ),
+        2,
+        "s.meta: names.fx_time.cmake-args must be a list of strings, got '-DA=1'",
+    ),
+    ".msg not UTF-8": (_msg(b"int32 rpm # \xff\n"), 2, "Wheel.msg: not UTF-8 text (byte 12)"),
+    "constant int8 = 300": (
+        _msg("int8 LIMIT = 300\n"),
+        2,
+        "Wheel.msg:1: constant value '300' is outside -128..127 for type int8",
+    ),
+    "constant uint8 = -1": (
+        _msg("uint8 LIMIT=-1\n"),
+        2,
+        "Wheel.msg:1: constant value '-1' is outside 0..255 for type uint8",
+    ),
+    "constant of an array type": (
+        _msg("int8[2] LIMITS = [1, 2]\n"),
+        2,
+        "constant 'LIMITS' must have a primitive type, no array",
+    ),
+    "build --output is a file": (
+        lambda tmp: _build(tmp, "--output", str(_a_file(tmp))),
+        2,
+        "notes.txt: is a file",
+    ),
+    "build --output inside a file": (
+        lambda tmp: _build(tmp, "--output", str(_a_file(tmp) / "out")),
+        2,
+        "notes.txt, which is a file",
+    ),
+    "interface new --output is a file": (
+        lambda tmp: [*_msg("int32 rpm\n")(tmp)[:-1], str(_a_file(tmp))],
+        2,
+        "notes.txt: is a file",
+    ),
+    "toolchain render -o a folder": (
+        lambda tmp: ["toolchain", "render", "cortex-m7", "--for", "micro-ros", "-o", str(tmp)],
+        2,
+        ": is a folder",
+    ),
+    "toolchain render -o inside a file": (
+        lambda tmp: ["toolchain", "render", "cortex-m7", "-o", str(_a_file(tmp) / "t.cmake")],
+        2,
+        "notes.txt is a file, not a folder",
+    ),
+    "meta write -o a folder": (lambda tmp: ["meta", "write", "-o", str(tmp)], 2, ": is a folder"),
+    "meta write -o inside a file": (
+        lambda tmp: ["meta", "write", "-o", str(_a_file(tmp) / "x" / "c.meta")],
+        2,
+        "notes.txt is a file, not a folder",
+    ),
+    "build -j -1": (lambda tmp: _build(tmp, "-j", "-1"), 2, "-j/--jobs -1: must be 1 or more"),
+    "create-firmware -j 0": (
+        lambda tmp: ["create-firmware", "--workspace", str(tmp / "fw"), "-j", "0"],
+        2,
+        "-j/--jobs 0: must be 1 or more",
+    ),
+    "--packages-up-to a typo": (
+        lambda tmp: _build(tmp, "--packages-up-to", "fx_cre"),
+        2,
+        "--packages-up-to fx_cre: no package fx_cre in",  # then "(closest: fx_core, ...)"
+    ),
+    "a broken package.xml": (
+        _broken_package_xml,
+        2,
+        "fx_dup/package.xml: not a valid package.xml (no element found: line 1",
+    ),
+}
+
+
+@pytest.mark.parametrize("case", sorted(CASES))
+def test_bad_input_is_one_line_naming_what_and_nothing_is_created(tmp_path: Path, case: str) -> None:
+    setup, code, expected = CASES[case]
+    args = setup(tmp_path)
+    before = sorted(p for p in tmp_path.rglob("*") if ".uros" not in p.parts)
+    proc = run_uros(*args, check=False)
+    assert proc.returncode == code, proc.stderr
+    line = _one_error(proc)
+    assert expected in line, line
+    if case == "--packages-up-to a typo":
+        assert "(closest: fx_core" in line
+    after = sorted(p for p in tmp_path.rglob("*") if ".uros" not in p.parts)
+    assert after == before, f"{case}: created {sorted(set(after) - set(before))}"
+
+
+def _edited(change: Callable[[dict[str, object]], None]) -> Callable[[bytes], bytes]:
+    def edit(good: bytes) -> bytes:
+        info = json.loads(good)
+        change(info)
+        return json.dumps(info).encode()
+
+    return edit
+
+
+BAD_BUILD_INFO: dict[str, tuple[Callable[[bytes], bytes], str]] = {
+    "truncated": (lambda good: good[:40], "not valid JSON"),
+    "a list": (lambda good: b"[]", "expected a mapping"),
+    "a count that is a word": (
+        _edited(lambda info: info["library"].update(bytes="many")),  # type: ignore[attr-defined]
+        "library: bytes: must be a whole number, got 'many'",
+    ),
+    "idf_target a number": (
+        _edited(lambda info: info.update(idf_target=5)),
+        "idf_target: must be a string, got 5",
+    ),
+    "not UTF-8": (lambda good: good.replace(b"cortex-m7", b"cortex-m7\xff", 1), "not UTF-8 text"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD_BUILD_INFO))
+def test_corrupt_build_info_in_export_cmake(m7_build: Path, tmp_path: Path, case: str) -> None:
+    out = tmp_path / "out"
+    shutil.copytree(m7_build / "build" / "cortex-m7", out)
+    corrupt, expected = BAD_BUILD_INFO[case]
+    (out / "build-info.json").write_bytes(corrupt((out / "build-info.json").read_bytes()))
+    for args in (["--output", str(out)], ["--from", str(out), "--output", str(tmp_path / "copy")]):
+        proc = run_uros("export", "cmake", *args, check=False)
+        assert proc.returncode == 2, proc.stderr
+        assert expected in _one_error(proc) and "build-info.json" in _one_error(proc)
+    assert not (tmp_path / "copy").exists()
+
+
+def test_export_to_a_file_is_refused(m7_build: Path, tmp_path: Path) -> None:
+    mine = _a_file(tmp_path)
+    proc = run_uros(
+        "export", "cmake", "--from", str(m7_build / "build" / "cortex-m7"), "--output", str(mine), check=False
+    )
+    assert proc.returncode == 2 and "notes.txt: is a file" in _one_error(proc)
+    assert mine.read_text() == "mine\n"
+
+
+def test_toolchain_render_into_a_folder_writes_nothing_beside_it(tmp_path: Path) -> None:
+    folder = tmp_path / "tc"
+    folder.mkdir()
+    proc = run_uros("toolchain", "render", "cortex-m7", "--for", "micro-ros", "-o", str(folder), check=False)
+    assert proc.returncode == 2
+    assert sorted(tmp_path.iterdir()) == [folder]  # no uros_clock_gettime.h beside the folder
+
+
+# -- the first error of a failed build -------------------------------------------------------
+
+
+def test_cmake_error_shows_the_package_and_the_message(tmp_path: Path) -> None:
+    need("arm-none-eabi-gcc", "cmake")
+    ws = _ws(tmp_path)
+    cmake = ws / "mcu_ws/src/fx_dup/CMakeLists.txt"
+    cmake.write_text(
+        cmake.read_text().replace(
+            "project(fx_dup C)", 'project(fx_dup C)\nmessage(FATAL_ERROR "fx_dup needs FOO set")'
+        )
+    )
+    proc = run_uros(
+        "build", "--toolchain", "cortex-m7", "--workspace", str(ws), "--packages-up-to", "fx_dup", check=False
+    )
+    assert proc.returncode == 4
+    line = _one_error(proc)
+    assert "colcon build failed in package fx_dup: CMake Error at CMakeLists.txt:" in line
+    assert line.endswith("(message): fx_dup needs FOO set"), line
+    hint = proc.stderr.splitlines()[-1]
+    assert hint.startswith("hint: its log: ") and "above" not in proc.stderr
+    package_log = Path(hint.split("its log: ", 1)[1].split(";", 1)[0])
+    assert package_log.is_file() and "fx_dup needs FOO set" in package_log.read_text()
+
+
+def test_compile_error_names_the_package_among_parallel_ones(tmp_path: Path) -> None:
+    need("arm-none-eabi-gcc", "cmake")
+    ws = _ws(tmp_path)
+    (ws / "mcu_ws/src/fx_dup/src/b/common.c").write_text("int fx_dup_b(void) { return 'b' * ; }\n")
+    args = ["build", "--toolchain", "cortex-m7", "--workspace", str(ws), "--meta", str(ws / "fixture.meta")]
+    proc = run_uros(*args, check=False)
+    assert proc.returncode == 4
+    line = _one_error(proc)
+    assert line.startswith("error: colcon build failed in package fx_dup: ") and "b/common.c:1:" in line, line
+
+
+def test_duplicate_package_names_name_both_folders(tmp_path: Path) -> None:
+    need("arm-none-eabi-gcc", "cmake")
+    ws = _ws(tmp_path)
+    shutil.copytree(ws / "mcu_ws/src/fx_dup", ws / "mcu_ws/src/fx_dup_copy")
+    proc = run_uros("build", "--toolchain", "cortex-m7", "--workspace", str(ws), check=False)
+    assert proc.returncode == 4
+    line = _one_error(proc)
+    assert "Duplicate package names not supported: - fx_dup:" in line
+    assert "mcu_ws/src/fx_dup " in line + " " and "mcu_ws/src/fx_dup_copy" in line
+
+
+def test_set_and_meta_naming_no_package_warn_with_the_closest_names(tmp_path: Path) -> None:
+    need("arm-none-eabi-gcc", "cmake")
+    ws = _ws(tmp_path)
+    typo = _file(tmp_path, "typo.meta", '{"names": {"fx_tme": {"cmake-args": ["-DFX_TIME_ENABLE=ON"]}}}')
+    proc = run_uros(
+        "build", "--toolchain", "cortex-m7", "--workspace", str(ws), "--packages-up-to", "fx_core",
+        "--meta", str(typo), "--set", "fx_cor.FX_SLOW=OFF",
+    )  # fmt: skip
+    warnings = [line for line in proc.stderr.splitlines() if line.startswith("warning:")]
+    assert (
+        f"warning: --meta {typo}: names.fx_tme: no package fx_tme in the workspace (closest: fx_time"
+        in warnings[0]
+    )
+    assert (
+        "warning: --set fx_cor.FX_SLOW=OFF: no package fx_cor in the workspace (closest: fx_core)" in warnings
+    )
+    assert (ws / "build" / "cortex-m7" / "libmicroros.a").is_file()  # a warning, not an error
+
+
+def test_missing_readelf_is_reported_before_the_build(tmp_path: Path) -> None:
+    need("arm-none-eabi-gcc", "cmake")
+    ws = _ws(tmp_path)
+    env = env_without(("readelf",), tmp_path / "no-readelf")
+    proc = run_uros("build", "--toolchain", "cortex-m7", "--workspace", str(ws), check=False, env=env)
+    assert proc.returncode == 3, proc.stderr
+    assert "'readelf' was not found on PATH" in _one_error(proc)
+    assert "binutils" in proc.stderr and "colcon build" not in proc.stderr
+    assert not (ws / ".uros" / "targets" / "cortex-m7" / "build").exists()
+
+
+def test_a_build_waiting_for_the_lock_says_so(tmp_path: Path) -> None:
+    need("arm-none-eabi-gcc", "cmake")
+    ws = _ws(tmp_path)
+    lock = ws / ".uros" / "targets" / "cortex-m7" / ".lock"
+    lock.parent.mkdir(parents=True)
+    lines: list[str] = []
+    with lock.open("w") as held:
+        fcntl.flock(held, fcntl.LOCK_EX)  # another build of this target, as far as uros can tell
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "uros_build", "build", "--toolchain", "cortex-m7", "--workspace", str(ws),
+             "--packages-up-to", "fx_core"],
+            stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True,
+        )  # fmt: skip
+        assert proc.stderr is not None
+        reader = threading.Thread(target=lambda: lines.extend(proc.stderr))  # type: ignore[arg-type]
+        reader.start()
+        deadline = time.monotonic() + 60
+        while not any("waiting for another uros build" in line for line in lines):
+            assert proc.poll() is None and time.monotonic() < deadline, "".join(lines)
+            time.sleep(0.2)
+        assert not any("colcon build" in line for line in lines)  # it waits before building
+    assert proc.wait(timeout=120) == 0, "".join(lines)
+    reader.join()
+    assert any(f"(it holds {lock})" in line for line in lines)
