@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import difflib
 import os
+import re
 import xml.etree.ElementTree as ET
 from collections.abc import Iterable
 from dataclasses import dataclass
@@ -61,6 +62,28 @@ def discover(source_dir: Path) -> list[PackageInfo]:
         deps = frozenset((e.text or "").strip() for tag in _BUILD_DEPS for e in root.findall(tag))
         found.append(PackageInfo(name, build_type, deps, Path(dirpath)))
     return sorted(found, key=lambda p: p.name)
+
+
+_PROJECT = re.compile(r"^\s*project\s*\(\s*([A-Za-z0-9_.+-]+)", re.IGNORECASE | re.MULTILINE)
+
+
+def plain_cmake_packages(source_dir: Path) -> set[str]:
+    """Packages colcon finds without a package.xml: folders with a CMakeLists.txt, named by their
+    project() (colcon-cmake's identification). Only looked for when a name is not found among the
+    package.xml packages, so that such a package is never reported missing."""
+    found = set()
+    for dirpath, dirnames, filenames in os.walk(source_dir):
+        if "COLCON_IGNORE" in filenames or "package.xml" in filenames:
+            dirnames[:] = []
+            continue
+        dirnames[:] = sorted(d for d in dirnames if not d.startswith("."))
+        if "CMakeLists.txt" in filenames:
+            dirnames[:] = []
+            text = (Path(dirpath) / "CMakeLists.txt").read_text(encoding="utf-8", errors="replace")
+            match = _PROJECT.search(text)
+            if match:
+                found.add(match[1])
+    return found
 
 
 def closest(name: str, names: Iterable[str]) -> list[str]:

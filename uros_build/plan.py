@@ -212,13 +212,18 @@ def plan_build(args: BuildArgs) -> BuildPlan:
         raise ConfigError(f"-j/--jobs {args.jobs}: must be 1 or more", "omit it to let colcon choose")
     packages = packages_mod.discover(ws.source_dir)
     names = {p.name for p in packages}
+    named = {*args.packages_up_to, *(s.partition(".")[0] for s in args.sets)}
+    given_metas = [meta_mod.load_meta_file(p) for p in args.metas]
+    named |= {pkg for m in given_metas for pkg in m.names}
+    if named - names:  # colcon also builds CMake packages that have no package.xml
+        names |= packages_mod.plain_cmake_packages(ws.source_dir)
     for pkg in args.packages_up_to:
         if pkg not in names:
             raise ConfigError(
                 f"--packages-up-to {pkg}: no package {pkg} in {ws.source_dir}{_closest(pkg, names)}",
-                "name a package of the workspace (a folder with a package.xml)",
+                "name a package of the workspace (a folder with a package.xml or a CMakeLists.txt)",
             )
-    warnings = unknown_packages([meta_mod.load_meta_file(p) for p in args.metas], args.sets, names)
+    warnings = unknown_packages(given_metas, args.sets, names)
     out = (args.output or ws.default_output(target.key)).resolve()
     check_folder_target(out, "--output")
     check_output_dir(out, args.force)

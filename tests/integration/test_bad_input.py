@@ -371,3 +371,23 @@ def test_a_build_waiting_for_the_lock_says_so(tmp_path: Path) -> None:
     assert proc.wait(timeout=120) == 0, "".join(lines)
     reader.join()
     assert any(f"(it holds {lock})" in line for line in lines)
+
+
+def test_a_cmake_package_without_package_xml_is_a_package(tmp_path: Path) -> None:
+    """colcon builds a folder with only a CMakeLists.txt too: naming it is no typo."""
+    need("arm-none-eabi-gcc", "cmake")
+    ws = _ws(tmp_path)
+    plain = ws / "mcu_ws/src/fx_plain"
+    plain.mkdir()
+    (plain / "CMakeLists.txt").write_text(
+        'cmake_minimum_required(VERSION 3.16)\nproject(fx_plain C)\noption(FX_PLAIN_ON "" OFF)\n'
+        'if(NOT FX_PLAIN_ON)\n  message(FATAL_ERROR "--set did not reach fx_plain")\nendif()\n'
+        "add_library(fx_plain STATIC plain.c)\ninstall(TARGETS fx_plain ARCHIVE DESTINATION lib)\n"
+    )
+    (plain / "plain.c").write_text("int fx_plain(void) { return 7; }\n")
+    proc = run_uros(
+        "build", "--toolchain", "cortex-m7", "--workspace", str(ws), "--packages-up-to", "fx_plain",
+        "--set", "fx_plain.FX_PLAIN_ON=ON",
+    )  # fmt: skip
+    assert "warning:" not in proc.stderr
+    assert "fx_plain" in json.loads((ws / "build/cortex-m7/build-info.json").read_text())["packages"]

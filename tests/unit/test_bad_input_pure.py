@@ -177,3 +177,19 @@ def test_a_broken_package_xml_is_named(tmp_path: Path) -> None:
         packages.discover(tmp_path)
     (pkg / "COLCON_IGNORE").write_text("")
     assert packages.discover(tmp_path) == []
+
+
+def test_cmake_packages_without_package_xml_count_as_packages(tmp_path: Path) -> None:
+    (tmp_path / "plain").mkdir()
+    (tmp_path / "plain" / "CMakeLists.txt").write_text(
+        "cmake_minimum_required(VERSION 3.16)\nPROJECT( my_plain C)\n"
+    )
+    (tmp_path / "plain" / "sub").mkdir()  # colcon does not look inside a package
+    (tmp_path / "plain" / "sub" / "CMakeLists.txt").write_text("project(inner)\n")
+    (tmp_path / "ros").mkdir()
+    (tmp_path / "ros" / "package.xml").write_text("<package><name>ros_pkg</name></package>")
+    (tmp_path / "ros" / "CMakeLists.txt").write_text("project(ros_pkg)\n")
+    (tmp_path / "ignored").mkdir()
+    (tmp_path / "ignored" / "COLCON_IGNORE").write_text("")
+    (tmp_path / "ignored" / "CMakeLists.txt").write_text("project(ignored)\n")
+    assert packages.plain_cmake_packages(tmp_path) == {"my_plain"}
