@@ -54,10 +54,11 @@ def _toolchain_option(help_text: str) -> _Decorator:
     )
 
 
-def _workspace_option(default: Path, help_text: str) -> _Decorator:
+def _workspace_option(help_text: str) -> _Decorator:
+    # One default everywhere, resolved by plan.resolve_workspace (None here: "not given").
     return click.option(
         "-w", "--workspace", "--dir", "workspace", cls=_Option, aliases=("--dir",), type=_PATH,
-        default=default, show_default=True, help=help_text,
+        default=None, show_default=defaults.WORKSPACE_HELP, help=help_text,
     )  # fmt: skip
 
 
@@ -164,7 +165,7 @@ def meta_write(
 @click.command()
 @_toolchain_option("A target name (see `uros targets`) or your own CMake toolchain file.")
 @click.option("--profile", type=_PATH, help="Your own target profile (.yaml, as in toolchains/).")
-@_workspace_option(defaults.WORKSPACE, "The firmware workspace.")
+@_workspace_option("The firmware workspace.")
 @_METAS
 @_SETS
 @_PRESET
@@ -185,7 +186,7 @@ def meta_write(
 def build(
     toolchain: str | None,
     profile: Path | None,
-    workspace: Path,
+    workspace: Path | None,
     metas: tuple[Path, ...],
     sets: tuple[str, ...],
     preset: str,
@@ -255,7 +256,7 @@ def export_esp_idf(output: Path, source: Path | None) -> None:
 @click.option(
     "--distro", default=defaults.DISTRO, show_default=True, help="micro-ROS distro (see `uros distros`)."
 )
-@_workspace_option(defaults.FIRMWARE_DIR, "Workspace folder to create.")
+@_workspace_option("Workspace folder to create.")
 @click.option(
     "--mirror", "mirrors", multiple=True, metavar="UPSTREAM=LOCAL",
     help="Rewrite URLs, e.g. 'https://github.com/{owner}/{repo}=/srv/mirror/{owner}+{repo}/repo'.",
@@ -284,7 +285,7 @@ def export_esp_idf(output: Path, source: Path | None) -> None:
 def create_firmware(
     platform: str,
     distro: str,
-    workspace: Path,
+    workspace: Path | None,
     mirrors: tuple[str, ...],
     overrides: tuple[str, ...],
     config: Path | None,
@@ -322,10 +323,10 @@ def create_firmware(
 
 @click.command("add-package")
 @click.argument("source")
-@_workspace_option(defaults.FIRMWARE_DIR, "Firmware workspace.")
+@_workspace_option("Firmware workspace.")
 @click.option("--version", help="Branch or tag, for a git URL.")
 @_VERBOSE
-def add_package(source: str, workspace: Path, version: str | None, verbose: bool) -> None:
+def add_package(source: str, workspace: Path | None, version: str | None, verbose: bool) -> None:
     """Add a package (a folder, kept in sync at every build, or a git URL) to the MCU workspace."""
     add_package_cmd.add_package(source, workspace, version, verbose)
 

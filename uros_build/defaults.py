@@ -8,5 +8,8 @@ DISTRO = "humble"  # the STM32H7 and ESP32-S3 guides uros grew from both build h
 PLATFORM = "generate_lib"  # a library for any MCU; the only platform uros creates
 PRESET = "default"  # the workspace distro's colcon.meta preset, else DISTRO's
 CLONE_JOBS = 4  # parallel git clones in create-firmware
-WORKSPACE = Path(".")  # uros build: the current folder
-FIRMWARE_DIR = Path("firmware")  # create-firmware --workspace / add-package --workspace
+# Every command's -w/--workspace: the nearest folder upward from the current one that holds a
+# uros.yaml (as west finds its topdir), else FIRMWARE_DIR (what create-firmware makes by default).
+WORKSPACE_MARKER = "uros.yaml"
+FIRMWARE_DIR = Path("firmware")
+WORKSPACE_HELP = f"nearest folder upward with {WORKSPACE_MARKER}, else ./{FIRMWARE_DIR}"

@@ -35,11 +35,40 @@ from uros_build.workspace import (
     check_extra_package,
     check_folder_target,
     check_output_dir,
+    find_workspace,
     load_config,
     parse_config,
     read_lock,
     target_key,
 )
+
+# ---------------------------------------------------------------------------------------------
+# the workspace: one default for every command
+
+
+def resolve_workspace(given: Path | None, cwd: Path | None = None) -> Path:
+    """-w/--workspace as given, else the nearest folder upward with a uros.yaml, else ./firmware."""
+    if given is not None:
+        return given
+    here = cwd if cwd is not None else Path.cwd()
+    found = find_workspace(here)
+    return found if found is not None else here / defaults.FIRMWARE_DIR
+
+
+def open_workspace(given: Path | None, cwd: Path | None = None) -> Workspace:
+    """The workspace a build runs in. Without -w, a folder that is no uros workspace is refused
+    before anything is written: run in the wrong folder, a build would crawl every project below
+    it for packages and leave .uros/ and build/ behind."""
+    path = resolve_workspace(given, cwd)
+    if given is None and not path.exists():
+        here = cwd if cwd is not None else Path.cwd()
+        raise ConfigError(
+            f"no uros workspace here: no {CONFIG} in {here} or above it, and no ./{defaults.FIRMWARE_DIR}",
+            "cd into a firmware workspace, create one with `uros create-firmware generate_lib` "
+            "(makes ./firmware), or pass -w DIR (a colcon workspace with packages works too)",
+        )
+    return Workspace.open(path)
+
 
 # ---------------------------------------------------------------------------------------------
 # the target: a profile uros renders a toolchain file from, or the user's own toolchain file
@@ -139,7 +168,7 @@ def meta_transport(meta: meta_mod.Meta) -> str | None:
 class BuildArgs:
     """What the command line said, unvalidated."""
 
-    workspace: Path = defaults.WORKSPACE
+    workspace: Path | None = None  # None: resolve_workspace's default
     toolchain: str | None = None
     profile: Path | None = None
     metas: tuple[Path, ...] = ()
@@ -198,7 +227,7 @@ def unknown_packages(metas: list[meta_mod.Meta], sets: tuple[str, ...], names: s
 
 def plan_build(args: BuildArgs) -> BuildPlan:
     """Validate every input of `uros build` (reads files, starts nothing)."""
-    ws = Workspace.open(args.workspace)
+    ws = open_workspace(args.workspace)
     target = resolve_target(args.toolchain, args.profile, args.compiler_prefix, args.cflags)
     cfg = load_config(ws.root)
     distro = distros_mod.load_distro(cfg.distro) if cfg else None
@@ -249,7 +278,7 @@ def plan_build(args: BuildArgs) -> BuildPlan:
 
 @dataclass(frozen=True)
 class CreateArgs:
-    directory: Path = defaults.FIRMWARE_DIR
+    directory: Path | None = None  # None: resolve_workspace's default
     distro: str = defaults.DISTRO
     platform: str = defaults.PLATFORM
     mirrors: tuple[str, ...] = ()
@@ -361,7 +390,7 @@ def plan_create(args: CreateArgs) -> CreatePlan:
     if args.jobs < 1:
         raise ConfigError(f"-j/--jobs {args.jobs}: must be 1 or more")
     distro = distros_mod.load_distro(args.distro)
-    root = args.directory.resolve()
+    root = resolve_workspace(args.directory).resolve()
     check_build_folder(root, "--workspace")
     extras = tuple((p, check_extra_package(p, "--extra-package")) for p in args.extra_packages)
     locked: dict[str, str] | None = None

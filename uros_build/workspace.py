@@ -32,13 +32,13 @@ from typing import Any
 
 import yaml
 
-from uros_build import __version__, console, loader, proc
+from uros_build import __version__, console, defaults, loader, proc
 from uros_build import distros as distros_mod
 from uros_build.buildinfo import BUILD_INFO
 from uros_build.distros import Mirror, Source
 from uros_build.errors import ConfigError
 
-CONFIG = "uros.yaml"
+CONFIG = defaults.WORKSPACE_MARKER  # "uros.yaml"
 LOCK = "uros.lock"
 USER_META = "colcon.meta"
 EXTRA = "extra_packages"
@@ -96,6 +96,15 @@ def config_text(cfg: WorkspaceConfig) -> str:
 
 def save_config(root: Path, cfg: WorkspaceConfig) -> None:
     write_if_changed(root / CONFIG, config_text(cfg))
+
+
+def find_workspace(start: Path) -> Path | None:
+    """The nearest folder from ``start`` upward that holds a uros.yaml (west's topdir search)."""
+    start = start.resolve()
+    for folder in (start, *start.parents):
+        if (folder / CONFIG).is_file():
+            return folder
+    return None
 
 
 # ---------------------------------------------------------------------------------------------
@@ -288,8 +297,9 @@ class Workspace:
         ws = cls(root)
         if not ws.has_packages():
             raise ConfigError(
-                f"{flag} {path}: no package.xml found under {ws.source_dir}",
-                "a workspace holds packages (folders with package.xml) in mcu_ws/ or in the folder itself",
+                f"{flag} {path}: not a uros workspace (no {CONFIG}) and no package.xml under {ws.source_dir}",
+                "create one with `uros create-firmware generate_lib -w DIR`; a colcon workspace holds "
+                "packages (folders with package.xml) in mcu_ws/ or in the folder itself",
             )
         return ws
 

@@ -189,7 +189,7 @@ def test_bad_input_is_one_line_and_nonzero(m7_build: Path, tmp_path: Path) -> No
             "unknown target 'cortex-m99'",
         ),
         (["build", "--toolchain", "cortex-m7", "--workspace", str(tmp_path / "nope")], 2, "no such folder"),
-        (["build", "--toolchain", "cortex-m7", "--workspace", str(tmp_path)], 2, "no package.xml found"),
+        (["build", "--toolchain", "cortex-m7", "--workspace", str(tmp_path)], 2, "not a uros workspace"),
         (
             ["build", "--toolchain", "cortex-m7", "--workspace", str(m7_build), "--meta", "missing.meta"],
             2,

@@ -138,7 +138,7 @@ def test_plan_build_refuses_bad_input(tmp_path: Path, change: dict[str, object],
 
 
 def test_plan_build_needs_packages(tmp_path: Path) -> None:
-    with pytest.raises(ConfigError, match=r"no package\.xml found"):
+    with pytest.raises(ConfigError, match=r"not a uros workspace .* no package\.xml"):
         plan_build(BuildArgs(workspace=tmp_path, toolchain="cortex-m7"))
 
 
@@ -223,3 +223,13 @@ def test_plan_create_refuses_a_bad_config_file(tmp_path: Path, text: str, messag
     cfg.write_text(text, encoding="utf-8")
     with pytest.raises(ConfigError, match=message):
         plan_create(CreateArgs(directory=tmp_path / "fw", config=cfg))
+
+
+def test_workspace_default_is_the_nearest_uros_yaml_upward(tmp_path: Path) -> None:
+    from uros_build.plan import resolve_workspace
+
+    (tmp_path / "fw" / "mcu_ws" / "src").mkdir(parents=True)
+    (tmp_path / "fw" / "uros.yaml").write_text("distro: humble\n")
+    assert resolve_workspace(None, tmp_path / "fw" / "mcu_ws" / "src") == (tmp_path / "fw").resolve()
+    assert resolve_workspace(None, tmp_path) == tmp_path / "firmware"
+    assert resolve_workspace(Path("given"), tmp_path / "fw") == Path("given")

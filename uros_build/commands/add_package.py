@@ -3,20 +3,22 @@
 from __future__ import annotations
 
 import shutil
+from dataclasses import replace
 from pathlib import Path
 
 from uros_build import console
 from uros_build.errors import ConfigError, StepFailed
+from uros_build.plan import resolve_workspace
 from uros_build.proc import Runner
-from uros_build.workspace import Workspace, WorkspaceConfig, check_extra_package, save_config, sync_tree
+from uros_build.workspace import Workspace, check_extra_package, save_config, sync_tree
 
 
 def _is_url(source: str) -> bool:
     return "://" in source or source.startswith("git@")
 
 
-def add_package(source: str, workspace: Path, version: str | None, verbose: bool) -> Path:
-    ws, cfg = Workspace.open_firmware(workspace)
+def add_package(source: str, workspace: Path | None, version: str | None, verbose: bool) -> Path:
+    ws, cfg = Workspace.open_firmware(resolve_workspace(workspace))
     if _is_url(source):
         return _clone_package(ws, source, version, verbose)
     path = Path(source).resolve()
@@ -24,7 +26,7 @@ def add_package(source: str, workspace: Path, version: str | None, verbose: bool
     entries = list(cfg.extra_packages)
     if str(path) not in entries:
         entries.append(str(path))
-    save_config(ws.root, WorkspaceConfig(cfg.distro, cfg.platform, cfg.mirror, tuple(entries)))
+    save_config(ws.root, replace(cfg, extra_packages=tuple(entries)))
     dest = ws.extra_dir / name
     sync_tree(path, dest)
     console.step(f"added {name}: {path} is synced into {dest} at every `uros build`")

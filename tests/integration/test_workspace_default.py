@@ -1,0 +1,71 @@
+"""One -w/--workspace default for every command, through the real CLI: the nearest folder upward
+with a uros.yaml, else ./firmware; `uros build` refuses a folder that is no uros workspace."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from fixture_ws import make_fixture_workspace
+from uros_helpers import run_uros
+
+pytestmark = pytest.mark.integration
+
+
+def _firmware(root: Path) -> Path:
+    """A hand-written firmware workspace: what uros reads needs no clone (uros.yaml, mcu_ws/)."""
+    (root / "mcu_ws" / "src").mkdir(parents=True)
+    (root / "uros.yaml").write_text("distro: humble\n")
+    return root
+
+
+def _package(folder: Path, name: str) -> Path:
+    folder.mkdir(parents=True)
+    (folder / "package.xml").write_text(
+        f"<package format='3'><name>{name}</name><version>0.1.0</version><description>d</description>"
+        "<maintainer email='a@b.c'>m</maintainer><license>MIT</license></package>\n"
+    )
+    return folder
+
+
+def test_build_outside_a_workspace_is_refused_and_writes_nothing(tmp_path: Path) -> None:
+    proc = run_uros("build", "--toolchain", "cortex-m7", cwd=tmp_path, check=False)
+    assert proc.returncode == 2, proc.stderr
+    assert "no uros workspace here" in proc.stderr and "create-firmware" in proc.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_colcon_workspace_needs_w(tmp_path: Path) -> None:
+    """Packages without a uros.yaml: not found by default (a build run in the wrong folder crawled
+    every project below it), built when named with -w (see test_build_fixture)."""
+    ws = make_fixture_workspace(tmp_path / "ws")
+    before = sorted(p.name for p in ws.iterdir())
+    proc = run_uros("build", "--toolchain", "cortex-m7", cwd=ws, check=False)
+    assert proc.returncode == 2 and "-w DIR" in proc.stderr, proc.stderr
+    assert sorted(p.name for p in ws.iterdir()) == before  # no .uros/, no build/
+
+
+def test_a_folder_without_packages_or_uros_yaml_is_refused_with_w(tmp_path: Path) -> None:
+    (tmp_path / "notes.txt").write_text("mine\n")
+    proc = run_uros("build", "--toolchain", "cortex-m7", "-w", str(tmp_path), check=False)
+    assert proc.returncode == 2 and "not a uros workspace" in proc.stderr, proc.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["notes.txt"]
+
+
+def test_the_nearest_uros_yaml_upward_is_the_workspace(tmp_path: Path) -> None:
+    fw = _firmware(tmp_path / "project" / "fw")
+    pkg = _package(tmp_path / "my_msgs", "my_msgs")
+    deep = fw / "mcu_ws" / "src"
+    run_uros("add-package", str(pkg), cwd=deep)
+    assert (fw / "mcu_ws" / "extra_packages" / "my_msgs" / "package.xml").is_file()
+    assert str(pkg) in (fw / "uros.yaml").read_text()
+
+
+def test_firmware_is_the_default_elsewhere(tmp_path: Path) -> None:
+    fw = _firmware(tmp_path / "firmware")
+    pkg = _package(tmp_path / "my_msgs", "my_msgs")
+    run_uros("add-package", str(pkg), cwd=tmp_path)
+    assert (fw / "mcu_ws" / "extra_packages" / "my_msgs").is_dir()
+    # create-firmware resolves the same way: here that is the existing ./firmware
+    proc = run_uros("create-firmware", cwd=tmp_path, check=False)
+    assert proc.returncode == 2 and f"{fw}: already exists" in proc.stderr, proc.stderr
