@@ -25,7 +25,7 @@ from uros_build.commands import create_firmware as create_cmd
 from uros_build.commands import export as export_cmd
 from uros_build.commands import interface as interface_cmd
 from uros_build.commands import listings
-from uros_build.errors import Interrupted, UrosError
+from uros_build.errors import Interrupted, UrosError, did_you_mean
 from uros_build.plan import BuildArgs, CreateArgs
 
 _PATH = click.Path(path_type=Path)
@@ -46,6 +46,23 @@ class _Option(click.Option):
             return super().get_help_record(ctx)
         finally:
             self.opts = shown
+
+
+class _Group(click.Group):
+    """A command group that answers a mistyped command with the closest names."""
+
+    def resolve_command(
+        self, ctx: click.Context, args: list[str]
+    ) -> tuple[str | None, click.Command | None, list[str]]:
+        name = args[0] if args else ""
+        if (
+            name
+            and not name.startswith("-")
+            and not ctx.resilient_parsing
+            and not self.get_command(ctx, name)
+        ):
+            ctx.fail(f"No such command {name!r}{did_you_mean(name, self.list_commands(ctx))}.")
+        return super().resolve_command(ctx, args)
 
 
 def _toolchain_option(help_text: str) -> _Decorator:
@@ -97,7 +114,7 @@ def _table(rows: list[dict[str, Any]], as_json: bool, columns: tuple[str, ...]) 
         click.echo("  ".join([*cells, str(r[columns[-1]])]))
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
+@click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
 @click.version_option(__version__, prog_name="uros")
 @click.option("--debug", is_flag=True, help="Show Python tracebacks on errors.")
 @click.pass_context
@@ -120,7 +137,7 @@ def distros(as_json: bool) -> None:
     _table(listings.distros_table(), as_json, ("name", "status", "dev_repositories", "mcu_repositories"))
 
 
-@click.group()
+@click.group(cls=_Group)
 def toolchain() -> None:
     """CMake toolchain files."""
 
@@ -138,7 +155,7 @@ def toolchain_render(target: str, output: Path | None, purpose: str, gcc_major: 
     listings.render_toolchain_file(target, output, micro_ros=purpose == "micro-ros", gcc_major=gcc_major)
 
 
-@click.group()
+@click.group(cls=_Group)
 def meta() -> None:
     """colcon.meta files."""
 
@@ -230,7 +247,7 @@ def check(library: Path, toolchain: str | None, profile: Path | None, verbose: b
     check_cmd.check_library(library, toolchain, profile, verbose)
 
 
-@click.group()
+@click.group(cls=_Group)
 def export() -> None:
     """Packages for firmware build systems."""
 
@@ -331,7 +348,7 @@ def add_package(source: str, workspace: Path | None, version: str | None, verbos
     add_package_cmd.add_package(source, workspace, version, verbose)
 
 
-@click.group()
+@click.group(cls=_Group)
 def interface() -> None:
     """Custom interface packages (.msg, .srv)."""
 

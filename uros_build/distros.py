@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from uros_build import loader, meta, resources
-from uros_build.errors import ConfigError
+from uros_build.errors import ConfigError, did_you_mean
 
 _DISTRO_KEYS = {"name", "status", "preset", "colcon_ignore", "dev_colcon_ignore", "build_time_clones"}
 # built-here: built end to end by uros's authors (the distro.yaml says where it is recorded);
@@ -98,10 +98,11 @@ def parse_distro(info: Any, source: str, folder: str, dev: tuple[Repo, ...], mcu
     )
 
 
-def load_distro(name: str) -> Distro:
+def load_distro(name: str, flag: str = "--distro") -> Distro:
     if name not in known_distros():
         raise ConfigError(
-            f"--distro: unknown distro {name!r}", f"known distros: {', '.join(known_distros())}"
+            f"{flag}: unknown distro {name!r}{did_you_mean(name, known_distros())}",
+            f"known distros: {', '.join(known_distros())}",
         )
     root = resources.meta_dir() / "distros" / name
     dev, mcu = root / "dev.repos", root / "mcu.repos"

@@ -7,6 +7,9 @@ call uros can tell a bad flag (2) from a missing compiler (3) from a failed buil
 
 from __future__ import annotations
 
+import difflib
+from collections.abc import Iterable
+
 
 class UrosError(Exception):
     """Base: a message that names the file or flag, and a hint that names the fix."""
@@ -51,3 +54,15 @@ class Interrupted(UrosError):
     """Ctrl-C: the previous good output was left in place."""
 
     exit_code = 130
+
+
+def did_you_mean(name: str, choices: Iterable[str]) -> str:
+    """`` (did you mean X or Y?)`` for the names closest to a typo, else ``""``."""
+    near = difflib.get_close_matches(name, list(choices), n=3, cutoff=0.6)
+    if not near:
+        return ""
+    return (
+        f" (did you mean {', '.join(near[:-1])} or {near[-1]}?)"
+        if len(near) > 1
+        else f" (did you mean {near[0]}?)"
+    )

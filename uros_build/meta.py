@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from uros_build import __version__, defaults, loader, resources
-from uros_build.errors import ConfigError
+from uros_build.errors import ConfigError, did_you_mean
 from uros_build.profiles import TargetProfile
 
 MetaValue = tuple[str, ...] | str | bool | int | float
@@ -103,7 +103,8 @@ def load_preset(name: str, distro_preset: str | None = None) -> Meta:
         name = distro_preset or defaults.DISTRO
     if name not in presets():
         raise ConfigError(
-            f"--preset: unknown preset {name!r}", f"known presets: default, {', '.join(presets())}"
+            f"--preset: unknown preset {name!r}{did_you_mean(name, [defaults.PRESET, *presets()])}",
+            f"known presets: {defaults.PRESET}, {', '.join(presets())}",
         )
     return load_shipped(f"presets/{name}.json")
 
@@ -166,7 +167,8 @@ def target_fragments(profile: TargetProfile | None, transport: str | None) -> li
     if chosen is not None:
         if chosen not in transports():
             raise ConfigError(
-                f"--transport: unknown transport {chosen!r}", f"known: {', '.join(transports())}"
+                f"--transport: unknown transport {chosen!r}{did_you_mean(chosen, transports())}",
+                f"known: {', '.join(transports())}",
             )
         frags.append(load_shipped(f"transports/{chosen}.json"))
     if profile is not None and not profile.native_64bit_atomics:

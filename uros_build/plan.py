@@ -230,7 +230,7 @@ def plan_build(args: BuildArgs) -> BuildPlan:
     ws = open_workspace(args.workspace)
     target = resolve_target(args.toolchain, args.profile, args.compiler_prefix, args.cflags)
     cfg = load_config(ws.root)
-    distro = distros_mod.load_distro(cfg.distro) if cfg else None
+    distro = distros_mod.load_distro(cfg.distro, f"{ws.root / CONFIG}: distro") if cfg else None
     user_metas = list(args.metas)
     if cfg is not None and ws.user_meta.is_file():
         user_metas.insert(0, ws.user_meta)
@@ -402,5 +402,5 @@ def plan_create(args: CreateArgs) -> CreatePlan:
     sources = plan_sources(distro, mirror, locked)
     _check_sources(sources)
     _check_destinations(root, sources, previous)
-    probe = find_profile(args.toolchain) if args.toolchain is not None else None
+    probe = find_profile(args.toolchain, alternative="") if args.toolchain is not None else None
     return CreatePlan(root, existed, existing, previous, distro, mirror, sources, extras, probe, args)

@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from uros_build import loader, resources, templating
-from uros_build.errors import ConfigError
+from uros_build.errors import ConfigError, did_you_mean
 
 TRANSPORTS = ("custom", "udp", "serial")
 
@@ -261,11 +261,18 @@ def shipped_profiles() -> dict[str, TargetProfile]:
     return profiles
 
 
-def find_profile(name: str) -> TargetProfile:
+# What else each command accepts in place of a target name, for the hint of a typo.
+OR_TOOLCHAIN_FILE = "or pass your own CMake toolchain file (a path ending in .cmake)"
+OR_PROFILE_FILE = "or pass your own profile (a path ending in .yaml)"
+
+
+def find_profile(name: str, flag: str = "--toolchain", alternative: str = OR_TOOLCHAIN_FILE) -> TargetProfile:
+    """A shipped profile by name; a typo is an error naming the closest names and what else
+    ``flag`` takes (``alternative``; "" for nothing else)."""
     profiles = shipped_profiles()
     if name not in profiles:
         raise ConfigError(
-            f"--toolchain: unknown target {name!r}",
-            f"known targets: {', '.join(profiles)}; or pass a CMake toolchain file (path ending in .cmake)",
+            f"{flag}: unknown target {name!r}{did_you_mean(name, profiles)}",
+            f"known targets: {', '.join(profiles)}" + (f"; {alternative}" if alternative else ""),
         )
     return profiles[name]

@@ -15,7 +15,11 @@ def check_library(library: Path, target: str | None, profile_path: Path | None, 
         raise ConfigError("uros check needs one target", "pass --toolchain NAME or --profile FILE")
     if not library.is_file():
         raise ConfigError(f"{library}: no such file", "pass the path of a static library (.a) or an object")
-    profile = load_profile_file(profile_path) if profile_path is not None else find_profile(str(target))
+    profile = (
+        load_profile_file(profile_path)
+        if profile_path is not None
+        else find_profile(str(target), alternative="or pass your own profile with --profile FILE")
+    )
     runner = Runner(new_run_log(user_log_dir(), "check"), verbose=verbose)
     summary = abi.check_library(runner, library.resolve(), profile)
     console.step(f"{library}: {abi.describe(summary)}")

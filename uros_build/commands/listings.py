@@ -12,7 +12,7 @@ from uros_build import distros as distros_mod
 from uros_build import meta as meta_mod
 from uros_build.errors import ConfigError
 from uros_build.plan import meta_for, resolve_target
-from uros_build.profiles import find_profile, load_profile_file, shipped_profiles
+from uros_build.profiles import OR_PROFILE_FILE, find_profile, load_profile_file, shipped_profiles
 from uros_build.toolchain import CLOCK_HEADER_NAME, CLOCK_HEADER_TEXT, ToolchainRequest, render_toolchain
 from uros_build.workspace import check_file_target, write_if_changed
 
@@ -61,16 +61,27 @@ def write_output_file(path: Path | None, text: str, flag: str = "--output") -> N
 def render_toolchain_file(target: str, output: Path | None, micro_ros: bool, gcc_major: int | None) -> None:
     """`uros toolchain render`: a target name or a profile .yaml -> toolchain text.
 
-    For micro-ROS with an output file, the clock_gettime declaration header the profile may need
-    is written beside it and referenced by absolute path, so the file works on its own.
+    For micro-ROS, the clock_gettime declaration header the profile may need is written beside
+    the output file (to standard output: into the current folder) and referenced by absolute path,
+    so the toolchain file works on its own; uros says where it wrote it.
     """
-    profile = load_profile_file(Path(target)) if target.endswith((".yaml", ".yml")) else find_profile(target)
+    if target.endswith((".yaml", ".yml")):
+        profile = load_profile_file(Path(target))
+    else:
+        profile = find_profile(target, "TARGET", OR_PROFILE_FILE)
     header: Path | None = None
     if output is not None:
         check_file_target(output, "--output")  # before the header is written beside it
-    if micro_ros and output is not None and profile.micro_ros.declare_clock_gettime:
-        header = output.resolve().with_name(CLOCK_HEADER_NAME)
-        write_if_changed(header, CLOCK_HEADER_TEXT)
+    if micro_ros and profile.micro_ros.declare_clock_gettime:
+        header = output.resolve().with_name(CLOCK_HEADER_NAME) if output else Path.cwd() / CLOCK_HEADER_NAME
+        try:
+            write_if_changed(header, CLOCK_HEADER_TEXT)
+        except OSError as exc:
+            raise ConfigError(
+                f"cannot write {header} (the toolchain file's -include names it): {exc.strerror}",
+                "run in a folder you can write to, or pass -o FILE",
+            ) from None
+        console.info(f"wrote {header} (the toolchain file force-includes it: keep it beside the file)")
     command = f"uros toolchain render {target}" + (" --for micro-ros" if micro_ros else "")
     req = ToolchainRequest(
         profile,

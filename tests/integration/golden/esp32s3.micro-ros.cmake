@@ -31,12 +31,12 @@ set(CMAKE_POSITION_INDEPENDENT_CODE OFF)
 # The profile's optimisation level (-Os) must be the one that applies. CMake's GNU
 # module appends -O3 (Release), -O2 (RelWithDebInfo) or -Os (MinSizeRel) after CMAKE_<LANG>_FLAGS
 # (Modules/Compiler/GNU.cmake, https://cmake.org/cmake/help/latest/variable/CMAKE_LANG_FLAGS_CONFIG_INIT.html),
-# and the last -O wins, so the per-configuration flags are fixed here instead.
+# and the last -O wins, so the Release-family flags are fixed here instead. Debug keeps CMake's
+# own (-g) and whatever the project or the user sets for it.
 foreach(_uros_lang C CXX ASM)
   set(CMAKE_${_uros_lang}_FLAGS_RELEASE "-Os -DNDEBUG" CACHE STRING "uros: -Os" FORCE)
   set(CMAKE_${_uros_lang}_FLAGS_MINSIZEREL "-Os -DNDEBUG" CACHE STRING "uros: -Os" FORCE)
   set(CMAKE_${_uros_lang}_FLAGS_RELWITHDEBINFO "-Os -g -DNDEBUG" CACHE STRING "uros: -Os" FORCE)
-  set(CMAKE_${_uros_lang}_FLAGS_DEBUG "-Os -g" CACHE STRING "uros: -Os" FORCE)
 endforeach()
 
 # Host programs (Python, code generators) come from the host; libraries and headers from the target.
