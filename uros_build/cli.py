@@ -103,15 +103,17 @@ _FROM = click.option(
 )
 
 
-def _table(rows: list[dict[str, Any]], as_json: bool, columns: tuple[str, ...]) -> None:
-    """Rows as JSON (sorted keys) or as aligned text columns."""
+def _table(rows: list[dict[str, Any]], as_json: bool, columns: tuple[tuple[str, str], ...]) -> None:
+    """Rows as JSON (sorted keys, every field) or as aligned text columns under a header;
+    ``columns``: (key, title) of what the text shows."""
     if as_json:
         click.echo(json.dumps(rows, indent=2, sort_keys=True))
         return
-    widths = [max(len(str(r[c])) for r in rows) for c in columns[:-1]]
-    for r in rows:
-        cells = [f"{r[c]!s:<{w}}" for c, w in zip(columns, widths, strict=False)]
-        click.echo("  ".join([*cells, str(r[columns[-1]])]))
+    lines = [[title for _key, title in columns], *([str(r[key]) for key, _title in columns] for r in rows)]
+    widths = [max(len(line[i]) for line in lines) for i in range(len(columns) - 1)]
+    for line in lines:
+        cells = [f"{cell:<{w}}" for cell, w in zip(line, widths, strict=False)]
+        click.echo("  ".join([*cells, line[-1]]).rstrip())
 
 
 @click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
@@ -123,18 +125,29 @@ def cli(ctx: click.Context, debug: bool) -> None:
     ctx.obj = {"debug": debug}
 
 
-@click.command()
+@click.group(cls=_Group, invoke_without_command=True, subcommand_metavar="[show NAME]")
 @_JSON
-def targets(as_json: bool) -> None:
-    """List the shipped target profiles (toolchains/*.yaml)."""
-    _table(listings.targets_table(), as_json, ("name", "compiler", "description"))
+@click.pass_context
+def targets(ctx: click.Context, as_json: bool) -> None:
+    """List the shipped target profiles (`uros targets show NAME` prints one)."""
+    if ctx.invoked_subcommand is None:
+        columns = (("name", "TARGET"), ("compiler", "COMPILER"), ("transport", "TRANSPORT"))
+        _table(listings.targets_table(), as_json, (*columns, ("description", "DESCRIPTION")))
+
+
+@click.command("show")
+@click.argument("name")
+def targets_show(name: str) -> None:
+    """Print the profile of target NAME, to copy and edit: uros targets show cortex-m7 > my-board.yaml"""
+    click.echo(listings.target_profile_text(name), nl=False)
 
 
 @click.command()
 @_JSON
 def distros(as_json: bool) -> None:
     """List the micro-ROS distro manifests (meta/distros/)."""
-    _table(listings.distros_table(), as_json, ("name", "status", "dev_repositories", "mcu_repositories"))
+    columns = (("name", "DISTRO"), ("status", "STATUS"), ("dev_repositories", "DEV REPOS"))
+    _table(listings.distros_table(), as_json, (*columns, ("mcu_repositories", "MCU REPOS")))
 
 
 @click.group(cls=_Group)
@@ -181,7 +194,11 @@ def meta_write(
 
 @click.command()
 @_toolchain_option("A target name (see `uros targets`) or your own CMake toolchain file.")
-@click.option("--profile", type=_PATH, help="Your own target profile (.yaml, as in toolchains/).")
+@click.option(
+    "--profile",
+    type=_PATH,
+    help="Your own target profile (.yaml; `uros targets show NAME` prints one to start from).",
+)
 @_workspace_option("The firmware workspace.")
 @_METAS
 @_SETS
@@ -373,6 +390,7 @@ _REGISTRY: tuple[tuple[click.Group, click.Command], ...] = (
     (cli, add_package),
     (cli, check),
     (cli, targets),
+    (targets, targets_show),
     (cli, distros),
     (cli, toolchain),
     (toolchain, toolchain_render),

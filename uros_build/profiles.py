@@ -93,7 +93,7 @@ class TargetProfile:
         return f"{self.compiler_prefix}{name}"
 
 
-_HINT = "see toolchains/cortex-m7.yaml for a complete profile (uros targets lists them)"
+_HINT = "start from a shipped profile: uros targets show cortex-m7 > my-board.yaml"
 
 
 def _fail(source: Path | str, key: str, problem: str, hint: str | None = None) -> ConfigError:

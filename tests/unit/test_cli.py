@@ -79,3 +79,31 @@ def test_an_unexpected_error_is_one_line_and_the_traceback_goes_to_a_log(
     assert "internal error: RuntimeError: boom" in err and "Traceback" not in err
     logs = list(tmp_path.glob("*-error-*.log"))
     assert len(logs) == 1 and "Traceback" in logs[0].read_text() and str(logs[0]) in err.replace("\n", "")
+
+
+def test_listings_have_headers() -> None:
+    runner = CliRunner()
+    lines = runner.invoke(cli, ["targets"]).output.splitlines()
+    assert lines[0].split() == ["TARGET", "COMPILER", "TRANSPORT", "DESCRIPTION"]
+    assert lines[1].startswith("cortex-m0plus ")
+    lines = runner.invoke(cli, ["distros"]).output.splitlines()
+    assert lines[0].split() == ["DISTRO", "STATUS", "DEV", "REPOS", "MCU", "REPOS"]
+    assert any(line.split()[0] == "humble" for line in lines[1:])
+
+
+def test_targets_show_prints_a_profile_to_copy(tmp_path: Path) -> None:
+    import yaml
+
+    from uros_build.profiles import find_profile, parse_profile
+
+    runner = CliRunner()
+    result = runner.invoke(cli, ["targets", "show", "cortex-m7"])
+    assert result.exit_code == 0
+    copy = tmp_path / "my-board.yaml"
+    copy.write_text(result.output)
+    assert (
+        parse_profile(yaml.safe_load(copy.read_text()), copy).cpu_flags == find_profile("cortex-m7").cpu_flags
+    )
+    assert result.output.startswith("#")  # the file as shipped, comments and all
+    typo = runner.invoke(cli, ["targets", "show", "cortex-m77"])
+    assert "did you mean cortex-m7" in str(typo.exception)

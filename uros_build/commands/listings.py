@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from uros_build import console, defaults
+from uros_build import console, defaults, loader
 from uros_build import distros as distros_mod
 from uros_build import meta as meta_mod
 from uros_build.errors import ConfigError
@@ -29,6 +29,12 @@ def targets_table() -> list[dict[str, Any]]:
         }
         for p in shipped_profiles().values()
     ]
+
+
+def target_profile_text(name: str) -> str:
+    """`uros targets show`: a shipped profile's file as it is, comments and all (to copy and edit)."""
+    profile = find_profile(name, "NAME", "")
+    return loader.read_text(Path(profile.source))
 
 
 def distros_table() -> list[dict[str, Any]]:
