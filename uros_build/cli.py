@@ -193,7 +193,9 @@ def meta_write(
 
 
 @click.command()
-@_toolchain_option("A target name (see `uros targets`) or your own CMake toolchain file.")
+@_toolchain_option(
+    "A target name (see `uros targets`) or your own CMake toolchain file (default: uros.yaml's target)."
+)
 @click.option(
     "--profile",
     type=_PATH,
@@ -233,8 +235,9 @@ def build(
     force: bool,
     verbose: bool,
 ) -> None:
-    """Build libmicroros.a, its include tree and a CMake package for one target."""
-    build_cmd.build(
+    """Build libmicroros.a, its include tree and a CMake package for a target (default: the
+    target or targets in the workspace's uros.yaml)."""
+    build_cmd.build_all(
         BuildArgs(
             workspace,
             toolchain,

@@ -12,7 +12,7 @@ from typing import Any
 
 import yaml
 
-from uros_build.errors import ConfigError
+from uros_build.errors import ConfigError, did_you_mean
 
 
 def read_text(path: Path, flag: str = "", hint: str | None = None) -> str:
@@ -29,10 +29,28 @@ def read_text(path: Path, flag: str = "", hint: str | None = None) -> str:
         raise ConfigError(f"{where}: cannot read: {exc.strerror}", hint) from None
 
 
+class LineDict(dict[Any, Any]):
+    """A YAML mapping that remembers the line of each key, for messages (``file:line:``)."""
+
+    key_lines: dict[str, int]
+
+
+class _LineLoader(yaml.SafeLoader):
+    def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict[Any, Any]:
+        out = LineDict()
+        out.update(super().construct_mapping(node, deep=deep))
+        out.key_lines = {str(k.value): k.start_mark.line + 1 for k, _v in node.value}
+        return out
+
+
+_LineLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _LineLoader.construct_mapping)
+
+
 def load_yaml(path: Path, flag: str = "", hint: str | None = None) -> Any:
+    """Parsed YAML whose mappings know their keys' lines (:class:`LineDict`)."""
     text = read_text(path, flag, hint)
     try:
-        return yaml.safe_load(text)
+        return yaml.load(text, Loader=_LineLoader)  # a SafeLoader: plain data types only
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f":{mark.line + 1}:{mark.column + 1}" if mark is not None else ""
@@ -64,11 +82,25 @@ def mapping(
     if known is not None:
         unknown = sorted(str(k) for k in set(data) - known)
         if unknown:
-            raise ConfigError(f"{source}: {unknown[0]}: unknown key (known: {', '.join(sorted(known))})")
+            where = at_line(source, data, unknown[0])
+            near = did_you_mean(unknown[0], known).strip(" ()")
+            raise ConfigError(
+                f"{where}: {unknown[0]}: unknown key (known: {', '.join(sorted(known))})",
+                f"{near}" if near else None,
+            )
     for key in required:
         if key not in data:
             raise ConfigError(f"{source}: {key}: is required but missing")
     return data
+
+
+def at_line(source: str, data: Any, key: str) -> str:
+    """``file: section`` -> ``file:LINE: section`` where the YAML loader saw ``key``."""
+    line = getattr(data, "key_lines", {}).get(key)
+    if line is None:
+        return source
+    head, sep, rest = source.partition(": ")
+    return f"{head}:{line}{sep}{rest}"
 
 
 def string(data: Mapping[str, Any], key: str, source: str, default: str | None = None) -> str:

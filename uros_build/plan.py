@@ -8,7 +8,7 @@ that the commands execute; the mapping itself is unit-tested without running any
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from uros_build import defaults, loader
@@ -94,7 +94,9 @@ def resolve_target(
     profile_path: Path | None,
     compiler_prefix: str | None = None,
     cflags: tuple[str, ...] = (),
+    flag: str = "--toolchain",
 ) -> Target:
+    """``flag``: where ``toolchain`` came from, for messages (``--toolchain``, or uros.yaml's target)."""
     derive = compiler_prefix is not None or bool(cflags)
     if profile_path is not None:
         if toolchain is not None:
@@ -107,7 +109,11 @@ def resolve_target(
         if derive:
             profile = derive_profile(None, compiler_prefix, cflags)
             return ProfileTarget(target_key(profile.name), profile)
-        raise ConfigError("no target given", f"pass --toolchain with one of: {', '.join(shipped_profiles())}")
+        raise ConfigError(
+            "no target given",
+            f"pass --toolchain with one of: {', '.join(shipped_profiles())}, "
+            f"or name it in the workspace's {CONFIG} (target: NAME)",
+        )
     if toolchain.endswith(".cmake") or "/" in toolchain:
         if derive:
             raise ConfigError(
@@ -117,10 +123,10 @@ def resolve_target(
         path = Path(toolchain).resolve()
         if not path.is_file():
             raise ConfigError(
-                f"--toolchain {toolchain}: no such file", "pass a target name or an existing .cmake file"
+                f"{flag} {toolchain}: no such file", "pass a target name or an existing .cmake file"
             )
         return ToolchainFileTarget(target_key(path.stem), path)
-    profile = find_profile(toolchain)
+    profile = find_profile(toolchain, flag)
     if derive:
         profile = derive_profile(profile, compiler_prefix, cflags)
         return ProfileTarget(target_key(profile.name), profile)
@@ -182,6 +188,32 @@ class BuildArgs:
     jobs: int | None = None
     compiler_prefix: str | None = None
     cflags: tuple[str, ...] = ()
+    toolchain_from: str = "--toolchain"  # where toolchain came from (uros.yaml's target), for messages
+
+    def names_a_target(self) -> bool:
+        return bool(self.toolchain or self.profile or self.compiler_prefix or self.cflags)
+
+
+def expand_targets(args: BuildArgs) -> tuple[BuildArgs, ...]:
+    """One BuildArgs per target to build: the command line's, else the workspace uros.yaml's
+    target or targets (the command line wins), else the command line's as it is (and plan_build
+    says that no target was given)."""
+    if args.names_a_target():
+        return (args,)
+    root = resolve_workspace(args.workspace)
+    cfg = load_config(root) if root.is_dir() else None
+    if cfg is None:
+        return (args,)
+    names = cfg.targets or ((cfg.target,) if cfg.target else ())
+    if len(names) > 1 and args.output is not None:
+        raise ConfigError(
+            f"--output with {len(names)} targets ({', '.join(names)} from {root / CONFIG})",
+            "pass --toolchain NAME to build one of them into --output, or leave --output out",
+        )
+    key = "targets" if cfg.targets else "target"
+    where = f"{root / CONFIG}: {key}"
+    expanded = tuple(replace(args, workspace=root, toolchain=n, toolchain_from=where) for n in names)
+    return expanded or (args,)
 
 
 @dataclass(frozen=True)
@@ -228,20 +260,28 @@ def unknown_packages(metas: list[meta_mod.Meta], sets: tuple[str, ...], names: s
 def plan_build(args: BuildArgs) -> BuildPlan:
     """Validate every input of `uros build` (reads files, starts nothing)."""
     ws = open_workspace(args.workspace)
-    target = resolve_target(args.toolchain, args.profile, args.compiler_prefix, args.cflags)
     cfg = load_config(ws.root)
+    toolchain = args.toolchain
+    if (
+        toolchain
+        and args.toolchain_from != "--toolchain"
+        and (toolchain.endswith(".cmake") or "/" in toolchain)
+    ):
+        toolchain = str(ws.root / toolchain)  # a toolchain file named in uros.yaml: from the workspace
+    target = resolve_target(toolchain, args.profile, args.compiler_prefix, args.cflags, args.toolchain_from)
     distro = distros_mod.load_distro(cfg.distro, f"{ws.root / CONFIG}: distro") if cfg else None
     user_metas = list(args.metas)
     if cfg is not None and ws.user_meta.is_file():
         user_metas.insert(0, ws.user_meta)
-    meta = meta_for(
-        args.preset, target, args.transport, user_metas, list(args.sets), distro.preset if distro else None
-    )
+    # uros.yaml's transport and set, under the command line's (a later --set of an option wins)
+    transport = args.transport or (cfg.transport if cfg else None)
+    sets = (*(cfg.set if cfg else ()), *args.sets)
+    meta = meta_for(args.preset, target, transport, user_metas, list(sets), distro.preset if distro else None)
     if args.jobs is not None and args.jobs < 1:
         raise ConfigError(f"-j/--jobs {args.jobs}: must be 1 or more", "omit it to let colcon choose")
     packages = packages_mod.discover(ws.source_dir)
     names = {p.name for p in packages}
-    named = {*args.packages_up_to, *(s.partition(".")[0] for s in args.sets)}
+    named = {*args.packages_up_to, *(s.partition(".")[0] for s in sets)}
     given_metas = [meta_mod.load_meta_file(p) for p in args.metas]
     named |= {pkg for m in given_metas for pkg in m.names}
     if named - names:  # colcon also builds CMake packages that have no package.xml
@@ -252,7 +292,7 @@ def plan_build(args: BuildArgs) -> BuildPlan:
                 f"--packages-up-to {pkg}: no package {pkg} in {ws.source_dir}{_closest(pkg, names)}",
                 "name a package of the workspace (a folder with a package.xml or a CMakeLists.txt)",
             )
-    warnings = unknown_packages(given_metas, args.sets, names)
+    warnings = unknown_packages(given_metas, sets, names)
     out = (args.output or ws.default_output(target.key)).resolve()
     check_folder_target(out, "--output")
     check_output_dir(out, args.force)

@@ -122,7 +122,8 @@ def _build(cls: Any, source: str, data: Any, prefix: str = "") -> Any:
     """``cls`` from one mapping of the file. Keys are checked as dotted paths from the top of the
     file (``elf.machine``), so every message names the key as the file spells it."""
     where = f"{source}: {prefix.rstrip('.')}" if prefix else source
-    top = {f"{prefix}{k}": v for k, v in loader.mapping(data, where).items()}
+    top = loader.LineDict({f"{prefix}{k}": v for k, v in loader.mapping(data, where).items()})
+    top.key_lines = {f"{prefix}{k}": n for k, n in getattr(data, "key_lines", {}).items()}
     known = {f.name: f for f in fields(cls) if f.name != "source"}
     required = tuple(
         prefix + name

@@ -26,7 +26,7 @@ import shutil
 import xml.etree.ElementTree as ET
 from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
@@ -36,7 +36,8 @@ from uros_build import __version__, console, defaults, loader, proc
 from uros_build import distros as distros_mod
 from uros_build.buildinfo import BUILD_INFO
 from uros_build.distros import Mirror, Source
-from uros_build.errors import ConfigError
+from uros_build.errors import ConfigError, did_you_mean
+from uros_build.profiles import TRANSPORTS
 
 CONFIG = defaults.WORKSPACE_MARKER  # "uros.yaml"
 LOCK = "uros.lock"
@@ -56,22 +57,52 @@ class WorkspaceConfig:
     platform: str = "generate_lib"
     mirror: Mirror = field(default_factory=Mirror)
     extra_packages: tuple[str, ...] = ()  # source folders synced into mcu_ws/extra_packages
+    # What `uros build` would otherwise be told on every command line (the command line wins):
+    target: str | None = None  # the target `uros build` builds without --toolchain
+    targets: tuple[str, ...] = ()  # or several: `uros build` builds each
+    transport: str | None = None  # XRCE-DDS transport (default: the target's)
+    set: tuple[str, ...] = ()  # PKG.OPTION=VALUE, before --set's
+    packages: tuple[str, ...] = ()  # the packages a build is for (see `uros build --help`)
 
 
-_CONFIG_KEYS = {"distro", "platform", "mirror", "extra_packages"}
+_CONFIG_KEYS = {f.name for f in fields(WorkspaceConfig)}
 
 
 def parse_config(data: Any, source: str, partial: bool = False) -> WorkspaceConfig:
     """``partial``: a --config file, read for its mirror section, may leave the distro out (its
     other keys are checked all the same)."""
     top = loader.mapping(data, source, _CONFIG_KEYS, required=() if partial else ("distro",))
+    target = loader.string(top, "target", source) if top.get("target") is not None else None
+    targets = loader.string_list(top, "targets", source)
+    if target is not None and targets:
+        raise ConfigError(f"{source}: target and targets: give one of them", "targets: [a, b] builds several")
+    transport = loader.string(top, "transport", source) if top.get("transport") is not None else None
+    if transport is not None and transport not in TRANSPORTS:
+        raise ConfigError(
+            f"{source}: transport: unknown transport {transport!r}{did_you_mean(transport, TRANSPORTS)}",
+            f"known: {', '.join(TRANSPORTS)}",
+        )
+    sets = loader.string_list(top, "set", source)
+    for item in sets:
+        pkg, dot, rest = item.partition(".")
+        option, eq, _value = rest.partition("=")
+        if not (pkg and dot and option and eq):
+            raise ConfigError(
+                f"{source}: set: {item!r} is not PKG.OPTION=VALUE",
+                "e.g. rmw_microxrcedds.RMW_UXRCE_MAX_NODES=2",
+            )
     return WorkspaceConfig(
         distro=loader.string(top, "distro", source) if "distro" in top or not partial else "",
-        platform=loader.string(top, "platform", source, "generate_lib"),
+        platform=loader.one_of(top, "platform", source, (defaults.PLATFORM,), defaults.PLATFORM),
         mirror=distros_mod.load_mirror_config(
             loader.mapping(top.get("mirror"), f"{source}: mirror"), f"{source}"
         ),
         extra_packages=loader.string_list(top, "extra_packages", source),
+        target=target,
+        targets=targets,
+        transport=transport,
+        set=sets,
+        packages=loader.string_list(top, "packages", source),
     )
 
 
@@ -90,6 +121,11 @@ def config_text(cfg: WorkspaceConfig) -> str:
         "mirror": distros_mod.mirror_to_config(cfg.mirror),
         "extra_packages": list(cfg.extra_packages),
     }
+    # the keys users add themselves, written back only when set (add-package rewrites the file)
+    optional = {"target": cfg.target, "transport": cfg.transport}
+    data.update({k: v for k, v in optional.items() if v is not None})
+    lists = {"targets": cfg.targets, "set": cfg.set, "packages": cfg.packages}
+    data.update({k: list(v) for k, v in lists.items() if v})
     header = f"# Written by uros {__version__} create-firmware; edit freely (uros build reads it).\n"
     return header + yaml.safe_dump(data, sort_keys=True)
 

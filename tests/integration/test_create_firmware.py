@@ -287,10 +287,24 @@ def test_firmware_workspace_builds_end_to_end(upstream: Path, tmp_path: Path) ->
         ).stdout
 
     assert " T fx_extra_v1" in symbols()
-    # editing the extra package's source folder reaches the next build
+    # editing the extra package's source folder reaches the next build; run from inside the
+    # workspace with no options: the workspace is the nearest uros.yaml upward, the target the one
+    # create-firmware --toolchain wrote there, and its transport and set apply
     (extra / "src/extra.c").write_text("int fx_extra_v2(void) { return 2; }\n")
-    run_uros("build", "--toolchain", "cortex-m7", "--workspace", str(fw))
+    cfg = yaml.safe_load((fw / "uros.yaml").read_text())
+    assert cfg["target"] == "cortex-m7"
+    cfg.update({"transport": "udp", "set": ["fx_core.FX_CORE_LEVEL=3"]})
+    (fw / "uros.yaml").write_text(yaml.safe_dump(cfg))
+    run_uros("build", cwd=fw / "mcu_ws")
     assert " T fx_extra_v2" in symbols() and "fx_extra_v1" not in symbols()
+    assert json.loads((out / "build-info.json").read_text())["transport"] == "udp"
+    cache = fw / ".uros/targets/cortex-m7/build/fx_core/CMakeCache.txt"
+    assert "FX_CORE_LEVEL:UNINITIALIZED=3" in cache.read_text()
+    # a key uros does not know is an error naming file and line, before anything runs
+    (fw / "uros.yaml").write_text(yaml.safe_dump(cfg) + "tragets: [rp2040]\n")
+    proc = run_uros("build", cwd=fw, check=False)
+    lines = len(yaml.safe_dump(cfg).splitlines())
+    assert proc.returncode == 2 and f"uros.yaml:{lines + 1}: tragets: unknown key" in proc.stderr, proc.stderr
 
 
 def test_add_package_from_a_git_url(upstream: Path, tmp_path: Path) -> None:

@@ -149,6 +149,41 @@ def test_plan_build_reads_the_workspace_config(tmp_path: Path) -> None:
     assert plan.config is not None and plan.distro is not None and plan.distro.name == "jazzy"
 
 
+def test_uros_yaml_names_the_targets_and_the_command_line_wins(tmp_path: Path) -> None:
+    from uros_build.plan import expand_targets
+
+    ws = _ws(tmp_path)
+    (ws / "uros.yaml").write_text("distro: humble\ntargets: [cortex-m7, rp2040]\n", encoding="utf-8")
+    expanded = expand_targets(BuildArgs(workspace=ws))
+    assert [a.toolchain for a in expanded] == ["cortex-m7", "rp2040"]
+    assert expand_targets(BuildArgs(workspace=ws, toolchain="cortex-m4")) == (
+        BuildArgs(workspace=ws, toolchain="cortex-m4"),
+    )
+    with pytest.raises(ConfigError, match="--output with 2 targets"):
+        expand_targets(BuildArgs(workspace=ws, output=tmp_path / "out"))
+    (ws / "uros.yaml").write_text("distro: humble\ntarget: cortex-m9\n", encoding="utf-8")
+    (request,) = expand_targets(BuildArgs(workspace=ws))
+    with pytest.raises(ConfigError, match=r"uros.yaml: target: unknown target 'cortex-m9' \(did you mean"):
+        plan_build(request)
+    (ws / "uros.yaml").write_text("distro: humble\n", encoding="utf-8")
+    with pytest.raises(ConfigError, match="no target given") as info:
+        plan_build(expand_targets(BuildArgs(workspace=ws))[0])
+    assert "target: NAME" in str(info.value.hint)
+
+
+def test_uros_yaml_transport_and_set_come_under_the_command_line(tmp_path: Path) -> None:
+    ws = _ws(tmp_path)
+    (ws / "uros.yaml").write_text(
+        "distro: humble\ntransport: udp\nset: [pkg.A=1, pkg.B=1]\n", encoding="utf-8"
+    )
+    plan = plan_build(BuildArgs(workspace=ws, toolchain="cortex-m7"))
+    assert meta_transport(plan.meta) == "udp"
+    assert plan.meta.names["pkg"]["cmake-args"] == ("-DA=1", "-DB=1")
+    plan = plan_build(BuildArgs(workspace=ws, toolchain="cortex-m7", transport="serial", sets=("pkg.B=2",)))
+    assert meta_transport(plan.meta) == "serial"
+    assert plan.meta.names["pkg"]["cmake-args"] == ("-DA=1", "-DB=2")
+
+
 # -- plan_sources / plan_create ----------------------------------------------------------------
 
 

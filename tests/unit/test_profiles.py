@@ -43,10 +43,10 @@ def test_minimal_profile(tmp_path: Path) -> None:
 @pytest.mark.parametrize(
     ("change", "expected"),
     [
-        ({"cpu_flag": ["x"]}, r"board.yaml: cpu_flag: unknown key"),
+        ({"cpu_flag": ["x"]}, r"board.yaml:\d+: cpu_flag: unknown key"),
         ({"cpu_flags": "-mcpu=cortex-m4"}, r"board.yaml: cpu_flags: must be a list of strings"),
         ({"transport": "can"}, r"board.yaml: transport: 'can' is not one of"),
-        ({"elf": {"machine": "ARM", "flags": []}}, r"board.yaml: elf.flags: unknown key"),
+        ({"elf": {"machine": "ARM", "flags": []}}, r"board.yaml:\d+: elf.flags: unknown key"),
         ({"optimization": "fast"}, r"board.yaml: optimization: 'fast' is not a -O flag"),
         ({"native_64bit_atomics": "yes"}, r"native_64bit_atomics: must be true or false"),
         ({"elf": {"machine": "ARM", "xtensa_abi": "2"}}, r"elf.xtensa_abi: '2' is not 0"),
@@ -75,7 +75,7 @@ def test_missing_field(tmp_path: Path) -> None:
 def test_nested_keys_are_named_with_dots(tmp_path: Path) -> None:
     with pytest.raises(ConfigError, match=r"board.yaml: elf.machine: is required but missing") as info:
         load_profile_file(_write(tmp_path, {**_base(), "elf": {"elf_class": "ELF32"}}))
-    assert info.value.hint is not None and "cortex-m7.yaml" in info.value.hint
+    assert info.value.hint is not None and "uros targets show cortex-m7" in info.value.hint
     with pytest.raises(
         ConfigError, match=r"board.yaml: micro_ros.strip_attributes_below_gcc: must be a whole"
     ):

@@ -145,6 +145,11 @@ mirror:
     uros/tracetools: /srv/mirror/ros2+ros2_tracing/repo@humble
 extra_packages:
   - ../my_interfaces
+targets: [cortex-m7, rp2040]
+transport: udp
+set:
+  - rmw_microxrcedds.RMW_UXRCE_MAX_PUBLISHERS=4
+packages: [rclc, std_msgs]
 """
 
 
@@ -153,6 +158,7 @@ def test_sample_uros_yaml_validates() -> None:
     assert _errors("uros.schema.json", data) == []
     cfg = workspace.parse_config(data, "uros.yaml")  # and uros reads it
     assert cfg.distro == "humble" and len(cfg.mirror.rules) == 1 and len(cfg.mirror.overrides) == 2
+    assert cfg.targets == ("cortex-m7", "rp2040") and cfg.transport == "udp" and len(cfg.set) == 1
     # what create-firmware writes validates too
     assert _errors("uros.schema.json", yaml.safe_load(workspace.config_text(cfg))) == []
     assert _errors("uros.schema.json", {"distro": "iron"}) == []
@@ -177,7 +183,25 @@ def test_uros_schema_equals_the_workspace_config() -> None:
         ({"distro": "humble", "mirror": {"rule": []}}, "'rule' was unexpected"),
         ({"distro": "humble", "mirror": {"overrides": {"a/b": 2}}}, "2 is not of type 'string'"),
         ({"distro": "humble", "extra_packages": "../pkg"}, "'../pkg' is not of type 'array'"),
+        ({"distro": "humble", "transport": "can"}, "'can' is not one of"),
+        ({"distro": "humble", "set": ["RMW_UXRCE_MAX_NODES=2"]}, "does not match"),
+        ({"distro": "humble", "target": "cortex-m7", "targets": ["rp2040"]}, "should not be valid"),
+        ({"distro": "humble", "targets": "rp2040"}, "'rp2040' is not of type 'array'"),
     ],
 )
 def test_bad_uros_yaml_fails_the_schema(data: dict[str, Any], expected: str) -> None:
     assert any(expected in e for e in _errors("uros.schema.json", data)), _errors("uros.schema.json", data)
+    if expected.startswith("'distro'"):
+        return
+    with pytest.raises(ConfigError):  # and uros refuses it too
+        workspace.parse_config(data, "uros.yaml")
+
+
+def test_unknown_uros_yaml_key_names_file_and_line(tmp_path: Path) -> None:
+    (tmp_path / "uros.yaml").write_text("distro: humble\ntarget: cortex-m7\ntargte: rp2040\n")
+    with pytest.raises(ConfigError, match=r"uros.yaml:3: targte: unknown key") as info:
+        workspace.load_config(tmp_path)
+    assert info.value.hint == "did you mean target or targets?"
+    (tmp_path / "uros.yaml").write_text("distro: humble\nmirror:\n  rule: []\n")
+    with pytest.raises(ConfigError, match=r"uros.yaml:3: mirror: rule: unknown key"):
+        workspace.load_config(tmp_path)

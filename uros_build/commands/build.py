@@ -19,7 +19,7 @@ from uros_build.archive import BinTools, merge_archives
 from uros_build.buildinfo import BUILD_INFO, BuildInfo, Compiler, Flags, Include, Library
 from uros_build.errors import StepFailed
 from uros_build.hosttools import HostFacts
-from uros_build.plan import BuildArgs, BuildPlan, ProfileTarget, meta_transport, plan_build
+from uros_build.plan import BuildArgs, BuildPlan, ProfileTarget, expand_targets, meta_transport, plan_build
 from uros_build.proc import Runner, first_error
 from uros_build.toolchain import (
     CLOCK_HEADER_NAME,
@@ -30,6 +30,16 @@ from uros_build.toolchain import (
     tool_paths,
 )
 from uros_build.workspace import locked, swap_into_place, write_if_changed
+
+
+def build_all(args: BuildArgs) -> list[Path]:
+    """`uros build`: the target the command line names, else each one the workspace's uros.yaml
+    names (target: or targets:)."""
+    requests = expand_targets(args)
+    if len(requests) > 1:
+        names = ", ".join(str(r.toolchain) for r in requests)
+        console.step(f"building {len(requests)} targets ({names}) from {requests[0].toolchain_from}")
+    return [build(request) for request in requests]
 
 
 def build(args: BuildArgs) -> Path:

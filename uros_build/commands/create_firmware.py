@@ -8,6 +8,7 @@ from __future__ import annotations
 import shutil
 from collections.abc import Iterable, Mapping
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import replace
 from pathlib import Path
 
 from uros_build import console, hosttools
@@ -167,7 +168,17 @@ def create_firmware(args: CreateArgs) -> Path:
             if str(path.resolve()) not in extras:
                 extras.append(str(path.resolve()))
             sync_tree(path, root / "mcu_ws" / EXTRA / name)
-        cfg = WorkspaceConfig(distro.name, args.platform, plan.mirror, tuple(extras))
+        # --force keeps what the user added to uros.yaml (target, set, ...); --toolchain becomes the
+        # target `uros build` builds by default, unless the file names one already
+        cfg = replace(
+            plan.existing or WorkspaceConfig(distro.name),
+            distro=distro.name,
+            platform=args.platform,
+            mirror=plan.mirror,
+            extra_packages=tuple(extras),
+        )
+        if args.toolchain is not None and cfg.target is None and not cfg.targets:
+            cfg = replace(cfg, target=args.toolchain)
         save_config(root, cfg)
         if not (root / USER_META).exists():
             preset = meta_mod.load_preset(distro.preset)
