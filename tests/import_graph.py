@@ -26,6 +26,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
             "colcon",
             "toolchain",
             "buildinfo",
+            "espidf",
             "export",
             "abi",
             "archive",
