@@ -58,6 +58,19 @@ class Include:
 
 
 @dataclass(frozen=True)
+class IdfInfo:
+    """The ESP-IDF project micro-ROS was compiled against (`uros build --idf-build`)."""
+
+    version: str  # "5.3.1"
+    target: str  # its IDF_TARGET
+    sdkconfig_sha256: str  # of its build/config/sdkconfig.h
+    components: int
+    include_dirs: int
+    c_flags: tuple[str, ...] = ()  # its CMAKE_C_FLAGS (response files expanded)
+    cxx_flags: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
 class BuildInfo:
     generated_by: str
     target: str
@@ -74,11 +87,13 @@ class BuildInfo:
     abi_check: Mapping[str, Any] = field(default_factory=dict)
     skipped_python_packages: tuple[str, ...] = ()
     idf_target: str | None = None
+    idf: IdfInfo | None = None
 
     def to_json(self) -> str:
         data = asdict(self)
-        if data["idf_target"] is None:
-            del data["idf_target"]
+        for key in ("idf_target", "idf"):
+            if data[key] is None:
+                del data[key]
         if data["library"]["size"] is None:
             del data["library"]["size"]
         return json.dumps(_lists(data), indent=2, sort_keys=True) + "\n"
@@ -161,6 +176,22 @@ def parse_build_info(data: Any, source: str) -> BuildInfo:
         abi_check=dict(loader.mapping(top.get("abi_check"), f"{source}: abi_check")),
         skipped_python_packages=_tuple(top, "skipped_python_packages", source),
         idf_target=_optional(top, "idf_target", source),
+        idf=_idf(top.get("idf"), f"{source}: idf"),
+    )
+
+
+def _idf(data: Any, where: str) -> IdfInfo | None:
+    if data is None:
+        return None
+    idf = loader.mapping(data, where, required=("version", "target", "sdkconfig_sha256"))
+    return IdfInfo(
+        version=loader.string(idf, "version", where),
+        target=loader.string(idf, "target", where),
+        sdkconfig_sha256=loader.string(idf, "sdkconfig_sha256", where),
+        components=_count(idf, "components", where),
+        include_dirs=_count(idf, "include_dirs", where),
+        c_flags=_tuple(idf, "c_flags", where),
+        cxx_flags=_tuple(idf, "cxx_flags", where),
     )
 
 

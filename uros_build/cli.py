@@ -217,6 +217,11 @@ def meta_write(
     "--cflags", multiple=True, metavar="FLAG",
     help="Derive a target: one more compiler flag (repeatable; one flag each, never split).",
 )  # fmt: skip
+@click.option(
+    "--idf-build", type=_PATH, metavar="DIR",
+    help="An ESP-IDF project's build folder (after idf.py reconfigure): compile micro-ROS against "
+    "its components, sdkconfig.h and C flags (default: uros.yaml's idf_build).",
+)  # fmt: skip
 @click.option("--force", is_flag=True, help="Replace an --output folder that is not a uros output.")
 @_VERBOSE
 def build(
@@ -232,6 +237,7 @@ def build(
     jobs: int | None,
     compiler_prefix: str | None,
     cflags: tuple[str, ...],
+    idf_build: Path | None,
     force: bool,
     verbose: bool,
 ) -> None:
@@ -253,6 +259,7 @@ def build(
             jobs,
             compiler_prefix,
             cflags,
+            idf_build=idf_build,
         )
     )
 

@@ -49,7 +49,6 @@ SDKCONFIG_H = "sdkconfig.h"
 # BSD sockets); without it the UDP transport does not compile ("field 'platform' has incomplete
 # type"). https://github.com/eProsima/Micro-XRCE-DDS-Client/blob/ros2/CMakeLists.txt
 XRCE_PLATFORM_NAME = "LwIP"
-_FLAG = "--idf-build"
 _RECONFIGURE = "run `idf.py reconfigure` in the ESP-IDF project and pass its build folder"
 # GCC stops expanding nested response files at this depth (libiberty's expandargv has no limit
 # but a file that names itself would never end).
@@ -284,17 +283,17 @@ def include_dirs(desc: Description) -> tuple[tuple[str, ...], int]:
 # the build folder
 
 
-def _read(path: Path, what: str) -> str:
+def _read(path: Path, what: str, flag: str) -> str:
     if not path.is_file():
-        raise ConfigError(f"{_FLAG}: {what} {path} does not exist", _RECONFIGURE)
-    return loader.read_text(path, _FLAG, _RECONFIGURE)
+        raise ConfigError(f"{flag}: {what} {path} does not exist", _RECONFIGURE)
+    return loader.read_text(path, flag, _RECONFIGURE)
 
 
-def _version(desc: Description, sdkconfig_text: str, source: str) -> tuple[int, int, int]:
+def _version(desc: Description, sdkconfig_text: str, source: str, flag: str) -> tuple[int, int, int]:
     version_cmake = Path(desc.idf_path) / "tools" / "cmake" / "version.cmake"
     found = None
     if version_cmake.is_file():
-        found = version_from_cmake(loader.read_text(version_cmake, _FLAG))
+        found = version_from_cmake(loader.read_text(version_cmake, flag))
     found = found or version_from_text(desc.git_revision) or version_from_sdkconfig_h(sdkconfig_text)
     if found is None:
         raise ConfigError(
@@ -310,52 +309,53 @@ def _version(desc: Description, sdkconfig_text: str, source: str) -> tuple[int, 
     return found
 
 
-def _flags(cache: Mapping[str, str], name: str, build: Path, source: str) -> tuple[str, ...]:
+def _flags(cache: Mapping[str, str], name: str, build: Path, source: str, flag: str) -> tuple[str, ...]:
     words = split_shell(cache.get(name, ""), f"{source}: {name}")
 
     def read(path: Path) -> str:
-        return _read(path, f"the response file in {name},")
+        return _read(path, f"the response file in {name},", flag)
 
     return tuple(expand_response_files(words, read, build, f"{source}: {name}"))
 
 
-def read_idf_build(build: Path, idf_target: str, uros_target: str) -> IdfProject:
+def read_idf_build(build: Path, idf_target: str, uros_target: str, flag: str = "--idf-build") -> IdfProject:
     """The facts of an IDF build folder after ``idf.py reconfigure``, checked against the target
-    uros builds for (``idf_target``, the profile's IDF_TARGET). One-line ConfigErrors."""
+    uros builds for (``idf_target``, the profile's IDF_TARGET). One-line ConfigErrors naming
+    ``flag`` (the option, or the uros.yaml key the folder came from)."""
     build = build.resolve()
     if not build.is_dir():
-        raise ConfigError(f"{_FLAG} {build}: no such folder", _RECONFIGURE)
+        raise ConfigError(f"{flag} {build}: no such folder", _RECONFIGURE)
     desc_path = build / DESCRIPTION
     if not desc_path.is_file():
         raise ConfigError(
-            f"{_FLAG} {build}: no {DESCRIPTION}, so it is not an ESP-IDF build folder "
+            f"{flag} {build}: no {DESCRIPTION}, so it is not an ESP-IDF build folder "
             "(or the project was never configured)",
             _RECONFIGURE,
         )
     if not idf_target:
         raise ConfigError(
-            f"{_FLAG}: target {uros_target} is not an ESP-IDF target",
+            f"{flag}: target {uros_target} is not an ESP-IDF target",
             "build for esp32, esp32s2, esp32s3 or esp32c3 (uros build --toolchain esp32s3 --idf-build DIR)",
         )
-    source = f"{_FLAG} {desc_path}"
-    desc = parse_description(loader.load_json(desc_path, _FLAG, _RECONFIGURE), source)
+    source = f"{flag} {desc_path}"
+    desc = parse_description(loader.load_json(desc_path, flag, _RECONFIGURE), source)
     if desc.target != idf_target:
         raise ConfigError(
-            f"{_FLAG} {build}: the project builds for IDF_TARGET {desc.target}, uros builds for "
+            f"{flag} {build}: the project builds for IDF_TARGET {desc.target}, uros builds for "
             f"{idf_target} ({uros_target})",
             f"build with --toolchain {desc.target}, or run `idf.py set-target {idf_target}` in the project",
         )
-    cache = parse_cmake_cache(_read(build / CACHE, "the CMake cache"))
+    cache = parse_cmake_cache(_read(build / CACHE, "the CMake cache", flag))
     config_dir = build / "config"
     sdkconfig = config_dir / SDKCONFIG_H
-    sdkconfig_text = _read(sdkconfig, "the IDF configuration header")
-    version = _version(desc, sdkconfig_text, source)
+    sdkconfig_text = _read(sdkconfig, "the IDF configuration header", flag)
+    version = _version(desc, sdkconfig_text, source, flag)
     soc = Path(desc.idf_path) / "components" / "soc" / desc.target / "include"
     dirs, used = include_dirs(desc)
     for folder in (*dirs, str(soc)):
         if not Path(folder).is_dir():
             raise ConfigError(
-                f"{_FLAG} {build}: the include folder {folder} does not exist (IDF moved or the build "
+                f"{flag} {build}: the include folder {folder} does not exist (IDF moved or the build "
                 "folder is stale)",
                 _RECONFIGURE,
             )
@@ -365,8 +365,8 @@ def read_idf_build(build: Path, idf_target: str, uros_target: str) -> IdfProject
         version=version,
         target=desc.target,
         include_dirs=tuple(dict.fromkeys((*dirs, str(config_dir), str(soc)))),
-        c_flags=_flags(cache, "CMAKE_C_FLAGS", build, f"{_FLAG} {build / CACHE}"),
-        cxx_flags=_flags(cache, "CMAKE_CXX_FLAGS", build, f"{_FLAG} {build / CACHE}"),
+        c_flags=_flags(cache, "CMAKE_C_FLAGS", build, f"{flag} {build / CACHE}", flag),
+        cxx_flags=_flags(cache, "CMAKE_CXX_FLAGS", build, f"{flag} {build / CACHE}", flag),
         sdkconfig_h=str(sdkconfig),
         sdkconfig_sha256=hashlib.sha256(sdkconfig.read_bytes()).hexdigest(),
         components=used,

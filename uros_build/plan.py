@@ -11,12 +11,13 @@ from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-from uros_build import defaults, loader
+from uros_build import defaults, espidf, loader
 from uros_build import distros as distros_mod
 from uros_build import meta as meta_mod
 from uros_build import packages as packages_mod
 from uros_build.distros import Distro, Mirror, Source
 from uros_build.errors import ConfigError
+from uros_build.espidf import IdfProject
 from uros_build.packages import PackageInfo
 from uros_build.profiles import (
     TargetProfile,
@@ -189,6 +190,7 @@ class BuildArgs:
     compiler_prefix: str | None = None
     cflags: tuple[str, ...] = ()
     toolchain_from: str = "--toolchain"  # where toolchain came from (uros.yaml's target), for messages
+    idf_build: Path | None = None  # an ESP-IDF project's build folder to compile micro-ROS against
 
     def names_a_target(self) -> bool:
         return bool(self.toolchain or self.profile or self.compiler_prefix or self.cflags)
@@ -230,6 +232,7 @@ class BuildPlan:
     verbose: bool
     packages: tuple[PackageInfo, ...] = ()  # every package colcon will find in the workspace
     warnings: tuple[str, ...] = ()  # inputs that are valid but likely not what the user meant
+    idf: IdfProject | None = None  # the ESP-IDF project micro-ROS is compiled against
 
     @property
     def profile(self) -> TargetProfile | None:
@@ -255,6 +258,26 @@ def unknown_packages(metas: list[meta_mod.Meta], sets: tuple[str, ...], names: s
         if pkg not in names:
             out.append(f"--set {item}: no package {pkg} in the workspace{_closest(pkg, names)}")
     return out
+
+
+def idf_project(
+    args: BuildArgs, ws: Workspace, cfg: WorkspaceConfig | None, target: Target
+) -> IdfProject | None:
+    """The ESP-IDF build folder of --idf-build, else uros.yaml's idf_build for an ESP-IDF target
+    (a workspace may name several targets; the IDF project is for its ESP-IDF one), read and
+    checked against the target."""
+    profile = target_profile(target)
+    folder, flag = args.idf_build, "--idf-build"
+    if folder is None and cfg is not None and cfg.idf_build and profile is not None and profile.idf_target:
+        folder, flag = ws.root / cfg.idf_build, f"{ws.root / CONFIG}: idf_build"
+    if folder is None:
+        return None
+    if profile is None:
+        raise ConfigError(
+            f"--idf-build with your own toolchain file {target.key}: uros knows no ESP-IDF target for it",
+            "build for a target (uros build --toolchain esp32s3 --idf-build DIR) or a profile (--profile)",
+        )
+    return espidf.read_idf_build(folder, profile.idf_target, profile.name, flag)
 
 
 def plan_build(args: BuildArgs) -> BuildPlan:
@@ -296,6 +319,7 @@ def plan_build(args: BuildArgs) -> BuildPlan:
     out = (args.output or ws.default_output(target.key)).resolve()
     check_folder_target(out, "--output")
     check_output_dir(out, args.force)
+    idf = idf_project(args, ws, cfg, target)
     return BuildPlan(
         workspace=ws,
         config=cfg,
@@ -309,6 +333,7 @@ def plan_build(args: BuildArgs) -> BuildPlan:
         verbose=args.verbose,
         packages=tuple(packages),
         warnings=tuple(warnings),
+        idf=idf,
     )
 
 

@@ -37,6 +37,10 @@ class MicroRosFlags:
     # -D'__attribute__(x)=' worked around GCC < 6 choking on attributes in micro-ROS headers; it
     # also strips rcl's constructor attributes, so uros only adds it where the compiler is older.
     strip_attributes_below_gcc: int = 0
+    # The XRCE-DDS client's PLATFORM_NAME for its IP transports (udp, tcp), set in the micro-ROS
+    # toolchain file: "LwIP" on ESP-IDF selects its lwIP BSD-socket transport
+    # (UCLIENT_PLATFORM_POSIX_NOPOLL), as micro_ros_espidf_component's esp32_toolchain.cmake.in does.
+    xrce_platform: str = ""
 
 
 @dataclass(frozen=True)
@@ -187,6 +191,12 @@ def _validate(profile: TargetProfile, source: Path | str) -> TargetProfile:
             re.compile(pattern)
         except re.error as exc:
             raise _fail(source, f"elf.attribute_patterns.{tag}", f"not a regular expression: {exc}") from exc
+    if not re.fullmatch(r"[A-Za-z0-9_]*", profile.micro_ros.xrce_platform):
+        raise _fail(
+            source,
+            "micro_ros.xrce_platform",
+            f"{profile.micro_ros.xrce_platform!r} is not a word like 'LwIP'",
+        )
     if profile.elf.xtensa_abi not in ("", "0", "1"):
         raise _fail(source, "elf.xtensa_abi", f"{profile.elf.xtensa_abi!r} is not 0 (windowed) or 1 (call0)")
     return replace(profile, source=str(source))

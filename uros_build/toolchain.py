@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from uros_build import __version__, templating
+from uros_build.espidf import IdfProject
 from uros_build.profiles import TargetProfile
 
 CLOCK_HEADER_NAME = "uros_clock_gettime.h"
@@ -43,6 +44,15 @@ class ToolchainRequest:
     # The workspace folder: written as "." in __FILE__ and debug paths, so that two checkouts in
     # different folders give byte-identical libraries (rcutils' logging macros use __FILE__).
     prefix_map: str | None = None
+    # The ESP-IDF project micro-ROS is compiled against (`uros build --idf-build`): its include
+    # folders, sdkconfig.h folder and C flags, for micro-ROS only (never in the firmware's file).
+    idf: IdfProject | None = None
+    # The XRCE-DDS transport the build's colcon.meta selects (None: the profile's).
+    transport: str | None = None
+
+
+# The XRCE-DDS client's transports that run over IP, where its PLATFORM_NAME picks the socket API.
+_IP_TRANSPORTS = ("udp", "tcp")
 
 
 # -ffile-prefix-map appeared in GCC 8 (https://gcc.gnu.org/gcc-8/changes.html).
@@ -88,6 +98,16 @@ def link_unsafe_flags(flags: list[str]) -> list[str]:
     return unsafe
 
 
+def idf_flags(idf: IdfProject | None, lang: str) -> list[str]:
+    """The IDF project's flags for micro-ROS: its CMAKE_<LANG>_FLAGS, then -I for every public
+    include folder of its components, its config/ (sdkconfig.h) and soc/<target>/include, in
+    micro_ros_espidf_component's order (``${CMAKE_C_FLAGS} ${FLAGS} ${IDF_INCLUDES}``)."""
+    if idf is None:
+        return []
+    base = idf.c_flags if lang == "c" else idf.cxx_flags
+    return [*base, *(f"-I{folder}" for folder in idf.include_dirs)]
+
+
 def tool_paths(profile: TargetProfile, tool_dir: str | None) -> dict[str, str]:
     prefix = f"{tool_dir.rstrip('/')}/" if tool_dir else ""
     return {t: f"{prefix}{profile.tool(t)}" for t in ("gcc", "g++", "ar", "ranlib", "nm", "objcopy", "size")}
@@ -97,7 +117,14 @@ def render_toolchain(req: ToolchainRequest) -> str:
     p = req.profile
     base = [*p.cpu_flags, *p.libc_flags, *(f"-D{d}" for d in p.defines)]
     extra = microros_flags(req) if req.micro_ros else []
-    c_flags, cxx_flags = [*base, *p.c_flags, *extra], [*base, *p.cxx_flags, *extra]
+    idf = req.idf if req.micro_ros else None
+    c_flags = [*base, *p.c_flags, *extra, *idf_flags(idf, "c")]
+    cxx_flags = [*base, *p.cxx_flags, *extra, *idf_flags(idf, "cxx")]
+    transport = req.transport or p.transport
+    # micro_ros_espidf_component: C17 from ESP-IDF 5 on, C11 before; for the XRCE-DDS client too,
+    # which builds as C99 unless told (its UCLIENT_C_STANDARD), and IDF's esp_macros.h needs C11's
+    # static_assert ("expected declaration specifiers ... before numeric constant" under gnu99).
+    c_standard = idf.c_standard if idf else p.c_standard
     compile_flags = [*c_flags, *cxx_flags, p.optimization]
     return templating.render(
         "toolchain.cmake.j2",
@@ -116,4 +143,8 @@ def render_toolchain(req: ToolchainRequest) -> str:
         dollar=any("$" in f for f in compile_flags),
         # uros builds static libraries only; a firmware links executables with these flags
         link_unsafe=[] if req.micro_ros else link_unsafe_flags([*c_flags, *cxx_flags]),
+        idf=idf,
+        c_standard=c_standard,
+        xrce_platform=p.micro_ros.xrce_platform if req.micro_ros and transport in _IP_TRANSPORTS else "",
+        uclient_c_standard=c_standard if req.micro_ros and p.idf_target else None,
     )

@@ -63,6 +63,9 @@ class WorkspaceConfig:
     transport: str | None = None  # XRCE-DDS transport (default: the target's)
     set: tuple[str, ...] = ()  # PKG.OPTION=VALUE, before --set's
     packages: tuple[str, ...] = ()  # the packages a build is for (see `uros build --help`)
+    # An ESP-IDF project's build folder (after `idf.py reconfigure`), relative to the workspace
+    # or absolute: micro-ROS is compiled against its components, sdkconfig.h and C flags.
+    idf_build: str | None = None
 
 
 _CONFIG_KEYS = {f.name for f in fields(WorkspaceConfig)}
@@ -103,6 +106,7 @@ def parse_config(data: Any, source: str, partial: bool = False) -> WorkspaceConf
         transport=transport,
         set=sets,
         packages=loader.string_list(top, "packages", source),
+        idf_build=loader.string(top, "idf_build", source) if top.get("idf_build") is not None else None,
     )
 
 
@@ -122,7 +126,7 @@ def config_text(cfg: WorkspaceConfig) -> str:
         "extra_packages": list(cfg.extra_packages),
     }
     # the keys users add themselves, written back only when set (add-package rewrites the file)
-    optional = {"target": cfg.target, "transport": cfg.transport}
+    optional = {"target": cfg.target, "transport": cfg.transport, "idf_build": cfg.idf_build}
     data.update({k: v for k, v in optional.items() if v is not None})
     lists = {"targets": cfg.targets, "set": cfg.set, "packages": cfg.packages}
     data.update({k: list(v) for k, v in lists.items() if v})

@@ -150,12 +150,28 @@ def _info() -> dict[str, object]:
         ({"transport": ["udp"]}, "transport: must be a string"),
         ({"include": {"files": True}}, "include: files: must be a whole number"),
         ({"flags": {"optimization": 2}}, "flags: optimization: must be a string"),
+        ({"idf": {"version": "5.3.1", "target": "esp32s3"}}, "idf: sdkconfig_sha256: is required"),
+        (
+            {"idf": {"version": "5.3.1", "target": "esp32s3", "sdkconfig_sha256": "s", "components": "x"}},
+            "idf: components: must be a whole number",
+        ),
     ],
 )
 def test_malformed_build_info_names_the_key(change: dict[str, object], expected: str) -> None:
     with pytest.raises(ConfigError, match=expected):
         parse_build_info({**_info(), **change}, "build-info.json")
     assert parse_build_info(_info(), "b").library.bytes == 0
+
+
+def test_build_info_idf_round_trip() -> None:
+    from uros_build.buildinfo import IdfInfo
+
+    idf = {"version": "5.3.1", "target": "esp32s3", "sdkconfig_sha256": "ab", "components": 39,
+           "include_dirs": 68, "c_flags": ["-mlongcalls"], "cxx_flags": []}  # fmt: skip
+    info = parse_build_info({**_info(), "idf": idf}, "b")
+    assert info.idf == IdfInfo("5.3.1", "esp32s3", "ab", 39, 68, ("-mlongcalls",), ())
+    assert parse_build_info(json.loads(info.to_json()), "b") == info
+    assert "idf" not in json.loads(parse_build_info(_info(), "b").to_json())
 
 
 def test_a_config_file_is_checked_whole_but_needs_no_distro() -> None:

@@ -6,6 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+from fake_idf import make_idf_build
 
 from uros_build import defaults
 from uros_build.distros import Distro, Mirror, MirrorRule, Override, Repo
@@ -182,6 +183,40 @@ def test_uros_yaml_transport_and_set_come_under_the_command_line(tmp_path: Path)
     plan = plan_build(BuildArgs(workspace=ws, toolchain="cortex-m7", transport="serial", sets=("pkg.B=2",)))
     assert meta_transport(plan.meta) == "serial"
     assert plan.meta.names["pkg"]["cmake-args"] == ("-DA=1", "-DB=2")
+
+
+def test_idf_build_on_the_command_line(tmp_path: Path) -> None:
+    build, ws = make_idf_build(tmp_path / "idf"), _ws(tmp_path)
+    plan = plan_build(BuildArgs(workspace=ws, toolchain="esp32s3", idf_build=build))
+    assert plan.idf is not None and plan.idf.target == "esp32s3" and plan.idf.version == (5, 3, 1)
+    with pytest.raises(
+        ConfigError, match=r"^--idf-build .*IDF_TARGET esp32s3, uros builds for esp32 \(esp32\)"
+    ):
+        plan_build(BuildArgs(workspace=ws, toolchain="esp32", idf_build=build))
+    with pytest.raises(ConfigError, match="target cortex-m7 is not an ESP-IDF target"):
+        plan_build(BuildArgs(workspace=ws, toolchain="cortex-m7", idf_build=build))
+    tc = tmp_path / "mine.cmake"
+    tc.write_text("set(CMAKE_SYSTEM_NAME Generic)\n", encoding="utf-8")
+    with pytest.raises(ConfigError, match="--idf-build with your own toolchain file mine"):
+        plan_build(BuildArgs(workspace=ws, toolchain=str(tc), idf_build=build))
+
+
+def test_idf_build_in_uros_yaml_is_for_the_esp_idf_target(tmp_path: Path) -> None:
+    ws = _ws(tmp_path)
+    make_idf_build(ws / "idfproj")
+    (ws / "uros.yaml").write_text("distro: humble\nidf_build: idfproj/proj/build\n", encoding="utf-8")
+    plan = plan_build(BuildArgs(workspace=ws, toolchain="esp32s3"))
+    assert plan.idf is not None and plan.idf.build_dir == str((ws / "idfproj/proj/build").resolve())
+    # another target of the same workspace builds without it
+    assert plan_build(BuildArgs(workspace=ws, toolchain="cortex-m7")).idf is None
+    # the command line wins
+    other = make_idf_build(tmp_path / "other")
+    assert plan_build(BuildArgs(workspace=ws, toolchain="esp32s3", idf_build=other)).idf.build_dir == str(  # type: ignore[union-attr]
+        other.resolve()
+    )
+    (ws / "uros.yaml").write_text("distro: humble\nidf_build: nowhere\n", encoding="utf-8")
+    with pytest.raises(ConfigError, match=r"uros\.yaml: idf_build .*nowhere: no such folder"):
+        plan_build(BuildArgs(workspace=ws, toolchain="esp32s3"))
 
 
 # -- plan_sources / plan_create ----------------------------------------------------------------

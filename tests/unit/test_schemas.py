@@ -150,6 +150,7 @@ transport: udp
 set:
   - rmw_microxrcedds.RMW_UXRCE_MAX_PUBLISHERS=4
 packages: [rclc, std_msgs]
+idf_build: ../my-idf-project/build
 """
 
 
@@ -159,6 +160,7 @@ def test_sample_uros_yaml_validates() -> None:
     cfg = workspace.parse_config(data, "uros.yaml")  # and uros reads it
     assert cfg.distro == "humble" and len(cfg.mirror.rules) == 1 and len(cfg.mirror.overrides) == 2
     assert cfg.targets == ("cortex-m7", "rp2040") and cfg.transport == "udp" and len(cfg.set) == 1
+    assert cfg.idf_build == "../my-idf-project/build"
     # what create-firmware writes validates too
     assert _errors("uros.schema.json", yaml.safe_load(workspace.config_text(cfg))) == []
     assert _errors("uros.schema.json", {"distro": "iron"}) == []
@@ -187,6 +189,8 @@ def test_uros_schema_equals_the_workspace_config() -> None:
         ({"distro": "humble", "set": ["RMW_UXRCE_MAX_NODES=2"]}, "does not match"),
         ({"distro": "humble", "target": "cortex-m7", "targets": ["rp2040"]}, "should not be valid"),
         ({"distro": "humble", "targets": "rp2040"}, "'rp2040' is not of type 'array'"),
+        ({"distro": "humble", "idf_build": ["build"]}, "['build'] is not of type 'string'"),
+        ({"distro": "humble", "idf_build": ""}, "'' should be non-empty"),
     ],
 )
 def test_bad_uros_yaml_fails_the_schema(data: dict[str, Any], expected: str) -> None:

@@ -4,6 +4,7 @@ from dataclasses import replace
 
 from golden import check_golden
 
+from uros_build.espidf import IdfProject
 from uros_build.profiles import find_profile
 from uros_build.templating import cmake_flags
 from uros_build.toolchain import ToolchainRequest, microros_flags, render_toolchain
@@ -70,3 +71,65 @@ def test_rv32imc_selects_picolibc_for_compiles_and_links() -> None:
     for var in ("CMAKE_C_FLAGS_INIT", "CMAKE_CXX_FLAGS_INIT", "CMAKE_EXE_LINKER_FLAGS_INIT"):
         line = next(line for line in text.splitlines() if line.startswith(f"set({var} "))
         assert "-march=rv32imc -mabi=ilp32 --specs=picolibc.specs" in line, var
+
+
+def _idf(version: tuple[int, int, int] = (5, 3, 1), sha: str = "a" * 64) -> IdfProject:
+    return IdfProject(
+        build_dir="/proj/build",
+        idf_path="/esp/idf",
+        version=version,
+        target="esp32s3",
+        include_dirs=(
+            "/esp/idf/components/freertos/config/include",
+            "/esp/my idf/components/lwip/include",
+            "/proj/build/config",
+            "/esp/idf/components/soc/esp32s3/include",
+        ),
+        c_flags=("-mlongcalls", "-fno-builtin-memcpy"),
+        cxx_flags=("-mlongcalls", "-fno-rtti-x"),
+        sdkconfig_h="/proj/build/config/sdkconfig.h",
+        sdkconfig_sha256=sha,
+        components=2,
+    )
+
+
+def test_esp32s3_against_an_idf_project_golden() -> None:
+    req = ToolchainRequest(find_profile("esp32s3"), micro_ros=True, gcc_major=14, idf=_idf(), transport="udp")
+    text = render_toolchain(req)
+    check_golden("esp32s3-idf.micro-ros.cmake", text)
+    c_line = next(line for line in text.splitlines() if line.startswith("set(CMAKE_C_FLAGS_INIT"))
+    cxx_line = next(line for line in text.splitlines() if line.startswith("set(CMAKE_CXX_FLAGS_INIT"))
+    # IDF's flags, then every include folder, one word each (the space is quoted for the shell)
+    assert "-fno-builtin-memcpy -I/esp/idf/components/freertos/config/include" in c_line
+    assert "'-I/esp/my idf/components/lwip/include' -I/proj/build/config" in c_line
+    assert c_line.endswith('-I/esp/idf/components/soc/esp32s3/include")')
+    assert "-fno-rtti-x" in cxx_line and "-fno-rtti-x" not in c_line
+    assert 'set(PLATFORM_NAME "LwIP")' in text
+    assert 'set(UCLIENT_C_STANDARD 17 CACHE STRING "uros: the C standard of ESP-IDF\'s headers")' in text
+    assert "set(CMAKE_C_STANDARD 17)" in text and f"sdkconfig.h sha256 {'a' * 64}" in text
+
+
+def test_idf_flags_never_reach_the_firmware_toolchain() -> None:
+    text = render_toolchain(ToolchainRequest(find_profile("esp32s3"), micro_ros=False, idf=_idf()))
+    assert "/esp/idf" not in text and "sdkconfig" not in text
+    assert "PLATFORM_NAME" not in text.replace("PLATFORM_NAME_FREERTOS", "") and "UCLIENT" not in text
+
+
+def test_a_changed_sdkconfig_changes_the_toolchain_file() -> None:
+    profile = find_profile("esp32s3")
+    one = render_toolchain(ToolchainRequest(profile, micro_ros=True, idf=_idf(sha="a" * 64)))
+    two = render_toolchain(ToolchainRequest(profile, micro_ros=True, idf=_idf(sha="b" * 64)))
+    assert one != two
+
+
+def test_idf4_compiles_micro_ros_as_c11() -> None:
+    text = render_toolchain(ToolchainRequest(find_profile("esp32s3"), micro_ros=True, idf=_idf((4, 4, 8))))
+    assert "set(CMAKE_C_STANDARD 11)" in text and "set(UCLIENT_C_STANDARD 11 CACHE" in text
+
+
+def test_platform_name_only_with_an_ip_transport() -> None:
+    profile = find_profile("esp32s3")
+    custom = render_toolchain(ToolchainRequest(profile, micro_ros=True, transport="custom"))
+    assert "set(PLATFORM_NAME" not in custom and "set(UCLIENT_C_STANDARD 17 CACHE" in custom
+    arm = render_toolchain(ToolchainRequest(find_profile("cortex-m7"), micro_ros=True, transport="udp"))
+    assert "set(PLATFORM_NAME" not in arm and "UCLIENT_C_STANDARD" not in arm

@@ -16,7 +16,7 @@ from uros_build import __version__, abi, colcon, console, export, hosttools, inc
 from uros_build import meta as meta_mod
 from uros_build import packages as packages_mod
 from uros_build.archive import BinTools, merge_archives
-from uros_build.buildinfo import BUILD_INFO, BuildInfo, Compiler, Flags, Include, Library
+from uros_build.buildinfo import BUILD_INFO, BuildInfo, Compiler, Flags, IdfInfo, Include, Library
 from uros_build.errors import StepFailed
 from uros_build.hosttools import HostFacts
 from uros_build.plan import BuildArgs, BuildPlan, ProfileTarget, expand_targets, meta_transport, plan_build
@@ -51,6 +51,12 @@ def build(args: BuildArgs) -> Path:
     console.info(f"log: {runner.log_path}")
     for warning in plan.warnings:
         console.warn(warning)
+    if plan.idf is not None:
+        idf = plan.idf
+        console.info(
+            f"ESP-IDF {idf.version_text} project {idf.build_dir} ({idf.target}): {idf.components} "
+            f"components, {len(idf.include_dirs)} include folders, sdkconfig.h {idf.sdkconfig_sha256[:12]}"
+        )
     facts = hosttools.probe_host(
         runner, plan.profile, plan.target_dir, check_libraries=plan.config is not None
     )
@@ -152,6 +158,8 @@ def _prepare_toolchain(plan: BuildPlan, facts: HostFacts) -> Path:
         tool_dir=facts.tool_dir,
         command=f"uros build --toolchain {profile.name}",
         prefix_map=str(plan.workspace.root),
+        idf=plan.idf,
+        transport=meta_transport(plan.meta),
     )
     path = plan.target_dir / "toolchain.cmake"
     if write_if_changed(path, render_toolchain(req)):
@@ -265,6 +273,22 @@ def _stage_output(
         abi_check=abi_check,
         skipped_python_packages=skipped,
         idf_target=profile.idf_target or None if profile else None,
+        idf=_idf_info(plan),
     )
     export.write_cmake_package(staging, info)
     return info
+
+
+def _idf_info(plan: BuildPlan) -> IdfInfo | None:
+    idf = plan.idf
+    if idf is None:
+        return None
+    return IdfInfo(
+        version=idf.version_text,
+        target=idf.target,
+        sdkconfig_sha256=idf.sdkconfig_sha256,
+        components=idf.components,
+        include_dirs=len(idf.include_dirs),
+        c_flags=idf.c_flags,
+        cxx_flags=idf.cxx_flags,
+    )
