@@ -22,7 +22,7 @@ from typing import Any
 
 from uros_build.errors import VerifyError
 from uros_build.proc import Runner
-from uros_build.profiles import ElfFacts, TargetProfile
+from uros_build.profiles import ElfFacts, TargetProfile, shipped_profiles
 
 READELF = "readelf"
 READELF_HINT = "install GNU binutils (it reads every target's objects): apt-get install binutils"
@@ -30,11 +30,18 @@ READELF_HINT = "install GNU binutils (it reads every target's objects): apt-get 
 # What rcutils' atomic_64bits.c defines (RCUTILS_NO_64_ATOMIC=ON). Where the platform defines
 # them too (ESP-IDF's newlib), the firmware link fails with "multiple definition".
 ATOMIC_64_SYMBOLS = re.compile(r"__atomic_(load|store|exchange|fetch_add|compare_exchange)_8")
+# The library routines GCC calls for atomics it does not inline (__atomic_* and the legacy __sync_*),
+# by operand size. ESP-IDF defines the 1/2/4-byte ones only for chips without S32C1I
+# (components/newlib/stdatomic.c: `#if !HAS_ATOMICS_32`): on an ESP32 or ESP32-S3 it expects the
+# compiler to inline them, so an undefined one fails the firmware link.
+ATOMIC_ROUTINE = re.compile(r"__(?:atomic|sync)_\w+_(?P<size>1|2|4|8|16)")
 
 _FILE_LINE = re.compile(r"^File: (?P<archive>.*)\((?P<member>[^()]*)\)$")
 _HEADER_LINE = re.compile(r"^\s+(Class|Machine|Flags):\s+(.*)$")
 _ATTRIBUTE_LINE = re.compile(r"^\s+(Tag_\w+): (.*)$")
 _XTENSA_ABI = re.compile(r"\bABI=(\d+)")
+# .xtensa.info's lines as readelf --string-dump shows them: "USE_ABSOLUTE_LITERALS=0\n", "ABI=0\n"
+_XTENSA_INFO_ITEM = re.compile(r"\b([A-Z_]+)=(\w+)\\n")
 # readelf -s --wide: "  12: 00000000    40 FUNC    GLOBAL DEFAULT    5 name"
 _SYMBOL_LINE = re.compile(r"^\s*\d+:\s+\S+\s+\d+\s+\S+\s+(GLOBAL|WEAK)\s+\S+\s+(\S+)\s+(\S+)")
 
@@ -50,6 +57,8 @@ class ObjectFacts:
     attributes: tuple[tuple[str, str], ...] = ()
     xtensa_abi: str | None = None
     defined_symbols: tuple[str, ...] = ()  # only the defined globals the check looks for
+    undefined_atomics: tuple[str, ...] = ()  # undefined __atomic_*/__sync_* routines
+    xtensa_info: tuple[tuple[str, str], ...] = ()  # every KEY=VALUE of .xtensa.info
 
 
 @dataclass
@@ -59,6 +68,8 @@ class _Collector:
     attributes: dict[str, str] = field(default_factory=dict)
     xtensa_abi: str | None = None
     symbols: list[str] = field(default_factory=list)
+    undefined: list[str] = field(default_factory=list)
+    xtensa_info: dict[str, str] = field(default_factory=dict)
     in_xtensa_info: bool = False
 
     def done(self) -> ObjectFacts:
@@ -70,7 +81,14 @@ class _Collector:
             attributes=tuple(self.attributes.items()),
             xtensa_abi=self.xtensa_abi,
             defined_symbols=tuple(self.symbols),
+            undefined_atomics=tuple(self.undefined),
+            xtensa_info=tuple(self.xtensa_info.items()),
         )
+
+
+def reads_symbols(profile: TargetProfile) -> bool:
+    """The symbol tables are read where the check looks at symbols (atomics)."""
+    return profile.native_64bit_atomics or bool(profile.missing_atomics)
 
 
 def readelf_argv(library: Path, facts: ElfFacts, symbols: bool) -> list[str]:
@@ -106,11 +124,15 @@ def parse_readelf(lines: Sequence[str], name: str) -> list[ObjectFacts]:
             current = _Collector(name)
         header = _HEADER_LINE.match(line)
         attribute = _ATTRIBUTE_LINE.match(line)
+        if not line.startswith(" "):  # a new part of readelf's output ends the string dump
+            current.in_xtensa_info = False
         if line.startswith("String dump of section '.xtensa.info'"):
             current.in_xtensa_info = True
-        elif current.in_xtensa_info and _XTENSA_ABI.search(line):
-            current.xtensa_abi = _XTENSA_ABI.search(line)[1]  # type: ignore[index]
-            current.in_xtensa_info = False
+        elif current.in_xtensa_info and _XTENSA_INFO_ITEM.search(line):
+            current.xtensa_info.update(_XTENSA_INFO_ITEM.findall(line))
+            abi = _XTENSA_ABI.search(line)
+            if abi:
+                current.xtensa_abi = abi[1]
         elif header and header[1] not in current.values:
             current.values[header[1]] = header[2].strip()
         elif attribute:
@@ -119,6 +141,8 @@ def parse_readelf(lines: Sequence[str], name: str) -> list[ObjectFacts]:
             symbol = _SYMBOL_LINE.match(line)
             if symbol and symbol[2] != "UND" and ATOMIC_64_SYMBOLS.fullmatch(symbol[3]):
                 current.symbols.append(symbol[3])
+            elif symbol and symbol[2] == "UND" and ATOMIC_ROUTINE.fullmatch(symbol[3]):
+                current.undefined.append(symbol[3])
     if current is not None:
         objects.append(current.done())
     return objects
@@ -176,8 +200,48 @@ def expected_summary(facts: ElfFacts) -> dict[str, Any]:
     return summary
 
 
-def verify(objects: Sequence[ObjectFacts], profile: TargetProfile, library: str) -> dict[str, Any]:
-    """Raise VerifyError naming the first object that does not match; else a summary (pure)."""
+def look_alikes(profile: TargetProfile, profiles: Sequence[TargetProfile]) -> list[str]:
+    """The other targets whose ELF facts are the same as ``profile``'s: objects that pass the check
+    for one of them pass it for all, so the check cannot say which one they were built for.
+    ESP32, ESP32-S2 and ESP32-S3 objects are such a set: built from the same source with each
+    chip's Xtensa core description (binutils' XTENSA_GNU_CONFIG plugin), they are byte-identical,
+    .xtensa.info included; only instructions a chip lacks could tell them apart (docs/esp32.md)."""
+    return sorted(p.name for p in profiles if p.name != profile.name and p.elf == profile.elf)
+
+
+def undefined_atomics(objects: Sequence[ObjectFacts], profile: TargetProfile) -> dict[str, list[str]]:
+    """Undefined __atomic_*/__sync_* routines of the sizes the platform defines none of ->
+    the objects that need them (pure)."""
+    missing = set(profile.missing_atomics)
+    needs: dict[str, list[str]] = {}
+    for obj in objects:
+        for symbol in obj.undefined_atomics:
+            match = ATOMIC_ROUTINE.fullmatch(symbol)
+            if match and match["size"] in missing:
+                needs.setdefault(symbol, []).append(obj.member)
+    return dict(sorted(needs.items()))
+
+
+def _atomic_warnings(needs: dict[str, list[str]], profile: TargetProfile, library: str) -> list[str]:
+    out = []
+    for symbol, members in needs.items():
+        shown = ", ".join(members[:3]) + (f" and {len(members) - 3} more" if len(members) > 3 else "")
+        out.append(
+            f"{library} needs {symbol} ({shown}), which {profile.name}'s platform does not define "
+            f"({'/'.join(profile.missing_atomics)}-byte atomics are expected inline): the firmware must "
+            "define it, or build with a compiler that inlines atomics for this chip (docs/esp32.md)"
+        )
+    return out
+
+
+def verify(
+    objects: Sequence[ObjectFacts],
+    profile: TargetProfile,
+    library: str,
+    profiles: Sequence[TargetProfile] | None = None,
+) -> dict[str, Any]:
+    """Raise VerifyError naming the first object that does not match; else a summary (pure).
+    ``profiles``: the targets to compare the ELF facts with (default: the shipped ones)."""
     if not objects:
         raise VerifyError(f"{library}: holds no objects to check", "is it an empty or a non-ELF archive?")
     for obj in objects:
@@ -189,18 +253,28 @@ def verify(objects: Sequence[ObjectFacts], profile: TargetProfile, library: str)
                 f"the library does not fit {profile.name}: rebuild it for this target "
                 "(uros build --toolchain NAME), or check it against another one (uros check --target)",
             )
-    return {
+    summary: dict[str, Any] = {
         "checked": True,
         "target": profile.name,
         "objects": len(objects),
         "expects": expected_summary(profile.elf),
         "result": "pass",
     }
+    alike = look_alikes(profile, list(shipped_profiles().values()) if profiles is None else profiles)
+    if alike:
+        summary["same_elf_facts_as"] = alike
+    needs = undefined_atomics(objects, profile)
+    if needs:
+        summary["undefined_atomics"] = needs
+        summary["warnings"] = _atomic_warnings(needs, profile, library)
+    return summary
 
 
 def check_library(runner: Runner, library: Path, profile: TargetProfile) -> dict[str, Any]:
     """Read every object of ``library`` in one readelf run and verify it against ``profile``."""
-    argv = readelf_argv(library, profile.elf, symbols=profile.native_64bit_atomics)
+    argv = readelf_argv(
+        library, profile.elf, symbols=profile.native_64bit_atomics or bool(profile.missing_atomics)
+    )
     argv[0] = runner.which(READELF, READELF_HINT)
     lines = runner.query(argv, step=f"read the ELF facts of {library.name}").splitlines()
     return verify(parse_readelf(lines, library.name), profile, library.name)
@@ -215,5 +289,14 @@ def describe(summary: dict[str, Any]) -> str:
     facts += [f"no {k}" for k in expects.get("attributes_absent", [])]
     facts += [f"flags {f}" for f in expects.get("flags", [])]
     if "xtensa_abi" in expects:
-        facts.append(f".xtensa.info ABI={expects['xtensa_abi']}")
-    return f"all {summary['objects']} objects match {summary['target']} ({', '.join(facts)})"
+        names = {"0": "windowed", "1": "call0"}
+        facts.append(f".xtensa.info ABI={expects['xtensa_abi']} ({names.get(expects['xtensa_abi'], '?')})")
+    alike = summary.get("same_elf_facts_as")
+    if not alike:
+        return f"all {summary['objects']} objects match {summary['target']} ({', '.join(facts)})"
+    *rest, last = sorted([summary["target"], *alike])
+    return (
+        f"all {summary['objects']} objects show the ELF facts of {summary['target']} ({', '.join(facts)}); "
+        f"the ELF facts of {', '.join(rest)} and {last} are identical, so this does not tell which of "
+        "them the objects were built for"
+    )

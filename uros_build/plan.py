@@ -280,6 +280,21 @@ def idf_project(
     return espidf.read_idf_build(folder, profile.idf_target, profile.name, flag)
 
 
+# ESP-IDF's newlib defines the 64-bit __atomic_*_8 routines from 5.3 on (components/newlib/stdatomic.c:
+# ATOMIC_FUNCTIONS(8, ...)); 5.2 and earlier define none, so rcutils must bring its own there.
+IDF_DEFINES_ATOMICS_8 = (5, 3)
+
+
+def idf_platform(target: Target, idf: IdfProject | None) -> Target:
+    """The target as the IDF project's version makes it: before ESP-IDF 5.3 the platform does not
+    define __atomic_*_8, so rcutils' own are built (and allowed by the ABI check)."""
+    if idf is None or not isinstance(target, ProfileTarget) or idf.version >= IDF_DEFINES_ATOMICS_8:
+        return target
+    if not target.profile.native_64bit_atomics:
+        return target
+    return ProfileTarget(target.key, replace(target.profile, native_64bit_atomics=False))
+
+
 def plan_build(args: BuildArgs) -> BuildPlan:
     """Validate every input of `uros build` (reads files, starts nothing)."""
     ws = open_workspace(args.workspace)
@@ -299,6 +314,8 @@ def plan_build(args: BuildArgs) -> BuildPlan:
     # uros.yaml's transport and set, under the command line's (a later --set of an option wins)
     transport = args.transport or (cfg.transport if cfg else None)
     sets = (*(cfg.set if cfg else ()), *args.sets)
+    idf = idf_project(args, ws, cfg, target)
+    target = idf_platform(target, idf)
     meta = meta_for(args.preset, target, transport, user_metas, list(sets), distro.preset if distro else None)
     if args.jobs is not None and args.jobs < 1:
         raise ConfigError(f"-j/--jobs {args.jobs}: must be 1 or more", "omit it to let colcon choose")
@@ -319,7 +336,6 @@ def plan_build(args: BuildArgs) -> BuildPlan:
     out = (args.output or ws.default_output(target.key)).resolve()
     check_folder_target(out, "--output")
     check_output_dir(out, args.force)
-    idf = idf_project(args, ws, cfg, target)
     return BuildPlan(
         workspace=ws,
         config=cfg,

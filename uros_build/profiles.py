@@ -85,6 +85,11 @@ class TargetProfile:
     micro_ros: MicroRosFlags = MicroRosFlags()
     transport: str = "custom"
     native_64bit_atomics: bool = False
+    # Operand sizes (bytes) whose __atomic_*/__sync_* library routines the platform defines none
+    # of: an undefined reference to one in the library is reported, naming the objects. ESP-IDF
+    # builds its 1/2/4-byte ones only for chips without S32C1I (ESP32-S2, RISC-V chips without A):
+    # on an ESP32 or ESP32-S3 it expects the compiler to inline them.
+    missing_atomics: tuple[str, ...] = ()
     # Folders (globs) holding <prefix>gcc when it is not on PATH, e.g. an ESP-IDF tools install:
     # "{IDF_TOOLS_PATH}/tools/xtensa-esp-elf/*/xtensa-esp-elf/bin" (see toolsearch.py).
     compiler_search: tuple[str, ...] = ()
@@ -191,6 +196,9 @@ def _validate(profile: TargetProfile, source: Path | str) -> TargetProfile:
             re.compile(pattern)
         except re.error as exc:
             raise _fail(source, f"elf.attribute_patterns.{tag}", f"not a regular expression: {exc}") from exc
+    for size in profile.missing_atomics:
+        if size not in ("1", "2", "4", "8", "16"):
+            raise _fail(source, "missing_atomics", f"{size!r} is not an operand size (1, 2, 4, 8 or 16)")
     if not re.fullmatch(r"[A-Za-z0-9_]*", profile.micro_ros.xrce_platform):
         raise _fail(
             source,

@@ -129,3 +129,73 @@ def test_readelf_argv_reads_xtensa_info_only_where_expected() -> None:
         "l.a",
     ]
     assert "--string-dump=.xtensa.info" in abi.readelf_argv(Path("l.a"), find_profile("esp8266").elf, False)
+
+
+# readelf-esp-chips.txt: the same C file (a 4-byte __atomic_exchange_n and a 1-byte
+# __atomic_fetch_add) compiled with Debian's xtensa-lx106-elf-gcc 12.2 -mabi=windowed and binutils
+# 2.40 with each chip's core plugin (XTENSA_GNU_CONFIG=xtensa_esp32.so / _esp32s2 / _esp32s3, built
+# from espressif/xtensa-dynconfig + xtensa-overlays), archived as esp32.o, esp32s2.o, esp32s3.o:
+# `readelf --file-header --arch-specific --string-dump=.xtensa.info --syms --wide chips.a`. The three
+# objects were byte-identical (same md5); lx106's cc1 emits libcalls for the atomics.
+
+
+def test_esp32_family_objects_are_identical_in_every_elf_fact() -> None:
+    objects = _objects("readelf-esp-chips.txt")
+    assert [o.member for o in objects] == ["esp32.o", "esp32s2.o", "esp32s3.o"]
+    facts = {replace(o, member="") for o in objects}
+    assert len(facts) == 1
+    (one,) = facts
+    assert one.xtensa_abi == "0" and one.flags == "0x300"
+    assert one.xtensa_info == (("USE_ABSOLUTE_LITERALS", "0"), ("ABI", "0"))
+    assert one.undefined_atomics == ("__atomic_exchange_4", "__atomic_fetch_add_1")
+    for chip in ("esp32", "esp32s2", "esp32s3"):
+        assert all(abi.differences(o, find_profile(chip)) == [] for o in objects)
+
+
+def test_check_says_when_targets_cannot_be_told_apart() -> None:
+    objects = _objects("readelf-esp-chips.txt")
+    summary = abi.verify(objects, find_profile("esp32s3"), "chips.a")
+    assert summary["same_elf_facts_as"] == ["esp32", "esp32s2"]
+    assert abi.describe(summary) == (
+        "all 3 objects show the ELF facts of esp32s3 (Tensilica Xtensa ELF32, .xtensa.info ABI=0 (windowed)); "
+        "the ELF facts of esp32, esp32s2 and esp32s3 are identical, so this does not tell which of them "
+        "the objects were built for"
+    )
+    # a target with facts of its own still says "match"
+    assert abi.describe(
+        abi.verify(_objects("readelf-single-object.txt"), find_profile("cortex-m4f"), "l.a")
+    ).startswith("all 1 objects match cortex-m4f")
+
+
+def test_look_alikes_among_the_shipped_targets() -> None:
+    from uros_build.profiles import shipped_profiles
+
+    profiles = list(shipped_profiles().values())
+    assert abi.look_alikes(find_profile("esp32"), profiles) == ["esp32s2", "esp32s3"]
+    assert abi.look_alikes(find_profile("esp8266"), profiles) == []
+    assert abi.look_alikes(find_profile("cortex-m7"), profiles) == []
+
+
+def test_esp32s3_names_undefined_small_atomics_as_a_warning() -> None:
+    objects = _objects("readelf-esp-chips.txt")
+    summary = abi.verify(objects, find_profile("esp32s3"), "chips.a")
+    assert summary["result"] == "pass"  # a warning: Espressif's compiler inlines them, another may not
+    assert summary["undefined_atomics"] == {
+        "__atomic_exchange_4": ["esp32.o", "esp32s2.o", "esp32s3.o"],
+        "__atomic_fetch_add_1": ["esp32.o", "esp32s2.o", "esp32s3.o"],
+    }
+    first = summary["warnings"][0]
+    assert first.startswith(
+        "chips.a needs __atomic_exchange_4 (esp32.o, esp32s2.o, esp32s3.o), which esp32s3's platform does not define"
+    )
+    assert "the firmware must define it" in first
+    # ESP-IDF defines them for the ESP32-S2 (no S32C1I): nothing to say
+    assert "warnings" not in abi.verify(objects, find_profile("esp32s2"), "chips.a")
+    assert abi.reads_symbols(find_profile("esp32s3")) and not abi.reads_symbols(find_profile("esp8266"))
+
+
+def test_many_objects_are_shortened_in_the_warning() -> None:
+    (obj,) = _objects("readelf-esp-chips.txt")[:1]
+    objects = [replace(obj, member=f"o{i}.o") for i in range(5)]
+    warning = abi.verify(objects, find_profile("esp32"), "l.a")["warnings"][0]
+    assert "(o0.o, o1.o, o2.o and 2 more)" in warning

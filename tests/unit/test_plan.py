@@ -219,6 +219,19 @@ def test_idf_build_in_uros_yaml_is_for_the_esp_idf_target(tmp_path: Path) -> Non
         plan_build(BuildArgs(workspace=ws, toolchain="esp32s3"))
 
 
+@pytest.mark.parametrize(
+    ("version", "own_atomics"), [((5, 3, 1), False), ((5, 2, 3), True), ((4, 4, 8), True)]
+)
+def test_idf_before_5_3_gets_rcutils_own_64bit_atomics(
+    tmp_path: Path, version: tuple[int, int, int], own_atomics: bool
+) -> None:
+    build = make_idf_build(tmp_path / "idf", version=version)
+    plan = plan_build(BuildArgs(workspace=_ws(tmp_path), toolchain="esp32s3", idf_build=build))
+    rcutils = plan.meta.names.get("rcutils", {}).get("cmake-args", ())
+    assert ("-DRCUTILS_NO_64_ATOMIC=ON" in rcutils) is own_atomics
+    assert plan.profile is not None and plan.profile.native_64bit_atomics is not own_atomics
+
+
 # -- plan_sources / plan_create ----------------------------------------------------------------
 
 

@@ -11,6 +11,7 @@ import os
 import shutil
 import time
 from pathlib import Path
+from typing import Any
 
 from uros_build import __version__, abi, colcon, console, export, hosttools, includes
 from uros_build import meta as meta_mod
@@ -218,12 +219,15 @@ def _stage_output(
     report = merge_archives(runner, _bintools(plan, facts), libs, library, plan.target_dir / "merge")
     profile = plan.profile
     # Before the output is swapped in: a library that fails the check never replaces a good one.
+    abi_check: dict[str, Any]
     if profile is None:
         abi_check = {"checked": False, "reason": "your own toolchain file: no target profile to compare with"}
     else:
         console.step(f"checking every object against {profile.name}'s ELF facts")
         abi_check = abi.check_library(runner, library, profile)
         console.info(abi.describe(abi_check))
+        for warning in abi_check.get("warnings", ()):
+            console.warn(warning)
     inc = includes.flatten_includes(install / "include", staging / "include")
     size = None
     if profile is not None:

@@ -23,3 +23,5 @@ def check_library(library: Path, target: str | None, profile_path: Path | None, 
     runner = Runner(new_run_log(user_log_dir(), "check"), verbose=verbose)
     summary = abi.check_library(runner, library.resolve(), profile)
     console.step(f"{library}: {abi.describe(summary)}")
+    for warning in summary.get("warnings", ()):
+        console.warn(warning)
