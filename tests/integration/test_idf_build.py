@@ -91,6 +91,9 @@ def _workspace(root: Path) -> Path:
         #define CAT(a, b) a##b
         #define NAME(v) CAT(fx_idf_config_, v)
         const char fx_idf_flag[] = FROM_RESPONSE_FILE;
+        /* lx106 has no S32C1I: a call to __atomic_exchange_4, which ESP-IDF does not define on an S3 */
+        unsigned fx_idf_word;
+        unsigned fx_idf_swap(unsigned v) { return __atomic_exchange_n(&fx_idf_word, v, __ATOMIC_SEQ_CST); }
         int NAME(CONFIG_UROS_TEST_VALUE)(void) { return UROS_PROBE + SOC_PROBE; }
         """,
     )
@@ -126,10 +129,15 @@ def test_micro_ros_compiles_against_the_idf_project_and_sdkconfig_changes_rebuil
     args = ("build", "--profile", str(_profile(tmp_path)), "-w", str(ws), "--idf-build", str(build))
     proc = run_uros(*args)
     assert "ESP-IDF 5.5.4 project" in proc.stderr and "(esp32s3): 4 components" in proc.stderr
+    # the atomics warning names the object; the check says which targets look the same
+    warning = next(line for line in proc.stderr.splitlines() if "needs __atomic_exchange_4" in line)
+    assert "idf.c.obj" in warning and "esp32s3-lx106's platform does not define" in warning
+    assert "the ELF facts of esp32s3-lx106 and esp8266 are identical" in proc.stderr
     out = ws / "build" / "esp32s3-lx106"
     assert "T fx_idf_config_7" in _symbols(out / "libmicroros.a")
     info = json.loads((out / "build-info.json").read_text(encoding="utf-8"))
     assert info["idf"]["version"] == "5.5.4" and info["idf"]["target"] == "esp32s3"
+    assert list(info["abi_check"]["undefined_atomics"]) == ["__atomic_exchange_4"]
     assert info["idf"]["c_flags"] == ["-mlongcalls", '-DFROM_RESPONSE_FILE="a b"']
     first_hash = info["idf"]["sdkconfig_sha256"]
     # micro-ROS only: the firmware's toolchain file knows nothing of the IDF project
