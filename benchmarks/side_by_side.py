@@ -56,6 +56,7 @@ TARGET = "cortex-m7"
 SECOND_TARGET = "cortex-m4f"
 META_CHANGE = "rmw_microxrcedds.RMW_UXRCE_MAX_NODES=2"
 EXTRA_PACKAGE = "eic_demo_interface"
+CLOCK_HEADER = "uros_clock_gettime.h"  # written beside a rendered micro-ROS toolchain file
 # what a typical rclc node needs, plus the custom interfaces (docs/benchmarks.md, issue 9)
 UP_TO = ("rclc", "micro_ros_utilities", "std_msgs", "rmw_microxrcedds", EXTRA_PACKAGE)
 ADDED_FIELD = "float32 added_by_benchmark\n"
@@ -357,6 +358,16 @@ def edit_msg(bench: Bench, pkg: Path, text: str) -> None:
         (folder / "msg" / "CmdVel.msg").write_text(text, encoding="utf-8")
 
 
+def toolchain_words(path: Path) -> set[str]:
+    """The words of a toolchain file's non-comment lines, the clock header's folder left out."""
+    out: set[str] = set()
+    for line in path.read_text(encoding="utf-8").splitlines():
+        if not line.lstrip().startswith("#"):
+            words = line.replace(")", " ").replace('"', " ").split()
+            out |= {re.sub(r"\S*/" + re.escape(CLOCK_HEADER), CLOCK_HEADER, w) for w in words}
+    return out
+
+
 def compare_inputs(bench: Bench) -> list[str]:
     """Does SET get the toolchain file and meta uros's own build used?"""
     lines = []
@@ -370,14 +381,14 @@ def compare_inputs(bench: Bench) -> list[str]:
                                         else f"DIFFERS from uros build's ({ours})"))  # fmt: skip
     uros_tc = target_dir / "toolchain.cmake"
     if uros_tc.is_file():
-        strip = re.compile(r"^\s*#")
-        a_lines = [x for x in toolchain.read_text().splitlines() if not strip.match(x)]
-        b_lines = [x for x in uros_tc.read_text().splitlines() if not strip.match(x)]
-        only = sorted(set(a_lines) ^ set(b_lines))
+        set_words, uros_words = toolchain_words(toolchain), toolchain_words(uros_tc)
+        extra = [f"uros build's adds {w}" for w in sorted(uros_words - set_words)]
+        extra += [f"SET's adds {w}" for w in sorted(set_words - uros_words)]
+        header = (toolchain.parent / CLOCK_HEADER).read_bytes() == (target_dir / CLOCK_HEADER).read_bytes()
         lines.append(
-            "toolchain file: the same as uros build's but for comments"
-            if not only
-            else "toolchain file: differs from uros build's in: " + " | ".join(x.strip() for x in only)
+            "toolchain file: the same words as uros build's"
+            + (f" but: {', '.join(extra)}" if extra else "")
+            + f"; the force-included {CLOCK_HEADER} {'is the same' if header else 'DIFFERS'}"
         )
     return lines
 
