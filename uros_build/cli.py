@@ -21,6 +21,7 @@ from uros_build import __version__, console, defaults, proc
 from uros_build.commands import add_package as add_package_cmd
 from uros_build.commands import build as build_cmd
 from uros_build.commands import check as check_cmd
+from uros_build.commands import clean as clean_cmd
 from uros_build.commands import create_firmware as create_cmd
 from uros_build.commands import export as export_cmd
 from uros_build.commands import interface as interface_cmd
@@ -274,6 +275,16 @@ def check(library: Path, toolchain: str | None, profile: Path | None, verbose: b
     check_cmd.check_library(library, toolchain, profile, verbose)
 
 
+@click.command()
+@_toolchain_option("The target whose trees and output to remove (default: uros.yaml's target).")
+@click.option("--all", "everything", is_flag=True, help="Every target built in the workspace.")
+@_workspace_option("The workspace to clean.")
+def clean(toolchain: str | None, everything: bool, workspace: Path | None) -> None:
+    """Remove uros's per-target trees (.uros/targets/<target>) and outputs (build/<target>), never
+    anything uros did not write, and say how much that freed."""
+    clean_cmd.clean(workspace, toolchain, everything)
+
+
 @click.group(cls=_Group)
 def export() -> None:
     """Packages for firmware build systems."""
@@ -399,6 +410,7 @@ _REGISTRY: tuple[tuple[click.Group, click.Command], ...] = (
     (cli, create_firmware),
     (cli, add_package),
     (cli, check),
+    (cli, clean),
     (cli, targets),
     (targets, targets_show),
     (cli, distros),

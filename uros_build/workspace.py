@@ -34,7 +34,7 @@ import yaml
 
 from uros_build import __version__, console, defaults, loader, proc
 from uros_build import distros as distros_mod
-from uros_build.buildinfo import BUILD_INFO
+from uros_build.buildinfo import BUILD_INFO, read_build_info
 from uros_build.distros import Mirror, Source
 from uros_build.errors import ConfigError, did_you_mean
 from uros_build.profiles import TRANSPORTS
@@ -404,6 +404,15 @@ class Workspace:
     def default_output(self, key: str) -> Path:
         return self.root / "build" / key
 
+    def target_keys(self) -> list[str]:
+        """The targets uros has trees or outputs of here (.uros/targets/<key>, build/<key>)."""
+        trees = self.state_dir / "targets"
+        keys = {p.name for p in trees.iterdir() if p.is_dir()} if trees.is_dir() else set()
+        outputs = self.root / "build"
+        if outputs.is_dir():
+            keys |= {p.name for p in outputs.iterdir() if is_uros_output(p)}
+        return sorted(keys)
+
     def new_log(self, command: str, key: str = "") -> Path:
         return proc.new_run_log(self.log_dir, command, key)
 
@@ -486,6 +495,27 @@ def locked(folder: Path) -> Iterator[None]:
             yield
         finally:
             fcntl.flock(handle, fcntl.LOCK_UN)
+
+
+def is_uros_output(folder: Path) -> bool:
+    """A folder `uros build` wrote: its build-info.json reads back and says uros wrote it."""
+    if not folder.is_dir() or folder.is_symlink():
+        return False
+    try:
+        read_build_info(folder)
+    except ConfigError:
+        return False
+    return True
+
+
+def tree_bytes(path: Path) -> int:
+    """Bytes of the files under ``path`` (links counted as links, not followed)."""
+    if path.is_symlink() or path.is_file():
+        return path.lstat().st_size
+    total = 0
+    for dirpath, _dirnames, filenames in os.walk(path):
+        total += sum(os.lstat(os.path.join(dirpath, name)).st_size for name in filenames)
+    return total
 
 
 def write_if_changed(path: Path, text: str) -> bool:
