@@ -23,6 +23,7 @@ from uros_build.commands import build as build_cmd
 from uros_build.commands import check as check_cmd
 from uros_build.commands import clean as clean_cmd
 from uros_build.commands import create_firmware as create_cmd
+from uros_build.commands import doctor as doctor_cmd
 from uros_build.commands import export as export_cmd
 from uros_build.commands import interface as interface_cmd
 from uros_build.commands import listings
@@ -285,6 +286,16 @@ def clean(toolchain: str | None, everything: bool, workspace: Path | None) -> No
     clean_cmd.clean(workspace, toolchain, everything)
 
 
+@click.command()
+@_toolchain_option("Also check this target's compiler, C library and C++ headers (default: uros.yaml's).")
+@_workspace_option("The workspace whose state to check.")
+@click.option("--json", "as_json", is_flag=True, help="Print the checks as JSON.")
+def doctor(toolchain: str | None, workspace: Path | None, as_json: bool) -> None:
+    """Check that this host can build (tools, target compiler, disk) and the workspace's state;
+    one line per check with its fix, exit 5 when a build would fail."""
+    doctor_cmd.doctor(workspace, toolchain, as_json)
+
+
 @click.group(cls=_Group)
 def export() -> None:
     """Packages for firmware build systems."""
@@ -411,6 +422,7 @@ _REGISTRY: tuple[tuple[click.Group, click.Command], ...] = (
     (cli, add_package),
     (cli, check),
     (cli, clean),
+    (cli, doctor),
     (cli, targets),
     (targets, targets_show),
     (cli, distros),

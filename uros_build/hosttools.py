@@ -80,17 +80,17 @@ def locate_compiler(runner: Runner, profile: TargetProfile) -> str | None:
     return str(found)
 
 
-def check_target_prerequisites(
-    runner: Runner, profile: TargetProfile, tools: Mapping[str, str], scratch: Path
-) -> None:
-    """Real micro-ROS needs the target's C library and C++ headers (humble's rosidl_typesupport_c
-    has .cpp sources): say which package is missing before a long build fails on it."""
-    hint = profile.install_hint or None
+def find_libc(runner: Runner, profile: TargetProfile, tools: Mapping[str, str]) -> str | None:
+    """The target's libc.a as its compiler finds it with the profile's flags, or None."""
     libc = runner.query(
         [tools["gcc"], *profile.cpu_flags, *profile.libc_flags, "-print-file-name=libc.a"], step="find libc"
     ).strip()
-    if not libc or not Path(libc).is_absolute():
-        raise MissingToolError(f"{profile.tool('gcc')} has no C library (libc.a) for {profile.name}", hint)
+    # GCC prints the bare name back when it finds no such file
+    return libc if libc and Path(libc).is_absolute() else None
+
+
+def has_cxx_headers(runner: Runner, profile: TargetProfile, tools: Mapping[str, str], scratch: Path) -> bool:
+    """Whether the target's g++ compiles ``#include <cstdint>`` with the profile's flags."""
     probe = scratch / "uros_cxx_probe.cpp"
     probe.parent.mkdir(parents=True, exist_ok=True)
     probe.write_text("#include <cstdint>\nstd::uint8_t uros_probe;\n", encoding="utf-8")
@@ -100,8 +100,21 @@ def check_target_prerequisites(
             step="find C++ headers",
         )
     except StepFailed:
+        return False
+    return True
+
+
+def check_target_prerequisites(
+    runner: Runner, profile: TargetProfile, tools: Mapping[str, str], scratch: Path
+) -> None:
+    """Real micro-ROS needs the target's C library and C++ headers (humble's rosidl_typesupport_c
+    has .cpp sources): say which package is missing before a long build fails on it."""
+    hint = profile.install_hint or None
+    if find_libc(runner, profile, tools) is None:
+        raise MissingToolError(f"{profile.tool('gcc')} has no C library (libc.a) for {profile.name}", hint)
+    if not has_cxx_headers(runner, profile, tools, scratch):
         message = f"{profile.tool('g++')} has no C++ standard headers for {profile.name}"
-        raise MissingToolError(message, hint) from None
+        raise MissingToolError(message, hint)
 
 
 def probe_target_tools(runner: Runner, profile: TargetProfile) -> tuple[dict[str, str], str | None]:
