@@ -28,6 +28,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
             "buildinfo",
             "espidf",
             "export",
+            "contents",
             "abi",
             "archive",
         ),

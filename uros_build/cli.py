@@ -25,6 +25,7 @@ from uros_build.commands import clean as clean_cmd
 from uros_build.commands import create_firmware as create_cmd
 from uros_build.commands import doctor as doctor_cmd
 from uros_build.commands import export as export_cmd
+from uros_build.commands import info as info_cmd
 from uros_build.commands import interface as interface_cmd
 from uros_build.commands import listings
 from uros_build.errors import Interrupted, UrosError, did_you_mean
@@ -296,6 +297,17 @@ def doctor(toolchain: str | None, workspace: Path | None, as_json: bool) -> None
     doctor_cmd.doctor(workspace, toolchain, as_json)
 
 
+@click.command()
+@click.argument("output", type=_PATH, required=False)
+@_toolchain_option("Or the output of this target in the workspace (default: uros.yaml's target).")
+@_workspace_option("The workspace whose output to read.")
+@_JSON
+def info(output: Path | None, toolchain: str | None, workspace: Path | None, as_json: bool) -> None:
+    """What a built library contains: ROS 2 types, packages and their commits, options in force,
+    flags, sizes (OUTPUT: a `uros build` output folder)."""
+    info_cmd.show_info(output, workspace, toolchain, as_json)
+
+
 @click.group(cls=_Group)
 def export() -> None:
     """Packages for firmware build systems."""
@@ -423,6 +435,7 @@ _REGISTRY: tuple[tuple[click.Group, click.Command], ...] = (
     (cli, check),
     (cli, clean),
     (cli, doctor),
+    (cli, info),
     (cli, targets),
     (targets, targets_show),
     (cli, distros),

@@ -16,7 +16,7 @@ from uros_build import distros as distros_mod
 from uros_build import meta as meta_mod
 from uros_build import packages as packages_mod
 from uros_build.distros import Distro, Mirror, Source
-from uros_build.errors import ConfigError
+from uros_build.errors import ConfigError, did_you_mean
 from uros_build.espidf import IdfProject
 from uros_build.packages import PackageInfo
 from uros_build.profiles import (
@@ -37,6 +37,7 @@ from uros_build.workspace import (
     check_folder_target,
     check_output_dir,
     find_workspace,
+    is_uros_output,
     load_config,
     parse_config,
     read_lock,
@@ -69,6 +70,38 @@ def open_workspace(given: Path | None, cwd: Path | None = None) -> Workspace:
             "(makes ./firmware), or pass -w DIR (a colcon workspace with packages works too)",
         )
     return Workspace.open(path)
+
+
+def resolve_output(output: Path | None, workspace: Path | None, toolchain: str | None) -> Path:
+    """The build output a command reads (uros info, uros size): OUTPUT as given, else in the
+    workspace: --toolchain's output, else uros.yaml's target's, else the only one built."""
+    if output is not None:
+        return output
+    root = resolve_workspace(workspace)
+    ws = Workspace(root.resolve())
+    built = [k for k in ws.target_keys() if is_uros_output(ws.default_output(k))]
+    if toolchain is None:
+        cfg = load_config(ws.root) if ws.root.is_dir() else None
+        named: tuple[str, ...] = ()
+        if cfg is not None:
+            named = cfg.targets or ((cfg.target,) if cfg.target else ())
+        if len(named) == 1:
+            toolchain = named[0]
+        elif len(built) == 1:
+            toolchain = built[0]
+        else:
+            raise ConfigError(
+                f"which output? {len(built)} built in {ws.root}: {', '.join(built) or 'none'}",
+                "pass the output folder (e.g. firmware/build/cortex-m7), or --toolchain NAME",
+            )
+    key = target_key(Path(toolchain).stem if toolchain.endswith(".cmake") else toolchain)
+    if key not in built:
+        raise ConfigError(
+            f"--toolchain {toolchain}: no output of it in {ws.root}{did_you_mean(key, built)}",
+            f"build it first: uros build --toolchain {toolchain}"
+            + (f" (built: {', '.join(built)})" if built else ""),
+        )
+    return ws.default_output(key)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -300,6 +300,13 @@ def test_firmware_workspace_builds_end_to_end(upstream: Path, tmp_path: Path) ->
     assert json.loads((out / "build-info.json").read_text())["transport"] == "udp"
     cache = fw / ".uros/targets/cortex-m7/build/fx_core/CMakeCache.txt"
     assert "FX_CORE_LEVEL:UNINITIALIZED=3" in cache.read_text()
+    # uros info: the packages with the commits of the repositories they came from
+    info = json.loads(run_uros("info", "--json", cwd=fw).stdout)
+    lock = json.loads((fw / "uros.lock").read_text())["repositories"]
+    rows = {p["name"]: p for p in info["packages"]}
+    assert rows["fx_core"]["repository"] == "mcu_ws/uros/rclc"
+    assert rows["fx_core"]["commit"] == lock["mcu_ws/uros/rclc"]["commit"]
+    assert rows["fx_extra"]["commit"] is None  # an extra package: no lock entry
     # a key uros does not know is an error naming file and line, before anything runs
     (fw / "uros.yaml").write_text(yaml.safe_dump(cfg) + "tragets: [rp2040]\n")
     proc = run_uros("build", cwd=fw, check=False)
