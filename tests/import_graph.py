@@ -29,6 +29,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
             "espidf",
             "export",
             "contents",
+            "sizes",
             "abi",
             "archive",
         ),

@@ -28,6 +28,7 @@ from uros_build.commands import export as export_cmd
 from uros_build.commands import info as info_cmd
 from uros_build.commands import interface as interface_cmd
 from uros_build.commands import listings
+from uros_build.commands import size as size_cmd
 from uros_build.errors import Interrupted, UrosError, did_you_mean
 from uros_build.plan import BuildArgs, CreateArgs
 
@@ -308,6 +309,28 @@ def info(output: Path | None, toolchain: str | None, workspace: Path | None, as_
     info_cmd.show_info(output, workspace, toolchain, as_json)
 
 
+@click.command()
+@click.argument("library", type=_PATH, required=False)
+@_toolchain_option("Or the library built for this target in the workspace (default: uros.yaml's).")
+@_workspace_option("The workspace whose library to measure.")
+@click.option("--elf", type=_PATH, help="The firmware ELF linked against the library (with --map).")
+@click.option("--map", "map_file", type=_PATH, help="The firmware's GNU ld map file (-Wl,-Map=app.map).")
+@click.option("--objects", is_flag=True, help="Also list every object of the library.")
+@_JSON
+def size(
+    library: Path | None,
+    toolchain: str | None,
+    workspace: Path | None,
+    elf: Path | None,
+    map_file: Path | None,
+    objects: bool,
+    as_json: bool,
+) -> None:
+    """text/data/bss of libmicroros.a per package (LIBRARY: the .a or its output folder), and with
+    the firmware's map file what each package costs once linked (after --gc-sections)."""
+    size_cmd.show_size(library, workspace, toolchain, elf, map_file, objects, as_json)
+
+
 @click.group(cls=_Group)
 def export() -> None:
     """Packages for firmware build systems."""
@@ -436,6 +459,7 @@ _REGISTRY: tuple[tuple[click.Group, click.Command], ...] = (
     (cli, clean),
     (cli, doctor),
     (cli, info),
+    (cli, size),
     (cli, targets),
     (targets, targets_show),
     (cli, distros),

@@ -497,6 +497,14 @@ def locked(folder: Path) -> Iterator[None]:
             fcntl.flock(handle, fcntl.LOCK_UN)
 
 
+def workspace_of_output(out: Path, key: str) -> Workspace | None:
+    """The workspace an output was built in: <ws>/build/<key> beside <ws>/.uros/targets/<key>."""
+    if out.parent.name != "build":
+        return None
+    ws = Workspace(out.parent.parent)
+    return ws if ws.target_dir(key).is_dir() else None
+
+
 def is_uros_output(folder: Path) -> bool:
     """A folder `uros build` wrote: its build-info.json reads back and says uros wrote it."""
     if not folder.is_dir() or folder.is_symlink():

@@ -15,15 +15,7 @@ from uros_build import meta as meta_mod
 from uros_build import packages as packages_mod
 from uros_build.buildinfo import BuildInfo, read_build_info
 from uros_build.plan import resolve_output
-from uros_build.workspace import LOCK, Lock, Workspace, read_lock
-
-
-def workspace_of(out: Path, key: str) -> Workspace | None:
-    """The workspace an output was built in: <ws>/build/<key> beside <ws>/.uros/targets/<key>."""
-    if out.parent.name != "build":
-        return None
-    ws = Workspace(out.parent.parent)
-    return ws if ws.target_dir(key).is_dir() else None
+from uros_build.workspace import LOCK, Lock, read_lock, workspace_of_output
 
 
 def package_sources(
@@ -46,7 +38,7 @@ def package_sources(
 
 def gather(out: Path) -> dict[str, Any]:
     info: BuildInfo = read_build_info(out, "OUTPUT")
-    ws = workspace_of(out, info.target)
+    ws = workspace_of_output(out, info.target)
     options: dict[str, dict[str, str]] = {}
     rows = [{"name": p, "repository": None, "commit": None} for p in info.packages]
     if ws is not None:
