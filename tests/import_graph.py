@@ -30,6 +30,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
             "export",
             "contents",
             "sizes",
+            "options",
             "abi",
             "archive",
         ),

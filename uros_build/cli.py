@@ -331,6 +331,16 @@ def size(
     size_cmd.show_size(library, workspace, toolchain, elf, map_file, objects, as_json)
 
 
+@click.command("options")
+@_JSON
+def meta_options(as_json: bool) -> None:
+    """The memory and entity options per package (RMW_UXRCE_MAX_*, history, MTU): upstream default,
+    what uros's default preset builds with, and what a larger value costs; --set is checked
+    against them."""
+    columns = (("package", "PACKAGE"), ("option", "OPTION"), ("default", "DEFAULT"), ("preset", "PRESET"))
+    _table(listings.options_table(), as_json, (*columns, ("cost", "COST")))
+
+
 @click.group(cls=_Group)
 def export() -> None:
     """Packages for firmware build systems."""
@@ -467,6 +477,7 @@ _REGISTRY: tuple[tuple[click.Group, click.Command], ...] = (
     (toolchain, toolchain_render),
     (cli, meta),
     (meta, meta_write),
+    (meta, meta_options),
     (cli, export),
     (export, export_cmake),
     (export, export_esp_idf),

@@ -14,6 +14,7 @@ from pathlib import Path
 from uros_build import defaults, espidf, loader
 from uros_build import distros as distros_mod
 from uros_build import meta as meta_mod
+from uros_build import options as options_mod
 from uros_build import packages as packages_mod
 from uros_build.distros import Distro, Mirror, Source
 from uros_build.errors import ConfigError, did_you_mean
@@ -366,6 +367,7 @@ def plan_build(args: BuildArgs) -> BuildPlan:
                 "name a package of the workspace (a folder with a package.xml or a CMakeLists.txt)",
             )
     warnings = unknown_packages(given_metas, sets, names)
+    warnings += options_mod.check_sets(sets, options_mod.by_package(options_mod.known_options()))
     out = (args.output or ws.default_output(target.key)).resolve()
     check_folder_target(out, "--output")
     check_output_dir(out, args.force)

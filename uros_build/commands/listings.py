@@ -7,9 +7,10 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from uros_build import console, defaults, loader
+from uros_build import console, contents, defaults, loader
 from uros_build import distros as distros_mod
 from uros_build import meta as meta_mod
+from uros_build import options as options_mod
 from uros_build.errors import ConfigError
 from uros_build.plan import meta_for, resolve_target
 from uros_build.profiles import OR_PROFILE_FILE, find_profile, load_profile_file, shipped_profiles
@@ -50,6 +51,24 @@ def distros_table() -> list[dict[str, Any]]:
             }
         )
     return rows
+
+
+def options_table() -> list[dict[str, Any]]:
+    """`uros meta options`: the known options, their upstream default and the value uros's
+    default preset (the default distro's generate_lib meta) builds with."""
+    preset = contents.cmake_options(meta_mod.load_preset(defaults.PRESET))
+    return [
+        {
+            "package": o.package,
+            "option": o.name,
+            "default": o.default,
+            "preset": preset.get(o.package, {}).get(o.name, ""),
+            "type": o.type,
+            "choices": list(o.choices),
+            "cost": o.cost,
+        }
+        for o in options_mod.known_options()
+    ]
 
 
 def write_output_file(path: Path | None, text: str, flag: str = "--output") -> None:
@@ -109,6 +128,8 @@ def write_meta(
 ) -> None:
     """`uros meta write`: the colcon.meta `uros build` would use (JSON, sorted keys)."""
     resolved = resolve_target(target, None) if target else None
+    for warning in options_mod.check_sets(sets, options_mod.by_package(options_mod.known_options())):
+        console.warn(warning)
     merged = meta_for(preset, resolved, transport, list(metas), list(sets))
     text = meta_mod.dump_meta(merged, f"uros meta write --preset {preset or defaults.PRESET}")
     write_output_file(output, text)
