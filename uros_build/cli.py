@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 import click
+from click.shell_completion import CompletionItem
 
 from uros_build import __version__, console, defaults, proc
 from uros_build.commands import add_package as add_package_cmd
@@ -69,10 +70,33 @@ class _Group(click.Group):
         return super().resolve_command(ctx, args)
 
 
+# Shell completion (click's: `_UROS_COMPLETE=bash_source uros`, see the README): the names a value
+# can take, filtered by what was typed so far.
+def _matching(names: list[str], incomplete: str) -> list[CompletionItem]:
+    return [CompletionItem(n) for n in names if n.startswith(incomplete)]
+
+
+def _complete_targets(ctx: click.Context, param: click.Parameter, incomplete: str) -> list[CompletionItem]:
+    return _matching(listings.target_names(), incomplete)
+
+
+def _complete_distros(ctx: click.Context, param: click.Parameter, incomplete: str) -> list[CompletionItem]:
+    return _matching(listings.distro_names(), incomplete)
+
+
+def _complete_packages(ctx: click.Context, param: click.Parameter, incomplete: str) -> list[CompletionItem]:
+    return _matching(listings.package_names(ctx.params.get("workspace")), incomplete)
+
+
+def _complete_sets(ctx: click.Context, param: click.Parameter, incomplete: str) -> list[CompletionItem]:
+    return _matching(listings.set_candidates(ctx.params.get("workspace")), incomplete)
+
+
 def _toolchain_option(help_text: str) -> _Decorator:
     return click.option(
-        "--toolchain", "--target", "toolchain", cls=_Option, aliases=("--target",), help=help_text
-    )
+        "--toolchain", "--target", "toolchain", cls=_Option, aliases=("--target",), help=help_text,
+        shell_complete=_complete_targets,
+    )  # fmt: skip
 
 
 def _workspace_option(help_text: str) -> _Decorator:
@@ -93,8 +117,9 @@ _METAS = click.option(
     "--meta", "metas", multiple=True, type=_PATH, help="A colcon.meta merged on top (repeatable)."
 )
 _SETS = click.option(
-    "--set", "sets", multiple=True, metavar="PKG.OPTION=VALUE", help="Set a CMake option of a package."
-)
+    "--set", "sets", multiple=True, metavar="PKG.OPTION=VALUE", help="Set a CMake option of a package.",
+    shell_complete=_complete_sets,
+)  # fmt: skip
 _TRANSPORT = click.option(
     "--transport", help="XRCE-DDS transport: custom, udp or serial (default: the target's)."
 )
@@ -140,7 +165,7 @@ def targets(ctx: click.Context, as_json: bool) -> None:
 
 
 @click.command("show")
-@click.argument("name")
+@click.argument("name", shell_complete=_complete_targets)
 def targets_show(name: str) -> None:
     """Print the profile of target NAME, to copy and edit: uros targets show cortex-m7 > my-board.yaml"""
     click.echo(listings.target_profile_text(name), nl=False)
@@ -160,7 +185,7 @@ def toolchain() -> None:
 
 
 @click.command("render")
-@click.argument("target")
+@click.argument("target", shell_complete=_complete_targets)
 @_output_option("Write here instead of standard output.")
 @click.option(
     "--for", "purpose", type=click.Choice(["firmware", "micro-ros"]), default="firmware", show_default=True,
@@ -211,7 +236,10 @@ def meta_write(
 @_PRESET
 @_TRANSPORT
 @_output_option("Output folder (default: <workspace>/build/<target>).")
-@click.option("--packages-up-to", multiple=True, help="Build only these packages and their dependencies.")
+@click.option(
+    "--packages-up-to", multiple=True, help="Build only these packages and their dependencies.",
+    shell_complete=_complete_packages,
+)  # fmt: skip
 @click.option("-j", "--jobs", type=int, help="Packages built in parallel (colcon --parallel-workers).")
 @click.option(
     "--compiler-prefix",
@@ -365,7 +393,11 @@ def export_esp_idf(output: Path, source: Path | None) -> None:
 @click.command("create-firmware")
 @click.argument("platform", default=defaults.PLATFORM)
 @click.option(
-    "--distro", default=defaults.DISTRO, show_default=True, help="micro-ROS distro (see `uros distros`)."
+    "--distro",
+    default=defaults.DISTRO,
+    show_default=True,
+    help="micro-ROS distro (see `uros distros`).",
+    shell_complete=_complete_distros,
 )
 @_workspace_option("Workspace folder to create.")
 @click.option(

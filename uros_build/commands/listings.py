@@ -11,8 +11,9 @@ from uros_build import console, contents, defaults, loader
 from uros_build import distros as distros_mod
 from uros_build import meta as meta_mod
 from uros_build import options as options_mod
+from uros_build import packages as packages_mod
 from uros_build.errors import ConfigError
-from uros_build.plan import meta_for, resolve_target
+from uros_build.plan import meta_for, resolve_target, resolve_workspace
 from uros_build.profiles import OR_PROFILE_FILE, find_profile, load_profile_file, shipped_profiles
 from uros_build.toolchain import CLOCK_HEADER_NAME, CLOCK_HEADER_TEXT, ToolchainRequest, render_toolchain
 from uros_build.workspace import check_file_target, write_if_changed
@@ -133,3 +134,39 @@ def write_meta(
     merged = meta_for(preset, resolved, transport, list(metas), list(sets))
     text = meta_mod.dump_meta(merged, f"uros meta write --preset {preset or defaults.PRESET}")
     write_output_file(output, text)
+
+
+# -- names for shell completion (never raise: a completion must not print a traceback) ----------
+
+
+def target_names() -> list[str]:
+    try:
+        return list(shipped_profiles())
+    except Exception:
+        return []
+
+
+def distro_names() -> list[str]:
+    try:
+        return distros_mod.known_distros()
+    except Exception:
+        return []
+
+
+def package_names(workspace: Path | None) -> list[str]:
+    """The packages of the workspace (-w, else the default one), for --packages-up-to and --set."""
+    try:
+        root = resolve_workspace(workspace)
+        source = root / "mcu_ws" if (root / "mcu_ws").is_dir() else root
+        return [p.name for p in packages_mod.discover(source)] if root.is_dir() else []
+    except Exception:
+        return []
+
+
+def set_candidates(workspace: Path | None) -> list[str]:
+    """PKG.OPTION= for the known options, and PKG. for the workspace's packages."""
+    try:
+        known = [f"{o.package}.{o.name}=" for o in options_mod.known_options()]
+    except Exception:
+        known = []
+    return known + [f"{name}." for name in package_names(workspace)]
