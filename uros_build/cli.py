@@ -301,9 +301,10 @@ def build(
 @_toolchain_option("The target the library must fit (see `uros targets`).")
 @click.option("--profile", type=_PATH, help="Or your own target profile (.yaml).")
 @_VERBOSE
-def check(library: Path, toolchain: str | None, profile: Path | None, verbose: bool) -> None:
+@click.option("--json", "as_json", is_flag=True, help="Print the verdict as JSON.")
+def check(library: Path, toolchain: str | None, profile: Path | None, verbose: bool, as_json: bool) -> None:
     """Check that every object in LIBRARY has the ELF facts of a target (exit 5 if not)."""
-    check_cmd.check_library(library, toolchain, profile, verbose)
+    check_cmd.check_library(library, toolchain, profile, verbose, as_json)
 
 
 @click.command()
