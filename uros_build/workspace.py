@@ -18,7 +18,6 @@ This module only reads and writes files; it starts no processes.
 
 from __future__ import annotations
 
-import fcntl
 import json
 import os
 import re
@@ -30,6 +29,7 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
+import filelock
 import yaml
 
 from uros_build import __version__, console, defaults, loader, proc
@@ -481,20 +481,20 @@ def target_key(name: str) -> str:
 
 @contextmanager
 def locked(folder: Path) -> Iterator[None]:
-    """One build per target tree at a time: a second `uros build` waits, then reuses the trees."""
+    """One build per target tree at a time: a second `uros build` waits, then reuses the trees.
+    filelock takes an OS lock on <folder>/.lock (flock on POSIX, msvcrt on Windows), which the
+    OS releases when the process ends, however it ends."""
     folder.mkdir(parents=True, exist_ok=True)
-    with (folder / ".lock").open("w") as handle:
-        try:
-            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            console.info(
-                f"waiting for another uros build of this target to finish (it holds {folder / '.lock'})"
-            )
-            fcntl.flock(handle, fcntl.LOCK_EX)
-        try:
-            yield
-        finally:
-            fcntl.flock(handle, fcntl.LOCK_UN)
+    lock = filelock.FileLock(str(folder / ".lock"))
+    try:
+        lock.acquire(timeout=0)
+    except filelock.Timeout:
+        console.info(f"waiting for another uros build of this target to finish (it holds {folder / '.lock'})")
+        lock.acquire()
+    try:
+        yield
+    finally:
+        lock.release()
 
 
 def workspace_of_output(out: Path, key: str) -> Workspace | None:
