@@ -63,7 +63,8 @@ def build(args: BuildArgs) -> Path:
     )
     if plan.config is not None:
         ws.sync_extra_packages(plan.config)
-        if not ws.dev_built():
+        # a workspace with a hand-written uros.yaml may have no dev_ws: nothing to build then
+        if ws.dev_dir.is_dir() and not ws.dev_built():
             hosttools.build_dev_workspace(ws, plan.config, runner, plan.verbose, plan.jobs)
     with locked(plan.target_dir):
         started = time.monotonic()
