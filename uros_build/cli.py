@@ -207,7 +207,24 @@ def meta_write(
 @_PRESET
 @_TRANSPORT
 @_output_option("Output folder (default: <workspace>/build/<target>).")
-@click.option("--packages-up-to", multiple=True, help="Build only these packages and their dependencies.")
+@click.option(
+    "--packages",
+    "packages",
+    multiple=True,
+    metavar="PKG",
+    help="The packages the firmware wants (repeatable); the core and the extra packages are added, "
+    "and only their closure is built (default: uros.yaml's packages:, else every package).",
+)
+@click.option(
+    "--for-firmware",
+    type=_PATH,
+    metavar="DIR",
+    help="Build what the firmware in DIR uses: the interface packages its C/C++ sources include "
+    "(<pkg/msg/...>) or take type support of, plus the core and the extra packages.",
+)
+@click.option(
+    "--packages-up-to", multiple=True, help="Build exactly these packages and their dependencies (colcon's)."
+)
 @click.option("-j", "--jobs", type=int, help="Packages built in parallel (colcon --parallel-workers).")
 @click.option(
     "--compiler-prefix",
@@ -223,6 +240,7 @@ def meta_write(
     "its components, sdkconfig.h and C flags (default: uros.yaml's idf_build).",
 )  # fmt: skip
 @click.option("--force", is_flag=True, help="Replace an --output folder that is not a uros output.")
+@click.option("--rebuild", is_flag=True, help="Run every step even when no input changed.")
 @_VERBOSE
 def build(
     toolchain: str | None,
@@ -233,12 +251,15 @@ def build(
     preset: str,
     transport: str | None,
     output: Path | None,
+    packages: tuple[str, ...],
+    for_firmware: Path | None,
     packages_up_to: tuple[str, ...],
     jobs: int | None,
     compiler_prefix: str | None,
     cflags: tuple[str, ...],
     idf_build: Path | None,
     force: bool,
+    rebuild: bool,
     verbose: bool,
 ) -> None:
     """Build libmicroros.a, its include tree and a CMake package for a target (default: the
@@ -260,6 +281,9 @@ def build(
             compiler_prefix,
             cflags,
             idf_build=idf_build,
+            rebuild=rebuild,
+            packages=packages,
+            for_firmware=for_firmware,
         )
     )
 

@@ -6,12 +6,13 @@ to build.
 
 from __future__ import annotations
 
+import json
 import os
-from collections.abc import Mapping
-from dataclasses import dataclass
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
 
-from uros_build import abi, colcon, console, toolsearch
+from uros_build import abi, colcon, console, fingerprint, toolsearch
 from uros_build import distros as distros_mod
 from uros_build.archive import BinTools
 from uros_build.errors import MissingToolError, StepFailed
@@ -35,6 +36,36 @@ class HostFacts:
         return major(self.gcc_version)
 
 
+@dataclass
+class ProbeCache:
+    """Answers of probes that start a process (``cmake --version``, ``gcc -dumpversion``, the C
+    library and C++ header checks), kept in a file and keyed by the identity of the programs
+    they ran (path, size, mtime, inode: :func:`fingerprint.stat_key`), so that a build with
+    nothing to do starts no process to find out. ``path`` None: no cache."""
+
+    path: Path | None = None
+    _data: dict[str, str] = field(default_factory=dict)
+    _loaded: bool = False
+
+    def get(self, key: str, compute: Callable[[], str]) -> str:
+        if self.path is None:
+            return compute()
+        if not self._loaded:
+            self._loaded = True
+            try:
+                loaded = json.loads(self.path.read_text(encoding="utf-8"))
+                self._data = {str(k): str(v) for k, v in loaded.items()} if isinstance(loaded, dict) else {}
+            except (OSError, ValueError):
+                self._data = {}
+        if key not in self._data:
+            self._data[key] = compute()
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            tmp = self.path.with_name(f"{self.path.name}.tmp-{os.getpid()}")
+            tmp.write_text(json.dumps(self._data, indent=1, sort_keys=True) + "\n", encoding="utf-8")
+            tmp.replace(self.path)
+        return self._data[key]
+
+
 def first_version(text: str) -> str:
     """The first word that looks like a version (``cmake version 3.25.1`` -> ``3.25.1``)."""
     lines = text.splitlines()
@@ -56,9 +87,12 @@ def colcon_program() -> str:
     return str(beside) if beside.is_file() else "colcon"
 
 
-def cmake_version(runner: Runner) -> tuple[str, str]:
+def cmake_version(runner: Runner, cache: ProbeCache | None = None) -> tuple[str, str]:
     cmake = runner.which("cmake")
-    return cmake, first_version(runner.query([cmake, "--version"], step="cmake --version"))
+    key = f"cmake --version {fingerprint.stat_key(Path(cmake))}"
+    return cmake, (cache or ProbeCache()).get(
+        key, lambda: first_version(runner.query([cmake, "--version"], step="cmake --version"))
+    )
 
 
 def locate_compiler(runner: Runner, profile: TargetProfile) -> str | None:
@@ -114,10 +148,16 @@ def probe_target_tools(runner: Runner, profile: TargetProfile) -> tuple[dict[str
 
 
 def probe_host(
-    runner: Runner, profile: TargetProfile | None, scratch: Path, check_libraries: bool
+    runner: Runner,
+    profile: TargetProfile | None,
+    scratch: Path,
+    check_libraries: bool,
+    cache: ProbeCache | None = None,
 ) -> HostFacts:
-    """Every tool a build needs, found before anything is built."""
-    cmake, version = cmake_version(runner)
+    """Every tool a build needs, found before anything is built; what needs a process to find
+    out is answered from ``cache`` while the programs are the same files."""
+    cache = cache or ProbeCache()
+    cmake, version = cmake_version(runner, cache)
     colcon_prog = runner.which(colcon_program())
     if profile is None:
         return HostFacts(cmake, version, colcon_prog)
@@ -125,9 +165,20 @@ def probe_host(
     # the ABI check reads the library with the host's readelf after the build: found now, a
     # missing one costs seconds rather than the whole build
     runner.which(abi.READELF, abi.READELF_HINT)
-    gcc_version = runner.query([tools["gcc"], "-dumpversion"], step="gcc -dumpversion").strip()
+    gcc_id = fingerprint.stat_key(Path(tools["gcc"]))
+    gcc_version = cache.get(
+        f"gcc -dumpversion {gcc_id}",
+        lambda: runner.query([tools["gcc"], "-dumpversion"], step="gcc -dumpversion").strip(),
+    )
     if check_libraries:
-        check_target_prerequisites(runner, profile, tools, scratch)
+        flags = " ".join([*profile.cpu_flags, *profile.libc_flags])
+        key = f"prerequisites {gcc_id} {fingerprint.stat_key(Path(tools['g++']))} {flags}"
+
+        def check() -> str:
+            check_target_prerequisites(runner, profile, tools, scratch)
+            return "ok"  # a failed check raises: only a passed one is remembered
+
+        cache.get(key, check)
     return HostFacts(cmake, version, colcon_prog, tools["gcc"], gcc_version, tool_dir)
 
 

@@ -91,6 +91,22 @@ def closest(name: str, names: Iterable[str]) -> list[str]:
     return difflib.get_close_matches(name, list(names), n=3, cutoff=0.6)
 
 
+def closure(packages: Iterable[PackageInfo], roots: Iterable[str]) -> set[str]:
+    """``roots`` and every package of ``packages`` they depend on, transitively, through the
+    dependencies colcon's --packages-up-to follows (names not among ``packages`` are left out:
+    they come from elsewhere or are not needed)."""
+    by_name = {p.name: p for p in packages}
+    found: set[str] = set()
+    todo = [r for r in roots if r in by_name]
+    while todo:
+        name = todo.pop()
+        if name in found:
+            continue
+        found.add(name)
+        todo.extend(d for d in by_name[name].build_deps if d in by_name)
+    return found
+
+
 def host_only(packages: list[PackageInfo]) -> list[str]:
     """Pure-Python packages nothing compiled depends on (ros2trace, tracetools_*, sensor_msgs_py,
     rosidl_cli in humble): they put no object into libmicroros.a, yet colcon spends seconds on each

@@ -28,7 +28,7 @@ import signal
 import subprocess
 import threading
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import NoReturn
@@ -204,11 +204,13 @@ class Runner:
         hint: str | None = None,
         quiet: bool = False,
         label: str = "",
+        on_line: Callable[[str], None] | None = None,
     ) -> list[str]:
         """Run ``argv`` to completion, streaming its output; return the output lines.
 
         ``quiet`` keeps the ``+ argv`` echo out of the console (it is always in the log);
-        ``label`` prefixes every logged line (``[uros/rclc] ``) when commands run in parallel.
+        ``label`` prefixes every logged line (``[uros/rclc] ``) when commands run in parallel;
+        ``on_line`` sees every line as it arrives (a build's progress).
         """
         env = messages_in_c(env if env is not None else os.environ)
         argv = self._prepare(argv, hint, cwd, env, label)
@@ -225,6 +227,8 @@ class Runner:
                 lines.append(text)
                 if self.verbose:
                     console.tool_line(label + text)
+                if on_line is not None:
+                    on_line(text)
             code = proc.wait()
         except KeyboardInterrupt:
             self._interrupted(proc, step, started)

@@ -105,9 +105,21 @@ def parse_config(data: Any, source: str, partial: bool = False) -> WorkspaceConf
         targets=targets,
         transport=transport,
         set=sets,
-        packages=loader.string_list(top, "packages", source),
+        packages=_package_names(loader.string_list(top, "packages", source), f"{source}: packages"),
         idf_build=loader.string(top, "idf_build", source) if top.get("idf_build") is not None else None,
     )
+
+
+_PACKAGE_NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.-]*")
+
+
+def _package_names(names: tuple[str, ...], where: str) -> tuple[str, ...]:
+    for name in names:
+        if not _PACKAGE_NAME.fullmatch(name):
+            raise ConfigError(
+                f"{where}: {name!r} is not a package name", "e.g. packages: [std_msgs, my_msgs]"
+            )
+    return names
 
 
 def load_config(root: Path) -> WorkspaceConfig | None:
