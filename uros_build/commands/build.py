@@ -12,6 +12,7 @@ from __future__ import annotations
 import dataclasses
 import importlib.metadata
 import os
+import re
 import shutil
 import sys
 import time
@@ -87,7 +88,7 @@ def build(args: BuildArgs) -> Path:
     )
     if plan.config is not None:
         ws.sync_extra_packages(plan.config)
-        if not ws.dev_built():
+        if hosttools.dev_needs_building(ws, plan.packages):
             hosttools.build_dev_workspace(ws, plan.config, runner, plan.verbose, plan.jobs)
     with locked(plan.target_dir):
         started = time.monotonic()
@@ -304,12 +305,15 @@ def _drop_removed_packages(plan: BuildPlan) -> None:
 def _run_colcon(
     plan: BuildPlan, facts: HostFacts, runner: Runner, setup: ColconSetup, parts: Mapping[str, str]
 ) -> colcon.BuildProgress:
-    """colcon build into the target's own trees. Every package colcon reports finished is
-    stamped with the flags it was built with; one being built vouches for nothing."""
+    """colcon build into the target's own trees, shown as it goes (colcon's own job events).
+    Every package colcon reports finished is stamped with the flags it was built with; one being
+    built vouches for nothing."""
     if setup.skipped:
         console.info(f"not building {len(setup.skipped)} pure-Python packages: {', '.join(setup.skipped)}")
     flags = _flags_fingerprint(parts)
-    progress = colcon.BuildProgress(total=0, started_at=time.monotonic())
+    progress = colcon.BuildProgress(total=_expected_packages(plan, setup), started_at=time.monotonic())
+    console.step("colcon build")
+    view = console.ProgressView(progress.total, plain=plan.verbose)
 
     def on_line(line: str) -> None:
         event = progress.feed(line, time.monotonic())
@@ -322,8 +326,21 @@ def _run_colcon(
             installtree.write_stamp(
                 setup.build_base, event.package, installtree.package_stamp(flags, event.package, entry)
             )
+        ended = None
+        if event.kind != "start":
+            what = {"finish": "built", "fail": "FAILED", "abort": "stopped"}[event.kind]
+            ended = (what, event.package, event.seconds or 0.0)
+        view.update(
+            console.Progress(
+                progress.done,
+                progress.total,
+                tuple(progress.running.items()),
+                progress.started_at,
+                tuple(progress.failed),
+            ),
+            ended,
+        )
 
-    console.step("colcon build")
     try:
         runner.run(
             setup.argv,
@@ -332,10 +349,28 @@ def _run_colcon(
             env=setup.env,
             hint=f"the full output is in {runner.log_path}",
             on_line=on_line,
+            quiet=not plan.verbose,  # the command is in the log; the progress says the rest
         )
     except StepFailed as exc:
         raise _colcon_failure(exc, setup.plan.log_base, runner.log_path) from None
+    finally:
+        view.stop()
+    elapsed = time.monotonic() - progress.started_at
+    slowest = ", ".join(f"{name} {seconds:.1f} s" for name, seconds in progress.slowest(5))
+    console.info(f"colcon built {len(progress.finished)} packages in {elapsed:.1f} s; slowest: {slowest}")
     return progress
+
+
+def _expected_packages(plan: BuildPlan, setup: ColconSetup) -> int:
+    """How many packages colcon will build (for the progress view; colcon does not say)."""
+    ignored = set(setup.skipped)
+    pattern = re.compile(setup.plan.ignore_regex) if setup.plan.ignore_regex else None
+    names = (
+        packages_mod.closure(plan.packages, plan.packages_up_to)
+        if plan.packages_up_to
+        else {p.name for p in plan.packages}
+    )
+    return len([n for n in names if n not in ignored and not (pattern and pattern.fullmatch(n))])
 
 
 def _check_built(
@@ -521,6 +556,7 @@ def _stage_output(
         skipped_python_packages=setup.skipped,
         idf_target=profile.idf_target or None if profile else None,
         idf=_idf_info(plan),
+        package_seconds={p: round(progress.finished[p], 2) for p in built if p in progress.finished},
     )
     export.write_cmake_package(staging, info)
     return info, merge_key
