@@ -288,6 +288,13 @@ OR_PROFILE_FILE = "or pass your own profile (a path ending in .yaml)"
 def find_profile(name: str, flag: str = "--toolchain", alternative: str = OR_TOOLCHAIN_FILE) -> TargetProfile:
     """A shipped profile by name; a typo is an error naming the closest names and what else
     ``flag`` takes (``alternative``; "" for nothing else)."""
+    path = resources.toolchains_dir() / f"{name}.yaml"
+    if "/" not in name and path.is_file():
+        # the one file (a build with nothing to do should not parse all fourteen)
+        profile = load_profile_file(path)
+        if profile.name != path.stem:
+            raise _fail(path, "name", f"{profile.name!r} differs from the file name {path.stem!r}")
+        return profile
     profiles = shipped_profiles()
     if name not in profiles:
         raise ConfigError(
