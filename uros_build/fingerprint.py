@@ -86,10 +86,11 @@ class FileRecord:
     sha256: str
 
 
-def _walk(root: Path) -> Iterator[tuple[str, os.stat_result]]:
-    """(path relative to root, stat) of every file colcon could read under root: folders holding
-    COLCON_IGNORE are left out, symlinked folders followed once. Strings and os.scandir only:
-    this runs over ~10k files on every build."""
+def _walk(root: Path, exclude: tuple[str, ...] = ()) -> Iterator[tuple[str, os.stat_result]]:
+    """(path relative to root, stat) of every file colcon could read under root: folders
+    holding COLCON_IGNORE are left out, symlinked folders followed once, and folders whose path
+    is an ``exclude`` entry (or starts with one that ends in '.', a prefix such as
+    ``/ws/.out.``). Strings and os.scandir only: this runs over ~10k files on every build."""
     top = str(root)
     cut = len(top) + 1
     seen: set[tuple[int, int]] = set()
@@ -105,7 +106,7 @@ def _walk(root: Path) -> Iterator[tuple[str, os.stat_result]]:
         for entry in entries:
             try:
                 if entry.is_dir():
-                    if entry.name in _SKIPPED_DIRS:
+                    if entry.name in _SKIPPED_DIRS or (exclude and _excluded(entry.path, exclude)):
                         continue
                     if entry.is_symlink():  # a folder linked in: once, and never a loop
                         st = entry.stat()
@@ -119,11 +120,18 @@ def _walk(root: Path) -> Iterator[tuple[str, os.stat_result]]:
                 continue
 
 
-def scan_tree(root: Path, previous: Mapping[str, FileRecord]) -> dict[str, FileRecord]:
+def _excluded(path: str, exclude: tuple[str, ...]) -> bool:
+    return any(path == e or (e.endswith(".") and path.startswith(e)) for e in exclude)
+
+
+def scan_tree(
+    root: Path, previous: Mapping[str, FileRecord], exclude: tuple[str, ...] = ()
+) -> dict[str, FileRecord]:
     """Every file under ``root`` with its content hash, reusing ``previous`` hashes of files
-    whose size, mtime and inode did not change."""
+    whose size, mtime and inode did not change. ``exclude``: folders (path prefixes) that are
+    not sources, such as an output folder inside a plain colcon workspace."""
     out: dict[str, FileRecord] = {}
-    for rel, st in _walk(root):
+    for rel, st in _walk(root, exclude):
         old = previous.get(rel)
         if (
             old is not None

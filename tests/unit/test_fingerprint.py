@@ -134,3 +134,12 @@ def test_stat_key_names_the_real_file(tmp_path: Path) -> None:
     link.symlink_to(tool)
     assert fp.stat_key(link) == fp.stat_key(tool) and str(tool) in fp.stat_key(link)
     assert fp.stat_key(tmp_path / "none") == ""
+
+
+def test_scan_tree_leaves_out_an_output_folder_and_its_staging(tmp_path: Path) -> None:
+    _sources(tmp_path)
+    for folder in ("out", ".out.staging-12", "outside"):
+        (tmp_path / folder).mkdir()
+        (tmp_path / folder / "f.h").write_text("")
+    found = fp.scan_tree(tmp_path, {}, (str(tmp_path / "out"), str(tmp_path / ".out.")))
+    assert sorted(found) == ["outside/f.h", "pkg/package.xml", "pkg/src/a.c"]

@@ -230,7 +230,9 @@ def _input_parts(
     ws = plan.workspace
     cache_path = plan.target_dir / fp.SOURCES_CACHE
     cached = fp.load_sources_cache(cache_path)
-    sources = fp.scan_tree(ws.source_dir, cached)
+    # An --output inside a plain workspace (and its staging folders beside it) is not a source.
+    out = plan.output
+    sources = fp.scan_tree(ws.source_dir, cached, (str(out), str(out.parent / f".{out.name}.")))
     if sources != cached:
         fp.save_sources_cache(cache_path, sources)
     # The colcon command without what does not change its result (progress output, workers).
