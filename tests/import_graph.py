@@ -32,7 +32,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
             "archive",
         ),
     ),
-    ("workspace model", ("workspace",)),
+    ("workspace model", ("workspace", "outputs")),
     ("plans and probes", ("plan", "hosttools")),
     ("commands", ("commands",)),
     ("cli", ("cli", "__main__")),

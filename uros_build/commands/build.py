@@ -7,21 +7,20 @@ toolchain and colcon.meta → colcon → merge, check, stage → swap the output
 from __future__ import annotations
 
 import hashlib
-import os
 import shutil
 import time
 from pathlib import Path
 from typing import Any
 
-from uros_build import __version__, abi, colcon, console, export, hosttools, includes
+from uros_build import __version__, abi, colcon, console, export, hosttools, includes, outputs
 from uros_build import meta as meta_mod
 from uros_build import packages as packages_mod
 from uros_build.archive import BinTools, merge_archives
 from uros_build.buildinfo import BUILD_INFO, BuildInfo, Compiler, Flags, IdfInfo, Include, Library
-from uros_build.errors import StepFailed
+from uros_build.errors import DiskFull, StepFailed, interrupted
 from uros_build.hosttools import HostFacts
 from uros_build.plan import BuildArgs, BuildPlan, ProfileTarget, expand_targets, meta_transport, plan_build
-from uros_build.proc import Runner, first_error
+from uros_build.proc import Runner, disk_full_line, disk_full_path, first_error, stop_leftovers
 from uros_build.toolchain import (
     CLOCK_HEADER_NAME,
     CLOCK_HEADER_TEXT,
@@ -30,7 +29,7 @@ from uros_build.toolchain import (
     render_toolchain,
     tool_paths,
 )
-from uros_build.workspace import locked, swap_into_place, write_if_changed
+from uros_build.workspace import damaged_archives, damaged_configures, locked, write_if_changed
 
 
 def build_all(args: BuildArgs) -> list[Path]:
@@ -47,7 +46,7 @@ def build(args: BuildArgs) -> Path:
     plan = plan_build(args)
     ws = plan.workspace
     ws.mark_ignored()
-    runner = Runner(ws.new_log("build", plan.target.key), verbose=plan.verbose)
+    runner = Runner(ws.new_log("build", plan.target.key), verbose=plan.verbose, owner=str(plan.target_dir))
     console.step(f"uros build: target {plan.target.key}, workspace {ws.root}")
     console.info(f"log: {runner.log_path}")
     for warning in plan.warnings:
@@ -65,7 +64,8 @@ def build(args: BuildArgs) -> Path:
         ws.sync_extra_packages(plan.config)
         if not ws.dev_built():
             hosttools.build_dev_workspace(ws, plan.config, runner, plan.verbose, plan.jobs)
-    with locked(plan.target_dir):
+    with locked(plan.target_dir, plan.target.key):
+        _repair(plan)
         started = time.monotonic()
         toolchain_file = _prepare_toolchain(plan, facts)
         meta_path = plan.target_dir / "colcon.meta"
@@ -73,20 +73,50 @@ def build(args: BuildArgs) -> Path:
             meta_path, meta_mod.dump_meta(plan.meta, f"uros build --toolchain {plan.target.key}")
         )
         skipped = _run_colcon(plan, facts, runner, toolchain_file, meta_path)
-        staging = plan.output.with_name(f".{plan.output.name}.staging-{os.getpid()}")
+        staging = outputs.staging_dir(plan.output)
         try:
             info = _stage_output(runner, plan, facts, staging, skipped)
             (staging / BUILD_INFO).write_text(info.to_json(), encoding="utf-8")
-            swap_into_place(staging, plan.output)
+            outputs.write_marker(staging, plan.target.key, [p.name for p in staging.iterdir()])
+            left = outputs.install_output(staging, plan.output)
         except BaseException:
-            shutil.rmtree(staging, ignore_errors=True)
+            outputs.remove_tree(staging)
             raise
-    lib = plan.output / "libmicroros.a"
-    console.step(
-        f"built {lib} ({lib.stat().st_size:,} bytes, {info.library.members} objects) "
-        f"and {info.include.files} headers in {plan.output / 'include'} ({time.monotonic() - started:.1f} s)"
-    )
+    try:
+        for why in left:  # the new output is in place: a warning, not a failure
+            console.warn(f"could not remove the previous output {why}: remove it by hand")
+        lib = plan.output / "libmicroros.a"
+        console.step(
+            f"built {lib} ({lib.stat().st_size:,} bytes, {info.library.members} objects) and "
+            f"{info.include.files} headers in {plan.output / 'include'} ({time.monotonic() - started:.1f} s)"
+        )
+    except KeyboardInterrupt as stop:
+        raise interrupted(
+            stop, "interrupted", f"the new output was already in place: {plan.output}"
+        ) from None
     return plan.output
+
+
+def _repair(plan: BuildPlan) -> None:
+    """Before the target's trees or output are touched (its lock held): stop what a killed build of
+    it left running, finish or undo a swap it left half-way, and drop package build folders whose
+    configure a full disk (or a crash) cut short."""
+    stopped = stop_leftovers(str(plan.target_dir))
+    if stopped:
+        console.warn(
+            f"stopped {len(stopped)} processes left running by an earlier uros build of {plan.target.key} "
+            f"that was killed (pids {' '.join(map(str, stopped))})"
+        )
+    for line in outputs.recover(plan.output):
+        console.info(line)
+    trees = plan.target_dir
+    for path, why in damaged_archives([trees / "install" / "lib", *sorted((trees / "build").glob("*/"))]):
+        # ninja builds it again, colcon's install step copies it again
+        console.warn(f"{path.name} {why} (a full disk or a crash?): removing {path}")
+        outputs.remove_tree(path)
+    for folder, why in damaged_configures(plan.target_dir / "build"):
+        console.warn(f"{folder.name}: {why} (a full disk or a crash?): configuring it afresh in {folder}")
+        outputs.remove_tree(folder)
 
 
 def _run_colcon(
@@ -128,19 +158,35 @@ def _run_colcon(
     return skipped
 
 
-def _colcon_failure(exc: StepFailed, log_base: Path, run_log: Path) -> StepFailed:
+def _colcon_failure(exc: StepFailed, log_base: Path, run_log: Path) -> StepFailed | DiskFull:
     """Name the package that failed and its own first error, read from colcon's log of that
     package (the interleaved output of parallel packages can put another's line first)."""
     failed = colcon.failed_packages(exc.output)
     if not failed:
-        return exc
+        return _disk_full(exc.output, log_base, "colcon build failed") or exc
     package = failed[0]
     log = colcon.package_log(log_base, package)
     lines = log.read_text(encoding="utf-8", errors="replace").splitlines() if log.is_file() else []
+    full = _disk_full([*lines, *exc.output], log_base, f"colcon build failed in package {package}")
+    if full is not None:
+        return full
     cause = first_error(lines) or first_error(exc.output) or "no error line in its output"
     others = f" (also failed: {', '.join(failed[1:])})" if failed[1:] else ""
     where = f"its log: {log}; everything: {run_log}" if lines else f"the full output is in {run_log}"
     return StepFailed(f"colcon build failed in package {package}{others}: {cause}", where, exc.output)
+
+
+# Below this, a failed build is taken for a full disk even when no tool said so (some, like CMake's
+# file(WRITE) or an install step, report a short write in their own words).
+_NEARLY_FULL = 1 << 20
+
+
+def _disk_full(lines: list[str] | tuple[str, ...], where: Path, what: str) -> DiskFull | None:
+    full = disk_full_line(lines)
+    error = DiskFull.at((full and disk_full_path(full)) or where, f"{what}: {full}" if full else what)
+    if full is not None or (error.free is not None and error.free < _NEARLY_FULL):
+        return error
+    return None
 
 
 def _prepare_toolchain(plan: BuildPlan, facts: HostFacts) -> Path:
