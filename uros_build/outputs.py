@@ -211,6 +211,9 @@ def check_output_dir(out: Path, force: bool, flag: str = "--output", workspace: 
         if owned is None and (out / JOURNAL).is_file():
             owned = frozenset()  # a swap uros left half-done: the build recovers it first
         if owned is None and _entries(out):
+            other = _other_output(out)
+            if other is not None:
+                raise ConfigError(f"{flag} {out}: holds the uros output {other.name}/ of another target", fix)
             sign = _workspace_sign(out)
             if sign is not None:
                 raise ConfigError(
@@ -218,9 +221,6 @@ def check_output_dir(out: Path, force: bool, flag: str = "--output", workspace: 
                     "uros never writes there",
                     fix,
                 )
-            other = _other_output(out)
-            if other is not None:
-                raise ConfigError(f"{flag} {out}: holds the uros output {other.name}/ of another target", fix)
             if not force:
                 foreign = sorted(_entries(out))
                 shown = ", ".join(foreign[:4]) + (", ..." if len(foreign) > 4 else "")
