@@ -521,10 +521,13 @@ def recover(out: Path) -> list[str]:
     staging folders of runs that are gone; returns what was done, for the console."""
     done = []
     for folder, journal_path in ((out.parent, out.with_name(f".{out.name}.swap")), (out, out / JOURNAL)):
+        if not folder.is_dir():
+            continue  # no folder, no swap (an --output that is a file is refused later)
         journal = _journal_at(journal_path)
         if journal is None:
             # killed while writing it, before the first rename: nothing to undo
-            journal_path.with_name(journal_path.name + ".tmp").unlink(missing_ok=True)
+            with contextlib.suppress(OSError):
+                journal_path.with_name(journal_path.name + ".tmp").unlink(missing_ok=True)
         if journal is None or pid_alive(journal.pid):
             continue
         verdict, actions = recovery_actions(journal, _existing(folder, journal))

@@ -387,3 +387,10 @@ def test_signals_map_to_exit_codes() -> None:
 def test_mount_points_read_octal_escapes() -> None:
     info = "36 35 98:0 /mnt1 /mnt/my\\040volume rw,noatime master:1 - ext3 /dev/root rw\n"
     assert outputs.mount_points(info) == {"/mnt/my volume"}
+
+
+def test_recover_leaves_a_file_and_a_missing_folder_alone(tmp_path: Path) -> None:
+    notes = tmp_path / "notes.txt"
+    notes.write_text("mine")
+    assert outputs.recover(notes) == [] and notes.read_text() == "mine"
+    assert outputs.recover(tmp_path / "none" / "out") == []
