@@ -224,7 +224,7 @@ def meta_write(
     help="An ESP-IDF project's build folder (after idf.py reconfigure): compile micro-ROS against "
     "its components, sdkconfig.h and C flags (default: uros.yaml's idf_build).",
 )  # fmt: skip
-@click.option("--force", is_flag=True, help="Replace an --output folder that is not a uros output.")
+@click.option("--force", is_flag=True, help="Write into an --output folder holding other files (kept).")
 @_VERBOSE
 def build(
     toolchain: str | None,
