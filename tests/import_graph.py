@@ -35,7 +35,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
             "firmware_scan",
         ),
     ),
-    ("workspace model", ("workspace",)),
+    ("workspace model", ("workspace", "outputs")),
     ("plans and probes", ("plan", "hosttools")),
     ("commands", ("commands",)),
     ("cli", ("cli", "__main__")),

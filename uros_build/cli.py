@@ -8,7 +8,9 @@ goes to ``-o/--output``. Earlier spellings (``--target``, ``--dir``) still work 
 
 from __future__ import annotations
 
+import errno
 import json
+import signal
 import sys
 import traceback
 from collections.abc import Callable
@@ -25,7 +27,7 @@ from uros_build.commands import create_firmware as create_cmd
 from uros_build.commands import export as export_cmd
 from uros_build.commands import interface as interface_cmd
 from uros_build.commands import listings
-from uros_build.errors import Interrupted, UrosError, did_you_mean
+from uros_build.errors import DiskFull, Signalled, UrosError, did_you_mean, interrupted
 from uros_build.plan import BuildArgs, CreateArgs
 
 _PATH = click.Path(path_type=Path)
@@ -239,7 +241,7 @@ def meta_write(
     help="An ESP-IDF project's build folder (after idf.py reconfigure): compile micro-ROS against "
     "its components, sdkconfig.h and C flags (default: uros.yaml's idf_build).",
 )  # fmt: skip
-@click.option("--force", is_flag=True, help="Replace an --output folder that is not a uros output.")
+@click.option("--force", is_flag=True, help="Write into an --output folder holding other files (kept).")
 @click.option("--rebuild", is_flag=True, help="Run every step even when no input changed.")
 @_VERBOSE
 def build(
@@ -452,13 +454,24 @@ def _internal_error(exc: BaseException) -> None:
     console.error(f"internal error: {type(exc).__name__}: {exc}", f"{where}; please report it")
 
 
+def _on_signal(signum: int, _frame: object) -> None:
+    raise Signalled(signum)
+
+
 def main(argv: list[str] | None = None) -> None:
     debug = "--debug" in (argv if argv is not None else sys.argv[1:])
+    # SIGTERM (`timeout`, a cancelled CI job, `docker stop`) and SIGHUP stop uros like Ctrl-C: the
+    # tools it runs are stopped, the previous output stays, and the exit code is 128 + the signal.
+    for signum in (signal.SIGTERM, signal.SIGHUP):
+        signal.signal(signum, _on_signal)
     try:
         cli.main(args=argv, prog_name="uros", standalone_mode=False)
-    except (click.exceptions.Abort, KeyboardInterrupt):
-        console.error("interrupted", "the previous output was left untouched")
-        sys.exit(Interrupted.exit_code)
+    except (click.exceptions.Abort, KeyboardInterrupt) as exc:
+        # click turns KeyboardInterrupt into Abort; the signal is on the original exception
+        cause = exc if isinstance(exc, KeyboardInterrupt) else exc.__context__
+        stopped = interrupted(cause, "interrupted", "the previous output was left untouched")
+        console.error(stopped.message, stopped.hint)
+        sys.exit(stopped.exit_code)
     except click.ClickException as exc:
         exc.show()
         sys.exit(exc.exit_code)
@@ -467,6 +480,17 @@ def main(argv: list[str] | None = None) -> None:
             traceback.print_exc()
         console.error(exc.message, exc.hint)
         sys.exit(exc.exit_code)
+    except OSError as exc:
+        if debug:
+            traceback.print_exc()
+        if exc.errno not in (errno.ENOSPC, errno.EDQUOT):
+            _internal_error(exc)
+            sys.exit(1)
+        # uros's own writes (the log, a staging folder, build-info.json) on a full disk
+        where = exc.filename or proc.current_log() or Path.cwd()
+        full = DiskFull.at(where, f"writing {where}: {exc.strerror}")
+        console.error(full.message, full.hint)
+        sys.exit(full.exit_code)
     except Exception as exc:
         if debug:
             traceback.print_exc()

@@ -18,6 +18,7 @@ from uros_build import packages as packages_mod
 from uros_build.distros import Distro, Mirror, Source
 from uros_build.errors import ConfigError
 from uros_build.espidf import IdfProject
+from uros_build.outputs import check_output_dir
 from uros_build.packages import PackageInfo
 from uros_build.profiles import (
     TargetProfile,
@@ -35,7 +36,6 @@ from uros_build.workspace import (
     check_build_folder,
     check_extra_package,
     check_folder_target,
-    check_output_dir,
     find_workspace,
     load_config,
     parse_config,
@@ -126,12 +126,12 @@ def resolve_target(
             raise ConfigError(
                 f"{flag} {toolchain}: no such file", "pass a target name or an existing .cmake file"
             )
-        return ToolchainFileTarget(target_key(path.stem), path)
+        return ToolchainFileTarget(target_key(path.stem, f"{flag} {toolchain}"), path)
     profile = find_profile(toolchain, flag)
     if derive:
         profile = derive_profile(profile, compiler_prefix, cflags)
         return ProfileTarget(target_key(profile.name), profile)
-    return ProfileTarget(profile.name, profile)
+    return ProfileTarget(target_key(profile.name), profile)
 
 
 def target_profile(target: Target | None) -> TargetProfile | None:
@@ -404,8 +404,9 @@ def plan_build(args: BuildArgs) -> BuildPlan:
     warnings = unknown_packages(given_metas, sets, names)
     selection = _select(args, cfg, ws, packages, names)
     out = (args.output or ws.default_output(target.key)).resolve()
-    check_folder_target(out, "--output")
-    check_output_dir(out, args.force)
+    flag = "--output" if args.output else "the output folder"
+    check_folder_target(out, flag)
+    check_output_dir(out, args.force, flag, ws.root)
     return BuildPlan(
         workspace=ws,
         config=cfg,

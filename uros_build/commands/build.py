@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import dataclasses
 import importlib.metadata
-import os
 import re
 import shutil
 import sys
@@ -22,7 +21,7 @@ from pathlib import Path
 from typing import Any
 
 import uros_build
-from uros_build import __version__, abi, colcon, console, export, hosttools, includes, installtree
+from uros_build import __version__, abi, colcon, console, export, hosttools, includes, installtree, outputs
 from uros_build import fingerprint as fp
 from uros_build import meta as meta_mod
 from uros_build import packages as packages_mod
@@ -37,10 +36,10 @@ from uros_build.buildinfo import (
     Library,
     read_build_info,
 )
-from uros_build.errors import ConfigError, StepFailed, VerifyError
+from uros_build.errors import ConfigError, DiskFull, StepFailed, VerifyError, interrupted
 from uros_build.hosttools import HostFacts
 from uros_build.plan import BuildArgs, BuildPlan, ProfileTarget, expand_targets, meta_transport, plan_build
-from uros_build.proc import Runner, first_error
+from uros_build.proc import Runner, disk_full_line, disk_full_path, first_error, stop_leftovers
 from uros_build.profiles import TargetProfile
 from uros_build.toolchain import (
     CLOCK_HEADER_NAME,
@@ -50,7 +49,7 @@ from uros_build.toolchain import (
     render_toolchain,
     tool_paths,
 )
-from uros_build.workspace import DEV_MARKER, locked, swap_into_place, write_if_changed
+from uros_build.workspace import DEV_MARKER, damaged_archives, damaged_configures, locked, write_if_changed
 
 
 def build_all(args: BuildArgs) -> list[Path]:
@@ -67,7 +66,7 @@ def build(args: BuildArgs) -> Path:
     plan = plan_build(args)
     ws = plan.workspace
     ws.mark_ignored()
-    runner = Runner(ws.new_log("build", plan.target.key), verbose=plan.verbose)
+    runner = Runner(ws.new_log("build", plan.target.key), verbose=plan.verbose, owner=str(plan.target_dir))
     console.step(f"uros build: target {plan.target.key}, workspace {ws.root}")
     console.info(f"log: {runner.log_path}")
     for warning in plan.warnings:
@@ -90,7 +89,8 @@ def build(args: BuildArgs) -> Path:
         ws.sync_extra_packages(plan.config)
         if hosttools.dev_needs_building(ws, plan.packages):
             hosttools.build_dev_workspace(ws, plan.config, runner, plan.verbose, plan.jobs)
-    with locked(plan.target_dir):
+    with locked(plan.target_dir, plan.target.key):
+        repaired = _repair(plan)
         started = time.monotonic()
         toolchain_file = _prepare_toolchain(plan, facts)
         meta_path = plan.target_dir / "colcon.meta"
@@ -101,7 +101,8 @@ def build(args: BuildArgs) -> Path:
         state_path = plan.target_dir / fp.STATE
         previous = fp.read_state(state_path)
         fingerprint = fp.combine(parts)
-        if previous is not None and not plan.rebuild:
+        # A repair changed the trees the state vouches for: build again.
+        if previous is not None and not plan.rebuild and not repaired:
             if previous.fingerprint == fingerprint and _output_intact(plan, previous):
                 console.step(
                     f"up to date: {plan.output} (no input changed since its build; --rebuild forces one)"
@@ -114,13 +115,14 @@ def build(args: BuildArgs) -> Path:
         _drop_removed_packages(plan)
         progress = _run_colcon(plan, facts, runner, setup, parts)
         built = _check_built(plan, setup, progress, parts)
-        staging = plan.output.with_name(f".{plan.output.name}.staging-{os.getpid()}")
+        staging = outputs.staging_dir(plan.output)
         try:
             info, merge_key = _stage_output(runner, plan, facts, staging, setup, built, progress, previous)
             (staging / BUILD_INFO).write_text(info.to_json(), encoding="utf-8")
-            swap_into_place(staging, plan.output)
+            outputs.write_marker(staging, plan.target.key, [p.name for p in staging.iterdir()])
+            left = outputs.install_output(staging, plan.output)
         except BaseException:
-            shutil.rmtree(staging, ignore_errors=True)
+            outputs.remove_tree(staging)
             raise
         fp.write_state(
             state_path,
@@ -134,12 +136,46 @@ def build(args: BuildArgs) -> Path:
                 packages=info.packages,
             ),
         )
-    lib = plan.output / "libmicroros.a"
-    console.step(
-        f"built {lib} ({lib.stat().st_size:,} bytes, {info.library.members} objects) "
-        f"and {info.include.files} headers in {plan.output / 'include'} ({time.monotonic() - started:.1f} s)"
-    )
+    try:
+        for why in left:  # the new output is in place: a warning, not a failure
+            console.warn(f"could not remove the previous output {why}: remove it by hand")
+        lib = plan.output / "libmicroros.a"
+        console.step(
+            f"built {lib} ({lib.stat().st_size:,} bytes, {info.library.members} objects) and "
+            f"{info.include.files} headers in {plan.output / 'include'} ({time.monotonic() - started:.1f} s)"
+        )
+    except KeyboardInterrupt as stop:
+        raise interrupted(
+            stop, "interrupted", f"the new output was already in place: {plan.output}"
+        ) from None
     return plan.output
+
+
+def _repair(plan: BuildPlan) -> bool:
+    """Before the target's trees or output are touched (its lock held): stop what a killed build of
+    it left running, finish or undo a swap it left half-way, and drop package build folders whose
+    configure a full disk (or a crash) cut short. True when anything was repaired."""
+    repaired = False
+    stopped = stop_leftovers(str(plan.target_dir))
+    if stopped:
+        console.warn(
+            f"stopped {len(stopped)} processes left running by an earlier uros build of {plan.target.key} "
+            f"that was killed (pids {' '.join(map(str, stopped))})"
+        )
+    for line in outputs.recover(plan.output):
+        console.info(line)
+        repaired = True
+    trees = plan.target_dir
+    for path, why in damaged_archives([trees / "install" / "lib", *sorted((trees / "build").glob("*/"))]):
+        # ninja builds it again, colcon's install step copies it again
+        console.warn(f"{path.name} {why} (a full disk or a crash?): removing {path}")
+        outputs.remove_tree(path)
+        repaired = True
+    for folder, why in damaged_configures(plan.target_dir / "build"):
+        console.warn(f"{folder.name}: {why} (a full disk or a crash?): configuring it afresh in {folder}")
+        outputs.remove_tree(folder)
+        repaired = True
+    return repaired or bool(stopped)
 
 
 def _say_selection(plan: BuildPlan) -> None:
@@ -397,19 +433,35 @@ def _check_built(
     return built
 
 
-def _colcon_failure(exc: StepFailed, log_base: Path, run_log: Path) -> StepFailed:
+def _colcon_failure(exc: StepFailed, log_base: Path, run_log: Path) -> StepFailed | DiskFull:
     """Name the package that failed and its own first error, read from colcon's log of that
     package (the interleaved output of parallel packages can put another's line first)."""
     failed = colcon.failed_packages(exc.output)
     if not failed:
-        return exc
+        return _disk_full(exc.output, log_base, "colcon build failed") or exc
     package = failed[0]
     log = colcon.package_log(log_base, package)
     lines = log.read_text(encoding="utf-8", errors="replace").splitlines() if log.is_file() else []
+    full = _disk_full([*lines, *exc.output], log_base, f"colcon build failed in package {package}")
+    if full is not None:
+        return full
     cause = first_error(lines) or first_error(exc.output) or "no error line in its output"
     others = f" (also failed: {', '.join(failed[1:])})" if failed[1:] else ""
     where = f"its log: {log}; everything: {run_log}" if lines else f"the full output is in {run_log}"
     return StepFailed(f"colcon build failed in package {package}{others}: {cause}", where, exc.output)
+
+
+# Below this, a failed build is taken for a full disk even when no tool said so (some, like CMake's
+# file(WRITE) or an install step, report a short write in their own words).
+_NEARLY_FULL = 1 << 20
+
+
+def _disk_full(lines: list[str] | tuple[str, ...], where: Path, what: str) -> DiskFull | None:
+    full = disk_full_line(lines)
+    error = DiskFull.at((full and disk_full_path(full)) or where, f"{what}: {full}" if full else what)
+    if full is not None or (error.free is not None and error.free < _NEARLY_FULL):
+        return error
+    return None
 
 
 def _prepare_toolchain(plan: BuildPlan, facts: HostFacts) -> Path:
