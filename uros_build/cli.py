@@ -8,7 +8,9 @@ goes to ``-o/--output``. Earlier spellings (``--target``, ``--dir``) still work 
 
 from __future__ import annotations
 
+import errno
 import json
+import signal
 import sys
 import traceback
 from collections.abc import Callable
@@ -30,7 +32,7 @@ from uros_build.commands import info as info_cmd
 from uros_build.commands import interface as interface_cmd
 from uros_build.commands import listings
 from uros_build.commands import size as size_cmd
-from uros_build.errors import Interrupted, UrosError, did_you_mean
+from uros_build.errors import DiskFull, Signalled, UrosError, did_you_mean, interrupted
 from uros_build.plan import BuildArgs, CreateArgs
 
 _PATH = click.Path(path_type=Path)
@@ -237,9 +239,27 @@ def meta_write(
 @_TRANSPORT
 @_output_option("Output folder (default: <workspace>/build/<target>).")
 @click.option(
-    "--packages-up-to", multiple=True, help="Build only these packages and their dependencies.",
+    "--packages",
+    "packages",
+    multiple=True,
+    metavar="PKG",
+    help="The packages the firmware wants (repeatable); the core and the extra packages are added, "
+    "and only their closure is built (default: uros.yaml's packages:, else every package).",
     shell_complete=_complete_packages,
-)  # fmt: skip
+)
+@click.option(
+    "--for-firmware",
+    type=_PATH,
+    metavar="DIR",
+    help="Build what the firmware in DIR uses: the interface packages its C/C++ sources include "
+    "(<pkg/msg/...>) or take type support of, plus the core and the extra packages.",
+)
+@click.option(
+    "--packages-up-to",
+    multiple=True,
+    help="Build exactly these packages and their dependencies (colcon's).",
+    shell_complete=_complete_packages,
+)
 @click.option("-j", "--jobs", type=int, help="Packages built in parallel (colcon --parallel-workers).")
 @click.option(
     "--compiler-prefix",
@@ -254,7 +274,8 @@ def meta_write(
     help="An ESP-IDF project's build folder (after idf.py reconfigure): compile micro-ROS against "
     "its components, sdkconfig.h and C flags (default: uros.yaml's idf_build).",
 )  # fmt: skip
-@click.option("--force", is_flag=True, help="Replace an --output folder that is not a uros output.")
+@click.option("--force", is_flag=True, help="Write into an --output folder holding other files (kept).")
+@click.option("--rebuild", is_flag=True, help="Run every step even when no input changed.")
 @_VERBOSE
 def build(
     toolchain: str | None,
@@ -265,12 +286,15 @@ def build(
     preset: str,
     transport: str | None,
     output: Path | None,
+    packages: tuple[str, ...],
+    for_firmware: Path | None,
     packages_up_to: tuple[str, ...],
     jobs: int | None,
     compiler_prefix: str | None,
     cflags: tuple[str, ...],
     idf_build: Path | None,
     force: bool,
+    rebuild: bool,
     verbose: bool,
 ) -> None:
     """Build libmicroros.a, its include tree and a CMake package for a target (default: the
@@ -292,6 +316,9 @@ def build(
             compiler_prefix,
             cflags,
             idf_build=idf_build,
+            rebuild=rebuild,
+            packages=packages,
+            for_firmware=for_firmware,
         )
     )
 
@@ -533,13 +560,24 @@ def _internal_error(exc: BaseException) -> None:
     console.error(f"internal error: {type(exc).__name__}: {exc}", f"{where}; please report it")
 
 
+def _on_signal(signum: int, _frame: object) -> None:
+    raise Signalled(signum)
+
+
 def main(argv: list[str] | None = None) -> None:
     debug = "--debug" in (argv if argv is not None else sys.argv[1:])
+    # SIGTERM (`timeout`, a cancelled CI job, `docker stop`) and SIGHUP stop uros like Ctrl-C: the
+    # tools it runs are stopped, the previous output stays, and the exit code is 128 + the signal.
+    for signum in (signal.SIGTERM, signal.SIGHUP):
+        signal.signal(signum, _on_signal)
     try:
         cli.main(args=argv, prog_name="uros", standalone_mode=False)
-    except (click.exceptions.Abort, KeyboardInterrupt):
-        console.error("interrupted", "the previous output was left untouched")
-        sys.exit(Interrupted.exit_code)
+    except (click.exceptions.Abort, KeyboardInterrupt) as exc:
+        # click turns KeyboardInterrupt into Abort; the signal is on the original exception
+        cause = exc if isinstance(exc, KeyboardInterrupt) else exc.__context__
+        stopped = interrupted(cause, "interrupted", "the previous output was left untouched")
+        console.error(stopped.message, stopped.hint)
+        sys.exit(stopped.exit_code)
     except click.ClickException as exc:
         exc.show()
         sys.exit(exc.exit_code)
@@ -548,6 +586,17 @@ def main(argv: list[str] | None = None) -> None:
             traceback.print_exc()
         console.error(exc.message, exc.hint)
         sys.exit(exc.exit_code)
+    except OSError as exc:
+        if debug:
+            traceback.print_exc()
+        if exc.errno not in (errno.ENOSPC, errno.EDQUOT):
+            _internal_error(exc)
+            sys.exit(1)
+        # uros's own writes (the log, a staging folder, build-info.json) on a full disk
+        where = exc.filename or proc.current_log() or Path.cwd()
+        full = DiskFull.at(where, f"writing {where}: {exc.strerror}")
+        console.error(full.message, full.hint)
+        sys.exit(full.exit_code)
     except Exception as exc:
         if debug:
             traceback.print_exc()

@@ -369,7 +369,7 @@ def test_a_build_waiting_for_the_lock_says_so(tmp_path: Path) -> None:
         assert not any("colcon build" in line for line in lines)  # it waits before building
     assert proc.wait(timeout=120) == 0, "".join(lines)
     reader.join()
-    assert any(f"(it holds {lock})" in line for line in lines)
+    assert any(f"to finish (lock: {lock})" in line for line in lines)
 
 
 def test_a_cmake_package_without_package_xml_is_a_package(tmp_path: Path) -> None:

@@ -113,13 +113,15 @@ def test_second_build_reuses_trees_and_is_reproducible(m7_build: Path) -> None:
     me = Path(sys.executable)
     names = ("python3", "python", f"python3.{sys.version_info.minor}")
     other = next((me.with_name(n) for n in names if me.with_name(n).is_file() and me.with_name(n) != me), me)
-    proc = subprocess.run(
-        [str(other), "-m", "uros_build", "build", "--toolchain", "cortex-m7", "--workspace", str(m7_build),
-         "--meta", str(m7_build / "fixture.meta"), "--verbose"],
-        capture_output=True, text=True, check=True,
-    )  # fmt: skip
+    again = [str(other), "-m", "uros_build", "build", "--toolchain", "cortex-m7", "--workspace", str(m7_build),
+             "--meta", str(m7_build / "fixture.meta"), "--verbose"]  # fmt: skip
+    proc = subprocess.run(again, capture_output=True, text=True, check=True)
+    assert "up to date" in proc.stderr and "+ " not in proc.stderr  # no input changed: no process
+    # --rebuild runs colcon all the same: nothing is reconfigured or compiled
+    proc = subprocess.run([*again, "--rebuild"], capture_output=True, text=True, check=True)
     assert cache.stat().st_mtime_ns == cache_mtime  # not reconfigured from scratch
     assert "no work to do" in proc.stderr  # ninja had nothing to compile
+    assert "merging 5 libraries" in proc.stderr
     assert _sha(out / "libmicroros.a") == before
 
 

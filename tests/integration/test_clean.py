@@ -32,13 +32,18 @@ def test_clean_removes_only_uros_trees_and_outputs(m7_build: Path, tmp_path: Pat
     fake.mkdir()
     (fake / "build-info.json").write_text('{"generated_by": "someone else", "target": "x"}\n')
     expected = _bytes(tree) + _bytes(out)
+    (out / "my-notes.txt").write_text("a file the user put into uros's output\n")
     kept = {f for f in _files(ws) if not f.startswith((".uros/targets/cortex-m7/", "build/cortex-m7/"))}
+    kept.add("build/cortex-m7/my-notes.txt")
 
     proc = run_uros("clean", "--toolchain", "cortex-m7", "-w", str(ws))
-    assert not tree.exists() and not out.exists()
+    assert not tree.exists() and sorted(p.name for p in out.iterdir()) == ["my-notes.txt"]
+    assert "it holds files uros did not write (my-notes.txt)" in proc.stderr, proc.stderr
     assert f"({expected:,} bytes) in {ws}" in proc.stderr, (expected, proc.stderr)
     assert _files(ws) == kept  # sources, logs, the user's folders: all still there
 
+    (out / "my-notes.txt").unlink()
+    out.rmdir()
     nothing = run_uros("clean", "--toolchain", "cortex-m7", "-w", str(ws), check=False)
     assert nothing.returncode == 2 and "nothing of it" in nothing.stderr
     typo = run_uros("clean", "--toolchain", "cortex-m77", "-w", str(m7_build), check=False)

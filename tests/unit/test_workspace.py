@@ -160,7 +160,8 @@ def test_workspace_config_defaults() -> None:
 
 def test_clean_counts_and_recognises_only_uros_outputs(tmp_path: Path) -> None:
     from uros_build.commands.clean import human
-    from uros_build.workspace import is_uros_output, tree_bytes
+    from uros_build.outputs import is_uros_output, write_marker
+    from uros_build.workspace import tree_bytes
 
     out = tmp_path / "out"
     out.mkdir()
@@ -174,4 +175,6 @@ def test_clean_counts_and_recognises_only_uros_outputs(tmp_path: Path) -> None:
     (out / "build-info.json").write_text(
         '{"generated_by": "uros 0.1.0", "target": "t", "library": {"file": "libmicroros.a", "sha256": "0"}}'
     )
+    assert not is_uros_output(out)  # its library is not the one build-info.json names
+    write_marker(out, "t", ["a.bin", "sub", "build-info.json"])
     assert is_uros_output(out)

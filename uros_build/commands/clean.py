@@ -1,17 +1,18 @@
 """`uros clean`: remove uros's own per-target trees and outputs from a workspace, and say how much
 that freed. Only what uros wrote goes: .uros/targets/<key> (colcon's build/install/log, the
-rendered toolchain and meta) and build/<key> when its build-info.json says uros wrote it; the
-sources, uros.yaml, colcon.meta, dev_ws and any folder of the user's stay."""
+rendered toolchain and meta) and, of build/<key>, the entries its `.uros-output` marker names
+(the folder itself only when nothing else is left in it); the sources, uros.yaml, colcon.meta,
+dev_ws, a file the user put into an output and any folder of the user's stay."""
 
 from __future__ import annotations
 
 import shutil
 from pathlib import Path
 
-from uros_build import console
+from uros_build import console, outputs
 from uros_build.errors import ConfigError, did_you_mean
 from uros_build.plan import BuildArgs, expand_targets, resolve_workspace
-from uros_build.workspace import Workspace, is_uros_output, locked, target_key, tree_bytes
+from uros_build.workspace import Workspace, locked, target_key, tree_bytes
 
 
 def human(n: int) -> str:
@@ -25,7 +26,7 @@ def human(n: int) -> str:
 
 
 def _chosen(ws: Workspace, toolchain: str | None, everything: bool) -> list[str]:
-    present = ws.target_keys()
+    present = outputs.target_keys(ws)
     if toolchain is not None and everything:
         raise ConfigError("--toolchain and --all: pass one of them")
     if everything:
@@ -57,16 +58,30 @@ def clean(workspace: Path | None, toolchain: str | None, everything: bool) -> in
     freed = 0
     for key in _chosen(ws, toolchain, everything):
         tree, output = ws.target_dir(key), ws.default_output(key)
-        ours = [p for p in (tree, output) if p.exists() and (p == tree or is_uros_output(p))]
-        if output.exists() and output not in ours:
-            console.warn(f"kept {output}: no build-info.json written by uros in it, so not a uros output")
-        with locked(tree):  # never under a running build of the same target
-            for path in ours:
-                size = tree_bytes(path)
-                shutil.rmtree(path)
+        owned = outputs.owned_entries(output) if outputs.is_uros_output(output) else None
+        if output.exists() and owned is None:
+            console.warn(f"kept {output}: no uros marker in it, so not a uros output")
+        # the marker last: an interrupted clean leaves an output uros still recognises
+        names = sorted(set(owned or ()) - {outputs.MARKER}) + ([outputs.MARKER] if owned is not None else [])
+        paths = [tree] + [output / name for name in names if (output / name).exists()]
+        # measured before the lock, whose owner file (the pid of this process) is uros's own bookkeeping
+        sizes = [tree_bytes(path) if path.exists() else 0 for path in paths]
+        with locked(tree, key):  # never under a running build of the same target
+            for path, size in zip(paths, sizes, strict=True):
+                why = outputs.remove_tree(path)
+                if why is not None:
+                    console.warn(f"could not remove all of {path}: {why}")
+                    continue
                 freed += size
-                console.info(f"removed {path} ({human(size)})")
-            # locked() made the tree's folder to hold its lock file when there was none
-            shutil.rmtree(tree, ignore_errors=True)
+                if path != tree or size:
+                    console.info(f"removed {path} ({human(size)})")
+        # locked() made the tree's folder to hold its lock file when there was none
+        shutil.rmtree(tree, ignore_errors=True)
+        if owned is not None:
+            kept = sorted(p.name for p in output.iterdir())
+            if kept:
+                console.warn(f"kept {output}: it holds files uros did not write ({', '.join(kept)})")
+            else:
+                output.rmdir()
     console.step(f"freed {human(freed)} ({freed:,} bytes) in {ws.root}")
     return freed

@@ -19,7 +19,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
-from uros_build import colcon, hosttools
+from uros_build import colcon, hosttools, outputs
 from uros_build.buildinfo import BUILD_INFO
 from uros_build.errors import MissingToolError, StepFailed, UrosError, VerifyError
 from uros_build.plan import BuildArgs, expand_targets, resolve_target, resolve_workspace
@@ -269,11 +269,11 @@ def probe_workspace(runner: Runner, ws: Workspace) -> list[Check]:
         )
         checks.append(eval_dev_ws(ws.dev_built(), same, ws.dev_dir.is_dir()))
     inputs = [ws.root / CONFIG, ws.user_meta]
-    newest = _newest(inputs, ws.source_dir) if ws.target_keys() else 0.0
-    for key in ws.target_keys():
+    newest = _newest(inputs, ws.source_dir) if outputs.target_keys(ws) else 0.0
+    for key in outputs.target_keys(ws):
         info = ws.default_output(key) / BUILD_INFO
         checks.append(eval_output(key, info.stat().st_mtime if info.is_file() else None, newest))
-    if not ws.target_keys():
+    if not outputs.target_keys(ws):
         checks.append(Check("targets", OK, "none built yet"))
     return checks
 
