@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import contextlib
 import errno
-import hashlib
 import json
 import os
 import re
@@ -33,6 +32,7 @@ from typing import Any
 from uros_build import __version__, console, proc
 from uros_build.buildinfo import BUILD_INFO, parse_build_info
 from uros_build.errors import ConfigError, StepFailed, interrupted
+from uros_build.fingerprint import file_sha256
 from uros_build.workspace import Workspace, nearest_existing
 
 MARKER = ".uros-output"
@@ -86,14 +86,6 @@ def _entry_name(name: object) -> bool:
     return isinstance(name, str) and name not in ("", ".", "..") and "/" not in name and "\0" not in name
 
 
-def _sha256(path: Path) -> str:
-    digest = hashlib.sha256()
-    with path.open("rb") as handle:
-        for chunk in iter(lambda: handle.read(1 << 20), b""):
-            digest.update(chunk)
-    return digest.hexdigest()
-
-
 def owned_entries(out: Path) -> frozenset[str] | None:
     """The entries of ``out`` that uros wrote, or None when ``out`` is not a uros output.
 
@@ -108,7 +100,9 @@ def owned_entries(out: Path) -> frozenset[str] | None:
         return None
     try:
         info = parse_build_info(json.loads((out / BUILD_INFO).read_text(encoding="utf-8")), str(out))
-        if info.generated_by.startswith("uros ") and info.library.sha256 == _sha256(out / "libmicroros.a"):
+        if info.generated_by.startswith("uros ") and info.library.sha256 == file_sha256(
+            out / "libmicroros.a"
+        ):
             return frozenset(n for n in _LEGACY_NAMES if (out / n).exists())
     except (OSError, ValueError, ConfigError):
         pass

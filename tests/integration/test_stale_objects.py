@@ -7,14 +7,13 @@ from __future__ import annotations
 import json
 import shutil
 import subprocess
-from collections import Counter
 from pathlib import Path
 
 import pytest
 import yaml
 from conftest import need
 from fixture_ws import FIXTURE_MEMBERS, make_fixture_workspace
-from uros_helpers import REPO, run_uros
+from uros_helpers import REPO, defined_globals, run_uros
 
 pytestmark = pytest.mark.integration
 
@@ -22,16 +21,6 @@ pytestmark = pytest.mark.integration
 def _members(lib: Path) -> list[str]:
     out = subprocess.run(["arm-none-eabi-ar", "t", str(lib)], capture_output=True, text=True, check=True)
     return out.stdout.split()
-
-
-def _symbols(lib: Path) -> Counter[str]:
-    out = subprocess.run(
-        ["arm-none-eabi-nm", "-g", "--defined-only", "--format=posix", str(lib)],
-        capture_output=True,
-        text=True,
-        check=True,
-    ).stdout
-    return Counter(line.split()[0] for line in out.splitlines() if line and not line.endswith(":"))
 
 
 def _info(out: Path) -> dict[str, object]:
@@ -62,11 +51,11 @@ def test_a_package_removed_from_the_workspace_leaves_the_library(tmp_path: Path)
     ws = make_fixture_workspace(tmp_path / "ws")
     _build(ws)
     out = ws / "build" / "cortex-m7"
-    assert _symbols(out / "libmicroros.a")["fx_flat_sum"] == 1
+    assert defined_globals(out / "libmicroros.a")["fx_flat_sum"] == 1
     shutil.rmtree(ws / "mcu_ws" / "src" / "fx_flat")  # nothing depends on it
     proc = _build(ws)
     assert "(no longer in the workspace): fx_flat" in proc.stderr
-    assert "fx_flat_sum" not in _symbols(out / "libmicroros.a")
+    assert "fx_flat_sum" not in defined_globals(out / "libmicroros.a")
     assert not [m for m in _members(out / "libmicroros.a") if m.startswith("libfx_flat")]
     info = _info(out)
     assert info["packages"] == ["fx_core", "fx_dup", "fx_time", "fx_util"]
@@ -97,7 +86,7 @@ def test_a_renamed_package_is_in_the_library_once_under_its_new_name(tmp_path: P
     meta.write_text(json.dumps({"names": {"fx_clock": {"cmake-args": ["-DFX_TIME_ENABLE=ON"]}}}))
     proc = _build(ws, meta=meta)
     assert "(no longer in the workspace): fx_flat, fx_time" in proc.stderr
-    symbols = _symbols(out / "libmicroros.a")
+    symbols = defined_globals(out / "libmicroros.a")
     assert symbols["fx_flat_sum"] == 1 and symbols["fx_time_now_ns"] == 1
     assert len(_members(out / "libmicroros.a")) == FIXTURE_MEMBERS
     info = _info(out)
@@ -167,7 +156,7 @@ def test_a_failed_package_is_in_no_library_and_no_build_info(tmp_path: Path) -> 
     installed = ws / ".uros" / "targets" / "cortex-m7" / "install" / "lib" / "libfx_bad.a"
     assert installed.is_file()  # what the failed install step left behind ...
     _build(ws, "--packages-up-to", "fx_flat", "--packages-up-to", "fx_time")
-    assert "fx_bad_value" not in _symbols(out / "libmicroros.a")  # ... is not shipped
+    assert "fx_bad_value" not in defined_globals(out / "libmicroros.a")  # ... is not shipped
     info = _info(out)
     assert "fx_bad" not in info["packages"]  # type: ignore[operator]
     assert "libfx_bad.a" not in info["library"]["inputs"]  # type: ignore[index]
