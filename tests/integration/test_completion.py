@@ -21,7 +21,9 @@ def _complete(words: str, shell: str = "bash", cwd: Path | None = None) -> list[
     proc = run_uros(env=env, cwd=cwd)
     if shell == "bash":  # "type,value" lines
         return [line.split(",", 1)[1] for line in proc.stdout.splitlines()]
-    return [line for line in proc.stdout.splitlines() if line not in ("plain", "_")]
+    # zsh: type, value and help on lines of their own; fish: "type,value[\thelp]" (click >= 8.2)
+    values = [line.split("\t", 1)[0] for line in proc.stdout.splitlines() if line not in ("plain", "_")]
+    return [v.split(",", 1)[1] if v.startswith(("plain,", "file,", "dir,")) else v for v in values]
 
 
 def test_targets_distros_packages_and_options_complete(tmp_path: Path) -> None:
