@@ -21,6 +21,15 @@ What runs (every time is time.monotonic() around one subprocess; the logs are ke
 
 SET has no incremental mode (build.sh wipes its trees): its "nothing changed", "meta changed", ".msg
 changed" and "second target" rows are each a full cold run, measured, not copied.
+
+Rows in order: dev_ws (SET: every dev_ws package; uros: the closure create-firmware builds), cold full,
+nothing changed (uros must say `up to date`), one meta value, one .msg field, cold pruned (`--for-firmware
+examples/stm32h7-custom-interfaces` by default; library and include tree against the full build's; the
+example firmware linked against both), pruned nothing changed, SET + --packages-up-to by hand, a second
+target last. The table and the issue-9 goals (no-op <= 2 s, pruned <= 0.35x SET, dev_ws <= 0.5x SET) are
+printed at the end, also after a failure (with what was measured). `-j N` passes colcon
+--parallel-workers N to both tools' MCU builds and SET's dev_ws; create-firmware's dev_ws build uses
+colcon's default (nproc) as build.sh does.
 """
 
 from __future__ import annotations
@@ -35,6 +44,7 @@ import shutil
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -109,6 +119,8 @@ class Bench:
     results: dict[str, float] = field(default_factory=dict)
     notes: dict[str, str] = field(default_factory=dict)
     sizes: dict[str, dict[str, int]] = field(default_factory=dict)
+    jobs: int | None = None  # colcon --parallel-workers for both tools (None: colcon's default, nproc)
+    loads: list[float] = field(default_factory=list)  # 1-minute load average every 15 s of the run
 
     @property
     def ws(self) -> Path:
@@ -146,13 +158,19 @@ class Bench:
     # -- uros ----------------------------------------------------------------------------------
 
     def uros(self, name: str, *args: str) -> float:
-        env = dict(os.environ, PYTHONPATH=str(REPO))
+        # COLUMNS: rich wraps its lines at 80 columns when stderr is not a terminal; the logs are read
+        env = dict(os.environ, PYTHONPATH=str(REPO), COLUMNS="250")
         return self.run(name, [sys.executable, "-m", "uros_build", *args], env=env)
 
     def uros_build(self, name: str, *args: str, target: str = TARGET) -> float:
-        seconds = self.uros(name, "build", "--toolchain", target, "--workspace", str(self.ws), *args)
+        jobs = ["--jobs", str(self.jobs)] if self.jobs else []
+        seconds = self.uros(name, "build", "--toolchain", target, "--workspace", str(self.ws), *jobs, *args)
         shutil.copy2(self.ws / ".uros/log/latest.log", self.logs / f"{len(self.runs):02d}-uros-run.log")
         return seconds
+
+    def said(self, text: str) -> bool:
+        """Did the last subprocess print this (its log in logs/)?"""
+        return text in self.runs[-1].log.read_text(encoding="utf-8", errors="replace")
 
     # -- SET -----------------------------------------------------------------------------------
 
@@ -194,6 +212,8 @@ class Bench:
         colcon = ["colcon", "build", *SET_COLCON_ARGS]
         if up_to:  # not in build.sh: what a user of it can add by hand
             colcon += ["--packages-up-to", *up_to]
+        if self.jobs:  # build.sh passes none: colcon's default is nproc
+            colcon += ["--parallel-workers", str(self.jobs)]
         colcon += ["--metas", str(meta), "--cmake-args", *SET_CMAKE_ARGS,
                    f"-DCMAKE_TOOLCHAIN_FILE={toolchain}", "-DCMAKE_VERBOSE_MAKEFILE=ON"]  # fmt: skip
         script = "\n".join([
@@ -222,6 +242,8 @@ class Bench:
         shutil.rmtree(dev, ignore_errors=True)
         argv = ["colcon", "--log-base", str(dev / "log"), "build",
                 "--build-base", str(dev / "build"), "--install-base", str(dev / "install")]  # fmt: skip
+        if self.jobs:
+            argv += ["--parallel-workers", str(self.jobs)]
         return self.run("SET dev_ws: colcon build", argv, cwd=self.ws / "dev_ws", env=self.set_env())
 
 
@@ -309,7 +331,8 @@ def machine_facts(setup_git: str) -> list[str]:
         f"{query(['cmake', '--version']).splitlines()[0]}, ninja {query(['ninja', '--version'])}, "
         f"{query(['make', '--version']).splitlines()[0]}",
         f"{query(['arm-none-eabi-gcc', '--version']).splitlines()[0]}, "
-        f"host {query(['ar', '--version']).splitlines()[0]}",
+        f"host {query(['gcc', '--version']).splitlines()[0]}, {query(['ar', '--version']).splitlines()[0]}",
+        f"uname: {' '.join(platform.uname()[:4])}",
         f"command: {shlex.join([sys.executable, *sys.argv])}",
     ]
 
@@ -404,7 +427,13 @@ def main() -> None:
         "--pruning", choices=("auto", "for-firmware", "packages", "packages-up-to"), default="auto",
         help="how uros prunes (auto: --for-firmware, else --packages, else --packages-up-to)",
     )  # fmt: skip
+    parser.add_argument(
+        "-j", "--jobs", type=int,
+        help="colcon --parallel-workers of both tools' MCU builds and SET's dev_ws (uros build --jobs); "
+        "default: colcon's (nproc), as build.sh and create-firmware",
+    )  # fmt: skip
     parser.add_argument("--no-set-pruned", action="store_true", help="skip SET + --packages-up-to by hand")
+    parser.add_argument("--no-second-target", action="store_true", help=f"skip the {SECOND_TARGET} rows")
     args = parser.parse_args()
     if not args.mirror:
         sys.exit("needs --mirror or UROS_MIRROR (a folder of <owner>+<repo>/repo clones)")
@@ -412,12 +441,29 @@ def main() -> None:
     if root.exists() and any(root.iterdir()):
         sys.exit(f"--dir {root}: not empty")
     root.mkdir(parents=True, exist_ok=True)
-    bench = Bench(root, args.mirror, args.setup_git)
+    bench = Bench(root, args.mirror, args.setup_git, jobs=args.jobs)
     facts = machine_facts(args.setup_git)
     print("\n".join(facts), flush=True)
     prune_args, prune_text = pruning_args(args.pruning)
     print(f"pruned build: {prune_text}\nwork folder: {root}", flush=True)
+    threading.Thread(target=sample_load, args=(bench.loads,), daemon=True).start()
+    inputs: list[str] = []
+    try:
+        run_all(bench, args, prune_args, inputs)
+    finally:  # a failed or interrupted run still prints what it measured
+        report(bench, facts, prune_text, inputs)
 
+
+def sample_load(into: list[float]) -> None:
+    while True:
+        into.append(os.getloadavg()[0])
+        time.sleep(15)
+
+
+def run_all(bench: Bench, args: argparse.Namespace, prune_args: list[str], inputs: list[str]) -> None:
+    """The rows, the issue-9 goals first (dev_ws, cold, nothing changed, meta, pruned), the second
+    target last."""
+    root = bench.root
     # -- the one workspace -------------------------------------------------------------------
     pkg = root / EXTRA_PACKAGE
     bench.uros("interface new", "interface", "new", EXTRA_PACKAGE,
@@ -432,56 +478,100 @@ def main() -> None:
     dev_steps = [s for w, s in colcon_steps(create_log) if w == "dev_ws"]
     dev_pkgs = sorted({p.parent.name for p in (bench.ws / "dev_ws").rglob("package.xml")})
     bench.notes["dev packages"] = str(len(dev_pkgs))
+    said = re.search(
+        r"dev_ws\):\s+(\d+)\s+of\s+its\s+(\d+)\s+packages", bench.runs[-1].log.read_text(encoding="utf-8")
+    )
+    if said:
+        bench.notes["uros dev packages"] = f"{said[1]} of {said[2]}"
 
     # -- dev_ws ------------------------------------------------------------------------------
     bench.results["set dev"] = bench.set_dev()
     if dev_steps:
         bench.results["uros dev"] = dev_steps[0]
-        bench.notes["uros dev"] = f"colcon step inside create-firmware ({create_s:.1f} s with the clones)"
+        bench.notes["uros dev"] = (
+            f"the closure, {bench.notes.get('uros dev packages', '?')} packages: colcon step inside "
+            f"create-firmware ({create_s:.1f} s with the clones)"
+        )
 
     # -- cold full, nothing changed ----------------------------------------------------------
     bench.results["set cold"] = bench.set_mcu("cold", TARGET)
     seconds = bench.uros_build("uros cold full")
-    steps = colcon_steps(bench.logs / f"{len(bench.runs):02d}-uros-run.log")
+    run_log = bench.logs / f"{len(bench.runs):02d}-uros-run.log"
+    bench.notes["live view"] = live_view(bench.runs[-1].log)
+    steps = colcon_steps(run_log)
     in_build_dev = sum(s for w, s in steps if w == "dev_ws")
-    if in_build_dev and "uros dev" not in bench.results:  # this uros builds dev_ws in the first build
+    if in_build_dev and "uros dev" not in bench.results:  # create-firmware left dev_ws to the first build
         bench.results["uros dev"] = in_build_dev
         bench.notes["uros dev"] = "colcon step inside the first uros build (subtracted from its cold row)"
     bench.results["uros cold"] = seconds - in_build_dev
     full_out = bench.ws / "build" / TARGET
     bench.sizes["uros full"] = uros_sizes(full_out)
+    bench.notes["slowest"] = slowest_packages(full_out)
     bench.notes["elf full"] = links(full_out, root / "elf-full")
-    inputs = compare_inputs(bench)
+    inputs += compare_inputs(bench)
     for line in inputs:
         print(f"  {line}", flush=True)
 
     bench.results["set noop"] = bench.set_mcu("nothing changed", TARGET)
     bench.results["uros noop"] = bench.uros_build("uros nothing changed")
+    bench.notes["uros noop"] = up_to_date(bench)
 
-    # -- one meta value, one .msg field, a second target ------------------------------------
+    # -- one meta value, one .msg field ------------------------------------------------------
     bench.results["set meta"] = bench.set_mcu("meta changed", TARGET, META_CHANGE)
     bench.results["uros meta"] = bench.uros_build("uros meta changed", "--set", META_CHANGE)
     edit_msg(bench, pkg, original_msg + ADDED_FIELD)
     bench.results["set msg"] = bench.set_mcu("msg field added", TARGET, META_CHANGE)
     bench.results["uros msg"] = bench.uros_build("uros msg field added", "--set", META_CHANGE)
-    bench.results["set m4f"] = bench.set_mcu(f"second target {SECOND_TARGET}", SECOND_TARGET, META_CHANGE)
-    bench.results["uros m4f"] = bench.uros_build(
-        f"uros second target {SECOND_TARGET}", "--set", META_CHANGE, target=SECOND_TARGET
-    )
 
     # -- cold pruned (the first target's trees removed; the original .msg and meta) -----------
     edit_msg(bench, pkg, original_msg)
     shutil.rmtree(bench.ws / ".uros/targets" / TARGET)
     shutil.rmtree(full_out)
     bench.results["uros pruned"] = bench.uros_build("uros cold pruned", *prune_args)
+    bench.notes["uros pruned"] = selection_said(bench.runs[-1].log)
     pruned_out = bench.ws / "build" / TARGET
     bench.sizes["uros pruned"] = uros_sizes(pruned_out)
     bench.notes["elf pruned"] = links(pruned_out, root / "elf-pruned")
     bench.results["uros pruned noop"] = bench.uros_build("uros pruned, nothing changed", *prune_args)
+    bench.notes["uros pruned noop"] = up_to_date(bench)
     if not args.no_set_pruned:
         bench.results["set pruned"] = bench.set_mcu("pruned by hand", TARGET, up_to=UP_TO)
 
-    report(bench, facts, prune_text, inputs)
+    # -- a second target from the same workspace (cold for both) ------------------------------
+    if not args.no_second_target:
+        bench.results["set m4f"] = bench.set_mcu(f"second target {SECOND_TARGET}", SECOND_TARGET)
+        bench.results["uros m4f"] = bench.uros_build(
+            f"uros second target {SECOND_TARGET}", target=SECOND_TARGET
+        )
+
+
+def up_to_date(bench: Bench) -> str:
+    """What uros said of a build with nothing changed (from its own output)."""
+    return "said `up to date`" if bench.said("up to date: ") else "did NOT say `up to date` (it built)"
+
+
+def selection_said(log: Path) -> str:
+    """uros's own lines about what the firmware uses and what it builds."""
+    keep = ("the firmware uses", "building ")
+    lines = [line.strip() for line in log.read_text(encoding="utf-8", errors="replace").splitlines()]
+    return "; ".join(line for line in lines if line.startswith(keep) and "host tools" not in line)
+
+
+def live_view(log: Path) -> str:
+    """The plain progress (stderr is the log file, not a terminal): one `[n/N] built pkg (s)` line each."""
+    text = log.read_text(encoding="utf-8", errors="replace")
+    lines = re.findall(r"^\[\d+/\d+\] (?:built|FAILED|stopped) \S+ \([\d.]+ s\)$", text, re.M)
+    summary = re.search(r"^colcon built \d+ packages in .*$", text, re.M)
+    return f"{len(lines)} per-package progress lines" + (f"; `{summary[0]}`" if summary else "")
+
+
+def slowest_packages(out: Path, count: int = 5) -> str:
+    info = json.loads((out / "build-info.json").read_text(encoding="utf-8"))
+    seconds: dict[str, float] = info.get("package_seconds", {})
+    top = sorted(seconds.items(), key=lambda kv: -kv[1])[:count]
+    return f"{len(seconds)} package timings in build-info.json; slowest " + ", ".join(
+        f"{name} {value:.1f} s" for name, value in top
+    )
 
 
 def ratio(uros: float | None, set_: float | None) -> str:
@@ -489,46 +579,75 @@ def ratio(uros: float | None, set_: float | None) -> str:
 
 
 def secs(value: float | None) -> str:
-    return f"{value:.1f} s" if value is not None else "-"
+    return f"{value:.1f} s" if value is not None else "not measured"
+
+
+def goal(name: str, value: float | None, limit: float, unit: str, detail: str) -> str:
+    if value is None:
+        return f"- {name}: not measured"
+    met = "MET" if value <= limit else "MISSED"
+    return f"- {name}: {met}, {value:.2f}{unit} (goal <= {limit}{unit}; {detail})"
 
 
 def report(bench: Bench, facts: list[str], prune_text: str, inputs: list[str]) -> None:
     r = bench.results
     n = bench.notes
     rows = [
-        ("host tools workspace (dev_ws)", r.get("set dev"), r.get("uros dev"), "<= 0.5x",
-         f"SET: all {n['dev packages']} packages; uros: {n.get('uros dev', 'not found in its log')}"),
-        ("cold full MCU build + merge", r["set cold"], r["uros cold"], "",
-         f"SET: {n['set cold']}"),
-        ("same command again, nothing changed", r["set noop"], r["uros noop"], "uros <= 2 s",
-         f"SET wipes and rebuilds: {n['set nothing changed']}"),
-        (f"cold pruned: uros {prune_text}", r["set cold"], r["uros pruned"], "<= 0.35x",
-         "ratio against SET's cold full build (micro_ros_setup has no pruning)"),
-        ("pruned, nothing changed", r["set noop"], r["uros pruned noop"], "", ""),
-        (f"one meta value changed (`--set {META_CHANGE}`)", r["set meta"], r["uros meta"], "",
-         f"SET: {n['set meta changed']}"),
-        (f"one .msg field added ({EXTRA_PACKAGE}/CmdVel.msg)", r["set msg"], r["uros msg"], "",
-         f"SET: {n['set msg field added']}"),
-        (f"second target ({SECOND_TARGET}) from the same workspace", r["set m4f"], r["uros m4f"], "",
-         f"SET: {n[f'set second target {SECOND_TARGET}']}; uros: cold trees of a new target, dev_ws reused"),
+        ("host tools workspace (dev_ws)", r.get("set dev"), r.get("uros dev"),
+         f"SET: all {n.get('dev packages', '?')} packages; uros: {n.get('uros dev', 'not found in its log')}"),
+        ("cold full MCU build + merge", r.get("set cold"), r.get("uros cold"), f"SET: {n.get('set cold', '')}"),
+        ("same command again, nothing changed", r.get("set noop"), r.get("uros noop"),
+         f"SET wipes and rebuilds: {n.get('set nothing changed', '')}; uros {n.get('uros noop', '')}"),
+        (f"one meta value changed (`--set {META_CHANGE}`)", r.get("set meta"), r.get("uros meta"),
+         f"SET: {n.get('set meta changed', '')}"),
+        (f"one .msg field added ({EXTRA_PACKAGE}/CmdVel.msg)", r.get("set msg"), r.get("uros msg"),
+         f"SET: {n.get('set msg field added', '')}"),
+        (f"cold pruned: uros {prune_text}", r.get("set cold"), r.get("uros pruned"),
+         f"against SET's cold full build (micro_ros_setup has no pruning); uros: {n.get('uros pruned', '')}"),
+        ("pruned, nothing changed", r.get("set noop"), r.get("uros pruned noop"),
+         f"uros {n.get('uros pruned noop', '')}"),
+        (f"SET + `--packages-up-to {' '.join(UP_TO)}` by hand, cold", r.get("set pruned"),
+         r.get("uros pruned"), f"uros pruned against it; SET: {n.get('set pruned by hand', '')}"),
+        (f"second target ({SECOND_TARGET}) from the same workspace, cold", r.get("set m4f"), r.get("uros m4f"),
+         f"SET: {n.get(f'set second target {SECOND_TARGET}', '')}; uros: new target trees, dev_ws reused"),
     ]  # fmt: skip
-    if "set pruned" in r:
-        rows.append((f"SET + `--packages-up-to {' '.join(UP_TO)}` by hand, cold", r["set pruned"],
-                     r["uros pruned"], "", f"uros pruned against it; SET: {n['set pruned by hand']}"))  # fmt: skip
-    print()
+    print("\n## results\n")
     for line in facts:
         print(f"- {line}")
+    if bench.loads:
+        loads = bench.loads
+        print(f"- 1-minute load average during the run ({len(loads)} samples, every 15 s): "
+              f"min {min(loads):.2f}, mean {sum(loads) / len(loads):.2f}, max {max(loads):.2f}")  # fmt: skip
     for line in inputs:
         print(f"- {line}")
-    print("\n| step | SET | uros | uros/SET | goal | notes |\n|---|---|---|---|---|---|")
-    for name, set_s, uros_s, goal, note in rows:
-        print(f"| {name} | {secs(set_s)} | {secs(uros_s)} | {ratio(uros_s, set_s)} | {goal} | {note} |")
-    print("\n| output | libmicroros.a | members | packages | include files | include bytes | example ELF |")
+    print("\n| step | SET | uros | uros/SET | notes |\n|---|---|---|---|---|")
+    for name, set_s, uros_s, note in rows:
+        print(f"| {name} | {secs(set_s)} | {secs(uros_s)} | {ratio(uros_s, set_s)} | {note} |")
+    print(
+        "\n| output | libmicroros.a bytes | members | packages | include files | include bytes | example ELF |"
+    )
     print("|---|---|---|---|---|---|---|")
     for name, s in bench.sizes.items():
         elf = n.get("elf full" if name == "uros full" else "elf pruned" if name == "uros pruned" else "", "-")
         print(f"| {name} | {s['bytes']:,} | {s['members']:,} | {s.get('packages', '-')} | "
               f"{s['include_files']:,} | {s['include_bytes']:,} | {elf} |")  # fmt: skip
+    full, pruned = bench.sizes.get("uros full"), bench.sizes.get("uros pruned")
+    if full and pruned:
+        print(f"\nuros pruned / full: library {pruned['bytes'] / full['bytes']:.2f}x, "
+              f"include tree {pruned['include_bytes'] / full['include_bytes']:.2f}x (bytes), "
+              f"{pruned['include_files'] / full['include_files']:.2f}x (files), "
+              f"packages {pruned['packages']} of {full['packages']}")  # fmt: skip
+    print("\nissue 9 goals:")
+    noop = r.get("uros noop")
+    print(goal("no-op <= 2 s", noop, 2.0, " s", n.get("uros noop", "")))
+    pr = r["uros pruned"] / r["set cold"] if "uros pruned" in r and r.get("set cold") else None
+    print(goal("cold pruned <= 0.35x SET's cold full", pr, 0.35, "x", secs(r.get("uros pruned"))))
+    dv = r["uros dev"] / r["set dev"] if "uros dev" in r and r.get("set dev") else None
+    print(goal("dev_ws <= 0.5x SET's", dv, 0.5, "x", n.get("uros dev packages", "?") + " packages"))
+    print(
+        f"- live view (stderr not a terminal: plain lines): {n.get('live view', 'not measured')}; "
+        f"{n.get('slowest', '')}"
+    )
     print("\nevery subprocess (seconds, 1-min load average before -> after):")
     for run in bench.runs:
         print(f"- {run.name}: {run.seconds:.1f} s (load {run.load[0]:.1f} -> {run.load[1]:.1f})")
