@@ -483,13 +483,17 @@ def run_all(bench: Bench, args: argparse.Namespace, prune_args: list[str], input
     )
     if said:
         bench.notes["uros dev packages"] = f"{said[1]} of {said[2]}"
+    # what colcon did build (--packages-up-to also follows test dependencies): its console_start_end lines
+    bench.notes["uros dev built"] = str(len(finished_packages(create_log)))
 
     # -- dev_ws ------------------------------------------------------------------------------
     bench.results["set dev"] = bench.set_dev()
+    bench.notes["set dev built"] = str(len(finished_packages(bench.runs[-1].log)))
     if dev_steps:
         bench.results["uros dev"] = dev_steps[0]
         bench.notes["uros dev"] = (
-            f"the closure, {bench.notes.get('uros dev packages', '?')} packages: colcon step inside "
+            f"the closure, {bench.notes.get('uros dev packages', '?')} packages asked for, colcon built "
+            f"{bench.notes['uros dev built']}: colcon step inside "
             f"create-firmware ({create_s:.1f} s with the clones)"
         )
 
@@ -545,6 +549,12 @@ def run_all(bench: Bench, args: argparse.Namespace, prune_args: list[str], input
         )
 
 
+def finished_packages(log: Path) -> set[str]:
+    """The packages colcon finished in a log (its console_start_end event handler's lines)."""
+    text = log.read_text(encoding="utf-8", errors="replace")
+    return set(re.findall(r"Finished <<< (\S+)", text))
+
+
 def up_to_date(bench: Bench) -> str:
     """What uros said of a build with nothing changed (from its own output)."""
     return "said `up to date`" if bench.said("up to date: ") else "did NOT say `up to date` (it built)"
@@ -594,7 +604,7 @@ def report(bench: Bench, facts: list[str], prune_text: str, inputs: list[str]) -
     n = bench.notes
     rows = [
         ("host tools workspace (dev_ws)", r.get("set dev"), r.get("uros dev"),
-         f"SET: all {n.get('dev packages', '?')} packages; uros: {n.get('uros dev', 'not found in its log')}"),
+         f"SET: all {n.get('dev packages', '?')} packages (colcon built {n.get('set dev built', '?')}); uros: {n.get('uros dev', 'not found in its log')}"),
         ("cold full MCU build + merge", r.get("set cold"), r.get("uros cold"), f"SET: {n.get('set cold', '')}"),
         ("same command again, nothing changed", r.get("set noop"), r.get("uros noop"),
          f"SET wipes and rebuilds: {n.get('set nothing changed', '')}; uros {n.get('uros noop', '')}"),
