@@ -225,7 +225,8 @@ class Bench:
         ])  # fmt: skip
         env = self.set_env()
         colcon_s = self.run(f"SET {name}: colcon", ["bash", "-c", script], env=env)
-        out = self.set_dir / "out" / name
+        # build.sh's merge leaves $BUILD_DIR unquoted: a folder name without spaces
+        out = self.set_dir / "out" / re.sub(r"[^A-Za-z0-9_.-]+", "-", name)
         shutil.rmtree(out, ignore_errors=True)  # no stale headers from an earlier run in the sizes
         env.update(
             INSTALL_DIR=str(self.ws / "mcu_ws/install"), MERGE_DIR=str(self.set_dir / "libmicroros"),
@@ -476,8 +477,6 @@ def run_all(bench: Bench, args: argparse.Namespace, prune_args: list[str], input
     create_log = bench.logs / f"{len(bench.runs):02d}-uros-run.log"
     shutil.copy2(bench.ws / ".uros/log/latest.log", create_log)
     dev_steps = [s for w, s in colcon_steps(create_log) if w == "dev_ws"]
-    dev_pkgs = sorted({p.parent.name for p in (bench.ws / "dev_ws").rglob("package.xml")})
-    bench.notes["dev packages"] = str(len(dev_pkgs))
     said = re.search(
         r"dev_ws\):\s+(\d+)\s+of\s+its\s+(\d+)\s+packages", bench.runs[-1].log.read_text(encoding="utf-8")
     )
@@ -604,7 +603,7 @@ def report(bench: Bench, facts: list[str], prune_text: str, inputs: list[str]) -
     n = bench.notes
     rows = [
         ("host tools workspace (dev_ws)", r.get("set dev"), r.get("uros dev"),
-         f"SET: all {n.get('dev packages', '?')} packages (colcon built {n.get('set dev built', '?')}); uros: {n.get('uros dev', 'not found in its log')}"),
+         f"SET: every dev_ws package (colcon built {n.get('set dev built', '?')}); uros: {n.get('uros dev', 'not found in its log')}"),
         ("cold full MCU build + merge", r.get("set cold"), r.get("uros cold"), f"SET: {n.get('set cold', '')}"),
         ("same command again, nothing changed", r.get("set noop"), r.get("uros noop"),
          f"SET wipes and rebuilds: {n.get('set nothing changed', '')}; uros {n.get('uros noop', '')}"),
