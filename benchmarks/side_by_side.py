@@ -165,7 +165,9 @@ class Bench:
     def uros_build(self, name: str, *args: str, target: str = TARGET) -> float:
         jobs = ["--jobs", str(self.jobs)] if self.jobs else []
         seconds = self.uros(name, "build", "--toolchain", target, "--workspace", str(self.ws), *jobs, *args)
-        shutil.copy2(self.ws / ".uros/log/latest.log", self.logs / f"{len(self.runs):02d}-uros-run.log")
+        latest = self.ws / ".uros/log/latest.log"
+        if latest.exists():  # an up-to-date build keeps no run log (latest.log then points nowhere)
+            shutil.copy2(latest, self.logs / f"{len(self.runs):02d}-uros-run.log")
         return seconds
 
     def said(self, text: str) -> bool:
