@@ -72,7 +72,9 @@ def make_fixture_workspace(root: Path) -> Path:
             ["src/core.c", "src/util.c"],
             [],
             # FX_SLOW: a configure step that takes long enough to interrupt (tests of Ctrl-C).
-            extra='option(FX_SLOW "" OFF)\nif(FX_SLOW)\n  execute_process(COMMAND ${CMAKE_COMMAND} -E sleep 60)\nendif()',
+            # FX_SLEEP=<seconds>: the same through `sleep`, a process a test can find by its unique argument.
+            extra='option(FX_SLOW "" OFF)\nif(FX_SLOW)\n  execute_process(COMMAND ${CMAKE_COMMAND} -E sleep 60)\nendif()\n'
+            "if(FX_SLEEP)\n  execute_process(COMMAND sleep ${FX_SLEEP})\nendif()",
         ),
     )
     _write(

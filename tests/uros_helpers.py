@@ -5,6 +5,7 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+from collections import Counter
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parent.parent
@@ -61,3 +62,15 @@ def env_without(programs: tuple[str, ...], shadow: Path) -> dict[str, str]:
         folders.append(str(copy))
     env["PATH"] = os.pathsep.join(folders)
     return env
+
+
+def defined_globals(lib: Path) -> Counter[str]:
+    """The global symbols an ARM archive defines, with how many members define each."""
+    out = subprocess.run(
+        ["arm-none-eabi-nm", "-g", "--defined-only", "--format=posix", str(lib)],
+        capture_output=True,
+        text=True,
+        check=True,
+        env={**os.environ, "LC_ALL": "C"},
+    ).stdout
+    return Counter(line.split()[0] for line in out.splitlines() if line and not line.endswith(":"))

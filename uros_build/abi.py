@@ -251,7 +251,7 @@ def verify(
             raise VerifyError(
                 f"{where}: {'; '.join(found)}",
                 f"the library does not fit {profile.name}: rebuild it for this target "
-                "(uros build --toolchain NAME), or check it against another one (uros check --target)",
+                "(uros build --toolchain NAME), or check it for another (uros check --toolchain NAME)",
             )
     summary: dict[str, Any] = {
         "checked": True,

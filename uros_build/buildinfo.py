@@ -88,6 +88,8 @@ class BuildInfo:
     skipped_python_packages: tuple[str, ...] = ()
     idf_target: str | None = None
     idf: IdfInfo | None = None
+    # how long colcon took over each package of this build (its own measure), in seconds
+    package_seconds: Mapping[str, float] = field(default_factory=dict)
 
     def to_json(self) -> str:
         data = asdict(self)
@@ -177,6 +179,7 @@ def parse_build_info(data: Any, source: str) -> BuildInfo:
         skipped_python_packages=_tuple(top, "skipped_python_packages", source),
         idf_target=_optional(top, "idf_target", source),
         idf=_idf(top.get("idf"), f"{source}: idf"),
+        package_seconds=_seconds(top.get("package_seconds"), f"{source}: package_seconds"),
     )
 
 
@@ -193,6 +196,16 @@ def _idf(data: Any, where: str) -> IdfInfo | None:
         c_flags=_tuple(idf, "c_flags", where),
         cxx_flags=_tuple(idf, "cxx_flags", where),
     )
+
+
+def _seconds(value: Any, source: str) -> dict[str, float]:
+    data = loader.mapping(value, source)
+    out = {}
+    for key, seconds in data.items():
+        if isinstance(seconds, bool) or not isinstance(seconds, int | float) or seconds < 0:
+            raise ConfigError(f"{source}: {key}: must be a number of seconds, got {seconds!r}")
+        out[str(key)] = float(seconds)
+    return out
 
 
 def read_build_info(out: Path, flag: str = "--from") -> BuildInfo:

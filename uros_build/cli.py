@@ -8,7 +8,9 @@ goes to ``-o/--output``. Earlier spellings (``--target``, ``--dir``) still work 
 
 from __future__ import annotations
 
+import errno
 import json
+import signal
 import sys
 import traceback
 from collections.abc import Callable
@@ -16,16 +18,21 @@ from pathlib import Path
 from typing import Any
 
 import click
+from click.shell_completion import CompletionItem
 
 from uros_build import __version__, console, defaults, proc
 from uros_build.commands import add_package as add_package_cmd
 from uros_build.commands import build as build_cmd
 from uros_build.commands import check as check_cmd
+from uros_build.commands import clean as clean_cmd
 from uros_build.commands import create_firmware as create_cmd
+from uros_build.commands import doctor as doctor_cmd
 from uros_build.commands import export as export_cmd
+from uros_build.commands import info as info_cmd
 from uros_build.commands import interface as interface_cmd
 from uros_build.commands import listings
-from uros_build.errors import Interrupted, UrosError, did_you_mean
+from uros_build.commands import size as size_cmd
+from uros_build.errors import DiskFull, Signalled, UrosError, did_you_mean, interrupted
 from uros_build.plan import BuildArgs, CreateArgs
 
 _PATH = click.Path(path_type=Path)
@@ -65,10 +72,33 @@ class _Group(click.Group):
         return super().resolve_command(ctx, args)
 
 
+# Shell completion (click's: `_UROS_COMPLETE=bash_source uros`, see the README): the names a value
+# can take, filtered by what was typed so far.
+def _matching(names: list[str], incomplete: str) -> list[CompletionItem]:
+    return [CompletionItem(n) for n in names if n.startswith(incomplete)]
+
+
+def _complete_targets(ctx: click.Context, param: click.Parameter, incomplete: str) -> list[CompletionItem]:
+    return _matching(listings.target_names(), incomplete)
+
+
+def _complete_distros(ctx: click.Context, param: click.Parameter, incomplete: str) -> list[CompletionItem]:
+    return _matching(listings.distro_names(), incomplete)
+
+
+def _complete_packages(ctx: click.Context, param: click.Parameter, incomplete: str) -> list[CompletionItem]:
+    return _matching(listings.package_names(ctx.params.get("workspace")), incomplete)
+
+
+def _complete_sets(ctx: click.Context, param: click.Parameter, incomplete: str) -> list[CompletionItem]:
+    return _matching(listings.set_candidates(ctx.params.get("workspace")), incomplete)
+
+
 def _toolchain_option(help_text: str) -> _Decorator:
     return click.option(
-        "--toolchain", "--target", "toolchain", cls=_Option, aliases=("--target",), help=help_text
-    )
+        "--toolchain", "--target", "toolchain", cls=_Option, aliases=("--target",), help=help_text,
+        shell_complete=_complete_targets,
+    )  # fmt: skip
 
 
 def _workspace_option(help_text: str) -> _Decorator:
@@ -89,8 +119,9 @@ _METAS = click.option(
     "--meta", "metas", multiple=True, type=_PATH, help="A colcon.meta merged on top (repeatable)."
 )
 _SETS = click.option(
-    "--set", "sets", multiple=True, metavar="PKG.OPTION=VALUE", help="Set a CMake option of a package."
-)
+    "--set", "sets", multiple=True, metavar="PKG.OPTION=VALUE", help="Set a CMake option of a package.",
+    shell_complete=_complete_sets,
+)  # fmt: skip
 _TRANSPORT = click.option(
     "--transport", help="XRCE-DDS transport: custom, udp or serial (default: the target's)."
 )
@@ -136,7 +167,7 @@ def targets(ctx: click.Context, as_json: bool) -> None:
 
 
 @click.command("show")
-@click.argument("name")
+@click.argument("name", shell_complete=_complete_targets)
 def targets_show(name: str) -> None:
     """Print the profile of target NAME, to copy and edit: uros targets show cortex-m7 > my-board.yaml"""
     click.echo(listings.target_profile_text(name), nl=False)
@@ -156,7 +187,7 @@ def toolchain() -> None:
 
 
 @click.command("render")
-@click.argument("target")
+@click.argument("target", shell_complete=_complete_targets)
 @_output_option("Write here instead of standard output.")
 @click.option(
     "--for", "purpose", type=click.Choice(["firmware", "micro-ros"]), default="firmware", show_default=True,
@@ -207,7 +238,28 @@ def meta_write(
 @_PRESET
 @_TRANSPORT
 @_output_option("Output folder (default: <workspace>/build/<target>).")
-@click.option("--packages-up-to", multiple=True, help="Build only these packages and their dependencies.")
+@click.option(
+    "--packages",
+    "packages",
+    multiple=True,
+    metavar="PKG",
+    help="The packages the firmware wants (repeatable); the core and the extra packages are added, "
+    "and only their closure is built (default: uros.yaml's packages:, else every package).",
+    shell_complete=_complete_packages,
+)
+@click.option(
+    "--for-firmware",
+    type=_PATH,
+    metavar="DIR",
+    help="Build what the firmware in DIR uses: the interface packages its C/C++ sources include "
+    "(<pkg/msg/...>) or take type support of, plus the core and the extra packages.",
+)
+@click.option(
+    "--packages-up-to",
+    multiple=True,
+    help="Build exactly these packages and their dependencies (colcon's).",
+    shell_complete=_complete_packages,
+)
 @click.option("-j", "--jobs", type=int, help="Packages built in parallel (colcon --parallel-workers).")
 @click.option(
     "--compiler-prefix",
@@ -222,7 +274,8 @@ def meta_write(
     help="An ESP-IDF project's build folder (after idf.py reconfigure): compile micro-ROS against "
     "its components, sdkconfig.h and C flags (default: uros.yaml's idf_build).",
 )  # fmt: skip
-@click.option("--force", is_flag=True, help="Replace an --output folder that is not a uros output.")
+@click.option("--force", is_flag=True, help="Write into an --output folder holding other files (kept).")
+@click.option("--rebuild", is_flag=True, help="Run every step even when no input changed.")
 @_VERBOSE
 def build(
     toolchain: str | None,
@@ -233,12 +286,15 @@ def build(
     preset: str,
     transport: str | None,
     output: Path | None,
+    packages: tuple[str, ...],
+    for_firmware: Path | None,
     packages_up_to: tuple[str, ...],
     jobs: int | None,
     compiler_prefix: str | None,
     cflags: tuple[str, ...],
     idf_build: Path | None,
     force: bool,
+    rebuild: bool,
     verbose: bool,
 ) -> None:
     """Build libmicroros.a, its include tree and a CMake package for a target (default: the
@@ -260,6 +316,9 @@ def build(
             compiler_prefix,
             cflags,
             idf_build=idf_build,
+            rebuild=rebuild,
+            packages=packages,
+            for_firmware=for_firmware,
         )
     )
 
@@ -269,9 +328,73 @@ def build(
 @_toolchain_option("The target the library must fit (see `uros targets`).")
 @click.option("--profile", type=_PATH, help="Or your own target profile (.yaml).")
 @_VERBOSE
-def check(library: Path, toolchain: str | None, profile: Path | None, verbose: bool) -> None:
+@click.option("--json", "as_json", is_flag=True, help="Print the verdict as JSON.")
+def check(library: Path, toolchain: str | None, profile: Path | None, verbose: bool, as_json: bool) -> None:
     """Check that every object in LIBRARY has the ELF facts of a target (exit 5 if not)."""
-    check_cmd.check_library(library, toolchain, profile, verbose)
+    check_cmd.check_library(library, toolchain, profile, verbose, as_json)
+
+
+@click.command()
+@_toolchain_option("The target whose trees and output to remove (default: uros.yaml's target).")
+@click.option("--all", "everything", is_flag=True, help="Every target built in the workspace.")
+@_workspace_option("The workspace to clean.")
+def clean(toolchain: str | None, everything: bool, workspace: Path | None) -> None:
+    """Remove uros's per-target trees (.uros/targets/<target>) and outputs (build/<target>), never
+    anything uros did not write, and say how much that freed."""
+    clean_cmd.clean(workspace, toolchain, everything)
+
+
+@click.command()
+@_toolchain_option("Also check this target's compiler, C library and C++ headers (default: uros.yaml's).")
+@_workspace_option("The workspace whose state to check.")
+@click.option("--json", "as_json", is_flag=True, help="Print the checks as JSON.")
+def doctor(toolchain: str | None, workspace: Path | None, as_json: bool) -> None:
+    """Check that this host can build (tools, target compiler, disk) and the workspace's state;
+    one line per check with its fix, exit 5 when a build would fail."""
+    doctor_cmd.doctor(workspace, toolchain, as_json)
+
+
+@click.command()
+@click.argument("output", type=_PATH, required=False)
+@_toolchain_option("Or the output of this target in the workspace (default: uros.yaml's target).")
+@_workspace_option("The workspace whose output to read.")
+@_JSON
+def info(output: Path | None, toolchain: str | None, workspace: Path | None, as_json: bool) -> None:
+    """What a built library contains: ROS 2 types, packages and their commits, options in force,
+    flags, sizes (OUTPUT: a `uros build` output folder)."""
+    info_cmd.show_info(output, workspace, toolchain, as_json)
+
+
+@click.command()
+@click.argument("library", type=_PATH, required=False)
+@_toolchain_option("Or the library built for this target in the workspace (default: uros.yaml's).")
+@_workspace_option("The workspace whose library to measure.")
+@click.option("--elf", type=_PATH, help="The firmware ELF linked against the library (with --map).")
+@click.option("--map", "map_file", type=_PATH, help="The firmware's GNU ld map file (-Wl,-Map=app.map).")
+@click.option("--objects", is_flag=True, help="Also list every object of the library.")
+@_JSON
+def size(
+    library: Path | None,
+    toolchain: str | None,
+    workspace: Path | None,
+    elf: Path | None,
+    map_file: Path | None,
+    objects: bool,
+    as_json: bool,
+) -> None:
+    """text/data/bss of libmicroros.a per package (LIBRARY: the .a or its output folder), and with
+    the firmware's map file what each package costs once linked (after --gc-sections)."""
+    size_cmd.show_size(library, workspace, toolchain, elf, map_file, objects, as_json)
+
+
+@click.command("options")
+@_JSON
+def meta_options(as_json: bool) -> None:
+    """The memory and entity options per package (RMW_UXRCE_MAX_*, history, MTU): upstream default,
+    what uros's default preset builds with, and what a larger value costs; --set is checked
+    against them."""
+    columns = (("package", "PACKAGE"), ("option", "OPTION"), ("default", "DEFAULT"), ("preset", "PRESET"))
+    _table(listings.options_table(), as_json, (*columns, ("cost", "COST")))
 
 
 @click.group(cls=_Group)
@@ -298,7 +421,11 @@ def export_esp_idf(output: Path, source: Path | None) -> None:
 @click.command("create-firmware")
 @click.argument("platform", default=defaults.PLATFORM)
 @click.option(
-    "--distro", default=defaults.DISTRO, show_default=True, help="micro-ROS distro (see `uros distros`)."
+    "--distro",
+    default=defaults.DISTRO,
+    show_default=True,
+    help="micro-ROS distro (see `uros distros`).",
+    shell_complete=_complete_distros,
 )
 @_workspace_option("Workspace folder to create.")
 @click.option(
@@ -399,6 +526,10 @@ _REGISTRY: tuple[tuple[click.Group, click.Command], ...] = (
     (cli, create_firmware),
     (cli, add_package),
     (cli, check),
+    (cli, clean),
+    (cli, doctor),
+    (cli, info),
+    (cli, size),
     (cli, targets),
     (targets, targets_show),
     (cli, distros),
@@ -406,6 +537,7 @@ _REGISTRY: tuple[tuple[click.Group, click.Command], ...] = (
     (toolchain, toolchain_render),
     (cli, meta),
     (meta, meta_write),
+    (meta, meta_options),
     (cli, export),
     (export, export_cmake),
     (export, export_esp_idf),
@@ -428,13 +560,24 @@ def _internal_error(exc: BaseException) -> None:
     console.error(f"internal error: {type(exc).__name__}: {exc}", f"{where}; please report it")
 
 
+def _on_signal(signum: int, _frame: object) -> None:
+    raise Signalled(signum)
+
+
 def main(argv: list[str] | None = None) -> None:
     debug = "--debug" in (argv if argv is not None else sys.argv[1:])
+    # SIGTERM (`timeout`, a cancelled CI job, `docker stop`) and SIGHUP stop uros like Ctrl-C: the
+    # tools it runs are stopped, the previous output stays, and the exit code is 128 + the signal.
+    for signum in (signal.SIGTERM, signal.SIGHUP):
+        signal.signal(signum, _on_signal)
     try:
         cli.main(args=argv, prog_name="uros", standalone_mode=False)
-    except (click.exceptions.Abort, KeyboardInterrupt):
-        console.error("interrupted", "the previous output was left untouched")
-        sys.exit(Interrupted.exit_code)
+    except (click.exceptions.Abort, KeyboardInterrupt) as exc:
+        # click turns KeyboardInterrupt into Abort; the signal is on the original exception
+        cause = exc if isinstance(exc, KeyboardInterrupt) else exc.__context__
+        stopped = interrupted(cause, "interrupted", "the previous output was left untouched")
+        console.error(stopped.message, stopped.hint)
+        sys.exit(stopped.exit_code)
     except click.ClickException as exc:
         exc.show()
         sys.exit(exc.exit_code)
@@ -443,6 +586,17 @@ def main(argv: list[str] | None = None) -> None:
             traceback.print_exc()
         console.error(exc.message, exc.hint)
         sys.exit(exc.exit_code)
+    except OSError as exc:
+        if debug:
+            traceback.print_exc()
+        if exc.errno not in (errno.ENOSPC, errno.EDQUOT):
+            _internal_error(exc)
+            sys.exit(1)
+        # uros's own writes (the log, a staging folder, build-info.json) on a full disk
+        where = exc.filename or proc.current_log() or Path.cwd()
+        full = DiskFull.at(where, f"writing {where}: {exc.strerror}")
+        console.error(full.message, full.hint)
+        sys.exit(full.exit_code)
     except Exception as exc:
         if debug:
             traceback.print_exc()

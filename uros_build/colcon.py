@@ -7,7 +7,7 @@ import re
 import shutil
 import sys
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 # Variables of a sourced ROS 2 (or other colcon) environment that would make the cross build pick
@@ -92,7 +92,13 @@ def colcon_argv(plan: ColconPlan, colcon: str = "colcon") -> list[str]:
         argv += ["--packages-up-to", *plan.packages_up_to]
     if plan.parallel_workers:
         argv += ["--parallel-workers", str(plan.parallel_workers)]
-    argv += ["--event-handlers", "console_direct+" if plan.verbose else "console_cohesion+"]
+    # console_start_end+ explicitly: uros reads its "Starting >>>"/"Finished <<<" lines (the live
+    # view, the package set of the build), whatever a user's colcon defaults say.
+    argv += [
+        "--event-handlers",
+        "console_direct+" if plan.verbose else "console_cohesion+",
+        "console_start_end+",
+    ]
     cmake_args = ["--no-warn-unused-cli", "-DBUILD_TESTING=OFF", "-DCMAKE_BUILD_TYPE=Release"]
     cmake_args.append(f"-DPython3_EXECUTABLE={plan.python}")
     cmake_args.append("-DCMAKE_EXPORT_COMPILE_COMMANDS=ON")
@@ -169,3 +175,78 @@ def failed_packages(lines: list[str] | tuple[str, ...]) -> list[str]:
 def package_log(log_base: Path, package: str) -> Path:
     """colcon's full log of one package in its latest build (colcon-core's log layout)."""
     return log_base / "latest_build" / package / "stdout_stderr.log"
+
+
+# ---------------------------------------------------------------------------------------------
+# colcon's job events, read from its console_start_end+ lines as they stream
+
+
+@dataclass(frozen=True)
+class JobEvent:
+    """One line of colcon's console_start_end event handler
+    (colcon_core/event_handler/console_start_end.py): a package started, finished, failed or was
+    aborted, with colcon's own measure of its duration."""
+
+    kind: str  # "start", "finish", "fail" or "abort"
+    package: str
+    seconds: float | None = None
+
+
+_KINDS = {"Starting": "start", "Finished": "finish", "Failed": "fail", "Aborted": "abort"}
+_ANSI = re.compile(r"\x1b\[[0-9;]*[A-Za-z]")
+_EVENT = re.compile(r"^(Starting|Finished|Failed|Aborted)\s+(?:>>>|<<<)\s+(\S+)(?:\s+\[([^\],]*))?")
+_DURATION_PART = re.compile(r"([\d.]+)(h|min|s)\b")
+
+
+def parse_duration(text: str) -> float | None:
+    """colcon's format_duration text (``0.05s``, ``1min 2s``, ``1h 0min 3s``) -> seconds."""
+    parts = _DURATION_PART.findall(text)
+    if not parts:
+        return None
+    scale = {"h": 3600.0, "min": 60.0, "s": 1.0}
+    return sum(float(value) * scale[unit] for value, unit in parts)
+
+
+def parse_event(line: str) -> JobEvent | None:
+    """The event a line of colcon's output reports, or None (an output style may colour it)."""
+    match = _EVENT.match(_ANSI.sub("", line).strip())
+    if match is None:
+        return None
+    seconds = parse_duration(match[3]) if match[3] else None
+    return JobEvent(_KINDS[match[1]], match[2], seconds)
+
+
+@dataclass
+class BuildProgress:
+    """What colcon has done so far in one build, fed line by line (pure: times are given)."""
+
+    total: int  # the packages colcon is expected to build (an estimate: colcon does not say)
+    started_at: float
+    running: dict[str, float] = field(default_factory=dict)  # package -> when it started
+    finished: dict[str, float] = field(default_factory=dict)  # package -> seconds, in finish order
+    failed: list[str] = field(default_factory=list)
+    aborted: list[str] = field(default_factory=list)
+
+    def feed(self, line: str, now: float) -> JobEvent | None:
+        event = parse_event(line)
+        if event is None:
+            return None
+        if event.kind == "start":
+            self.running[event.package] = now
+            return event
+        began = self.running.pop(event.package, now)
+        seconds = event.seconds if event.seconds is not None else now - began
+        if event.kind == "finish":
+            self.finished[event.package] = seconds
+        elif event.kind == "fail":
+            self.failed.append(event.package)
+        else:
+            self.aborted.append(event.package)
+        return JobEvent(event.kind, event.package, seconds)
+
+    @property
+    def done(self) -> int:
+        return len(self.finished) + len(self.failed) + len(self.aborted)
+
+    def slowest(self, count: int = 5) -> list[tuple[str, float]]:
+        return sorted(self.finished.items(), key=lambda item: (-item[1], item[0]))[:count]

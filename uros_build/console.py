@@ -7,8 +7,13 @@ When stderr is not a terminal (CI, pipes), rich prints plain lines without colou
 
 from __future__ import annotations
 
+import time
+from dataclasses import dataclass
+
 from rich.console import Console
+from rich.live import Live
 from rich.markup import escape
+from rich.text import Text
 
 _err = Console(stderr=True, highlight=False, soft_wrap=True)
 
@@ -34,3 +39,84 @@ def error(text: str, hint: str | None) -> None:
     _err.print(f"[bold red]error:[/] {escape(text)}")
     if hint:
         _err.print(f"[bold]hint:[/] {escape(hint)}")
+
+
+# ---------------------------------------------------------------------------------------------
+# a build's progress
+
+
+@dataclass(frozen=True)
+class Progress:
+    """Where a build stands: packages done of ``total``, those building now (name -> when they
+    started, monotonic seconds) and when the build started."""
+
+    done: int
+    total: int
+    running: tuple[tuple[str, float], ...]
+    started: float
+    failed: tuple[str, ...] = ()
+
+
+def progress_text(progress: Progress, now: float, width: int = 100) -> Text:
+    """The live view's text (pure): a bar, done/total, elapsed time, the packages building now
+    with how long each has been at it, longest first."""
+    total = max(progress.total, progress.done + len(progress.running), 1)
+    cells = 24
+    filled = min(cells, round(cells * progress.done / total))
+    text = Text()
+    text.append("[" + "#" * filled + "-" * (cells - filled) + "] ", style="cyan")
+    text.append(f"{progress.done}/{total} packages", style="bold")
+    text.append(f"  {_clock(now - progress.started)}")
+    if progress.failed:
+        text.append(f"  failed: {', '.join(progress.failed)}", style="bold red")
+    building = sorted(progress.running, key=lambda item: item[1])
+    if building:
+        names = ", ".join(f"{name} {_clock(now - since)}" for name, since in building)
+        line = f"building: {names}"
+        text.append("\n" + (line if len(line) <= width else line[: width - 3] + "..."), style="dim")
+    return text
+
+
+def _clock(seconds: float) -> str:
+    seconds = max(0.0, seconds)
+    return f"{int(seconds // 60)}:{int(seconds % 60):02d}" if seconds >= 60 else f"{seconds:.0f}s"
+
+
+class _LiveRenderable:
+    def __init__(self, view: ProgressView) -> None:
+        self.view = view
+
+    def __rich__(self) -> Text:
+        return progress_text(self.view.progress, time.monotonic(), _err.width)
+
+
+class ProgressView:
+    """A build's progress on stderr: a live view redrawn four times a second on a terminal (the
+    timers of the packages building now tick between colcon's lines); one plain line per
+    finished or failed package otherwise (CI logs, pipes) or with ``plain``."""
+
+    def __init__(self, total: int, plain: bool = False) -> None:
+        self.progress = Progress(0, total, (), time.monotonic())
+        self.live: Live | None = None
+        if _err.is_terminal and not plain:
+            self.live = Live(
+                _LiveRenderable(self),
+                console=_err,
+                refresh_per_second=4,
+                transient=True,
+                redirect_stderr=False,
+            )
+            self.live.start()
+
+    def update(self, progress: Progress, finished: tuple[str, str, float] | None = None) -> None:
+        """``finished``: (what, package, seconds) of the package that just ended, for the plain line."""
+        self.progress = progress
+        if self.live is None and finished is not None:
+            what, package, seconds = finished
+            total = max(progress.total, progress.done + len(progress.running))
+            _err.print(escape(f"[{progress.done}/{total}] {what} {package} ({seconds:.1f} s)"))
+
+    def stop(self) -> None:
+        if self.live is not None:
+            self.live.stop()
+            self.live = None

@@ -13,3 +13,6 @@ CLONE_JOBS = 4  # parallel git clones in create-firmware
 WORKSPACE_MARKER = "uros.yaml"
 FIRMWARE_DIR = Path("firmware")
 WORKSPACE_HELP = f"nearest folder upward with {WORKSPACE_MARKER}, else ./{FIRMWARE_DIR}"
+# What every micro-ROS firmware links, whatever messages it uses: `uros build --packages` and
+# `--for-firmware` add those of them the workspace has (colcon adds their dependencies).
+CORE_PACKAGES = ("rcl", "rclc", "rmw_microxrcedds", "micro_ros_utilities")

@@ -8,7 +8,10 @@ call uros can tell a bad flag (2) from a missing compiler (3) from a failed buil
 from __future__ import annotations
 
 import difflib
-from collections.abc import Iterable
+import shutil
+import signal
+from collections.abc import Iterable, Mapping
+from pathlib import Path
 
 
 class UrosError(Exception):
@@ -50,10 +53,90 @@ class VerifyError(UrosError):
     exit_code = 5
 
 
+class DiskFull(UrosError):
+    """No space left on a disk (ENOSPC) or over a quota (EDQUOT), anywhere: a failed step like any
+    other, named for what it is, with where and how much space is left."""
+
+    exit_code = 4
+
+    @classmethod
+    def at(cls, path: Path | str, what: str) -> DiskFull:
+        """The error for ``what`` failing on the disk holding ``path`` (asks that disk how much
+        space is left)."""
+        where = Path(path)
+        while not where.exists() and where != where.parent:
+            where = where.parent
+        try:
+            free: int | None = shutil.disk_usage(where).free
+        except OSError:
+            free = None
+        error = cls(disk_full_message(what, str(path), free), DISK_FULL_HINT)
+        error.free = free
+        return error
+
+    free: int | None = None  # bytes left on that disk, when it could be asked
+
+
+DISK_FULL_HINT = (
+    "free some space (or build on a larger disk) and run the same command again: "
+    "uros repairs what the full disk cut short"
+)
+
+
+def disk_full_message(what: str, path: str, free: int | None) -> str:
+    """One line: what failed, where, and the space left there (pure)."""
+    left = "unknown space" if free is None else _size(free)
+    return f"no space left on device: {what} ({left} free on the disk of {path})"
+
+
+def _size(n: int) -> str:
+    if n < 1024:
+        return f"{n} bytes"
+    value = n / 1024
+    for unit in ("KiB", "MiB", "GiB"):
+        if value < 1024:
+            return f"{value:.1f} {unit}"
+        value /= 1024
+    return f"{value:.1f} TiB"
+
+
 class Interrupted(UrosError):
-    """Ctrl-C: the previous good output was left in place."""
+    """Ctrl-C (SIGINT): the previous good output was left in place."""
 
     exit_code = 130
+    signal_name = "Ctrl-C"
+
+
+class Terminated(Interrupted):
+    """SIGTERM (`timeout`, a CI job cancelled, `docker stop`): stopped like Ctrl-C; 128 + 15."""
+
+    exit_code = 143
+    signal_name = "SIGTERM"
+
+
+class HungUp(Interrupted):
+    """SIGHUP (the terminal closed): stopped like Ctrl-C; 128 + 1."""
+
+    exit_code = 129
+    signal_name = "SIGHUP"
+
+
+class Signalled(KeyboardInterrupt):
+    """SIGTERM or SIGHUP raised where uros is, like Python raises KeyboardInterrupt for SIGINT, so
+    that every place that stops the tools on Ctrl-C stops them on these too."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signum)
+        self.signum = signum
+
+
+_BY_SIGNAL: Mapping[int, type[Interrupted]] = {signal.SIGTERM: Terminated, signal.SIGHUP: HungUp}
+
+
+def interrupted(cause: BaseException | None, what: str, hint: str) -> Interrupted:
+    """The error for ``what`` stopped by the signal behind ``cause`` (Ctrl-C when it names none)."""
+    cls = _BY_SIGNAL.get(getattr(cause, "signum", signal.SIGINT), Interrupted)
+    return cls(f"{what} ({cls.signal_name})", hint)
 
 
 def did_you_mean(name: str, choices: Iterable[str]) -> str:

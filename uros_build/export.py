@@ -56,13 +56,17 @@ def write_esp_idf_component(out: Path, info: BuildInfo) -> list[Path]:
     return _write(out, esp_idf_component_files(info.target, info.idf_target, info.transport))
 
 
-def copy_build_output(src: Path, dst: Path) -> None:
-    """Copy library, headers and build-info from one output folder to another."""
+def copy_build_output(src: Path, dst: Path) -> list[str]:
+    """Copy library, headers and build-info from one output folder to another; returns the names
+    copied."""
     dst.mkdir(parents=True, exist_ok=True)
     shutil.copy2(src / "libmicroros.a", dst / "libmicroros.a")
     if (dst / "include").exists():
         shutil.rmtree(dst / "include")
     shutil.copytree(src / "include", dst / "include")
+    copied = ["libmicroros.a", "include"]
     for name in (BUILD_INFO, "toolchain.cmake"):
         if (src / name).is_file():
             shutil.copy2(src / name, dst / name)
+            copied.append(name)
+    return copied

@@ -6,15 +6,18 @@ to build.
 
 from __future__ import annotations
 
+import json
 import os
-from collections.abc import Mapping
-from dataclasses import dataclass
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 
-from uros_build import abi, colcon, console, toolsearch
+from uros_build import abi, colcon, console, fingerprint, toolsearch
 from uros_build import distros as distros_mod
+from uros_build import packages as packages_mod
 from uros_build.archive import BinTools
 from uros_build.errors import MissingToolError, StepFailed
+from uros_build.packages import PackageInfo
 from uros_build.proc import Runner
 from uros_build.profiles import TargetProfile
 from uros_build.toolchain import tool_paths
@@ -33,6 +36,36 @@ class HostFacts:
     @property
     def gcc_major(self) -> int | None:
         return major(self.gcc_version)
+
+
+@dataclass
+class ProbeCache:
+    """Answers of probes that start a process (``cmake --version``, ``gcc -dumpversion``, the C
+    library and C++ header checks), kept in a file and keyed by the identity of the programs
+    they ran (path, size, mtime, inode: :func:`fingerprint.stat_key`), so that a build with
+    nothing to do starts no process to find out. ``path`` None: no cache."""
+
+    path: Path | None = None
+    _data: dict[str, str] = field(default_factory=dict)
+    _loaded: bool = False
+
+    def get(self, key: str, compute: Callable[[], str]) -> str:
+        if self.path is None:
+            return compute()
+        if not self._loaded:
+            self._loaded = True
+            try:
+                loaded = json.loads(self.path.read_text(encoding="utf-8"))
+                self._data = {str(k): str(v) for k, v in loaded.items()} if isinstance(loaded, dict) else {}
+            except (OSError, ValueError):
+                self._data = {}
+        if key not in self._data:
+            self._data[key] = compute()
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            tmp = self.path.with_name(f"{self.path.name}.tmp-{os.getpid()}")
+            tmp.write_text(json.dumps(self._data, indent=1, sort_keys=True) + "\n", encoding="utf-8")
+            tmp.replace(self.path)
+        return self._data[key]
 
 
 def first_version(text: str) -> str:
@@ -56,9 +89,12 @@ def colcon_program() -> str:
     return str(beside) if beside.is_file() else "colcon"
 
 
-def cmake_version(runner: Runner) -> tuple[str, str]:
+def cmake_version(runner: Runner, cache: ProbeCache | None = None) -> tuple[str, str]:
     cmake = runner.which("cmake")
-    return cmake, first_version(runner.query([cmake, "--version"], step="cmake --version"))
+    key = f"cmake --version {fingerprint.stat_key(Path(cmake))}"
+    return cmake, (cache or ProbeCache()).get(
+        key, lambda: first_version(runner.query([cmake, "--version"], step="cmake --version"))
+    )
 
 
 def locate_compiler(runner: Runner, profile: TargetProfile) -> str | None:
@@ -80,17 +116,17 @@ def locate_compiler(runner: Runner, profile: TargetProfile) -> str | None:
     return str(found)
 
 
-def check_target_prerequisites(
-    runner: Runner, profile: TargetProfile, tools: Mapping[str, str], scratch: Path
-) -> None:
-    """Real micro-ROS needs the target's C library and C++ headers (humble's rosidl_typesupport_c
-    has .cpp sources): say which package is missing before a long build fails on it."""
-    hint = profile.install_hint or None
+def find_libc(runner: Runner, profile: TargetProfile, tools: Mapping[str, str]) -> str | None:
+    """The target's libc.a as its compiler finds it with the profile's flags, or None."""
     libc = runner.query(
         [tools["gcc"], *profile.cpu_flags, *profile.libc_flags, "-print-file-name=libc.a"], step="find libc"
     ).strip()
-    if not libc or not Path(libc).is_absolute():
-        raise MissingToolError(f"{profile.tool('gcc')} has no C library (libc.a) for {profile.name}", hint)
+    # GCC prints the bare name back when it finds no such file
+    return libc if libc and Path(libc).is_absolute() else None
+
+
+def has_cxx_headers(runner: Runner, profile: TargetProfile, tools: Mapping[str, str], scratch: Path) -> bool:
+    """Whether the target's g++ compiles ``#include <cstdint>`` with the profile's flags."""
     probe = scratch / "uros_cxx_probe.cpp"
     probe.parent.mkdir(parents=True, exist_ok=True)
     probe.write_text("#include <cstdint>\nstd::uint8_t uros_probe;\n", encoding="utf-8")
@@ -100,8 +136,21 @@ def check_target_prerequisites(
             step="find C++ headers",
         )
     except StepFailed:
+        return False
+    return True
+
+
+def check_target_prerequisites(
+    runner: Runner, profile: TargetProfile, tools: Mapping[str, str], scratch: Path
+) -> None:
+    """Real micro-ROS needs the target's C library and C++ headers (humble's rosidl_typesupport_c
+    has .cpp sources): say which package is missing before a long build fails on it."""
+    hint = profile.install_hint or None
+    if find_libc(runner, profile, tools) is None:
+        raise MissingToolError(f"{profile.tool('gcc')} has no C library (libc.a) for {profile.name}", hint)
+    if not has_cxx_headers(runner, profile, tools, scratch):
         message = f"{profile.tool('g++')} has no C++ standard headers for {profile.name}"
-        raise MissingToolError(message, hint) from None
+        raise MissingToolError(message, hint)
 
 
 def probe_target_tools(runner: Runner, profile: TargetProfile) -> tuple[dict[str, str], str | None]:
@@ -114,10 +163,16 @@ def probe_target_tools(runner: Runner, profile: TargetProfile) -> tuple[dict[str
 
 
 def probe_host(
-    runner: Runner, profile: TargetProfile | None, scratch: Path, check_libraries: bool
+    runner: Runner,
+    profile: TargetProfile | None,
+    scratch: Path,
+    check_libraries: bool,
+    cache: ProbeCache | None = None,
 ) -> HostFacts:
-    """Every tool a build needs, found before anything is built."""
-    cmake, version = cmake_version(runner)
+    """Every tool a build needs, found before anything is built; what needs a process to find
+    out is answered from ``cache`` while the programs are the same files."""
+    cache = cache or ProbeCache()
+    cmake, version = cmake_version(runner, cache)
     colcon_prog = runner.which(colcon_program())
     if profile is None:
         return HostFacts(cmake, version, colcon_prog)
@@ -125,9 +180,20 @@ def probe_host(
     # the ABI check reads the library with the host's readelf after the build: found now, a
     # missing one costs seconds rather than the whole build
     runner.which(abi.READELF, abi.READELF_HINT)
-    gcc_version = runner.query([tools["gcc"], "-dumpversion"], step="gcc -dumpversion").strip()
+    gcc_id = fingerprint.stat_key(Path(tools["gcc"]))
+    gcc_version = cache.get(
+        f"gcc -dumpversion {gcc_id}",
+        lambda: runner.query([tools["gcc"], "-dumpversion"], step="gcc -dumpversion").strip(),
+    )
     if check_libraries:
-        check_target_prerequisites(runner, profile, tools, scratch)
+        flags = " ".join([*profile.cpu_flags, *profile.libc_flags])
+        key = f"prerequisites {gcc_id} {fingerprint.stat_key(Path(tools['g++']))} {flags}"
+
+        def check() -> str:
+            check_target_prerequisites(runner, profile, tools, scratch)
+            return "ok"  # a failed check raises: only a passed one is remembered
+
+        cache.get(key, check)
     return HostFacts(cmake, version, colcon_prog, tools["gcc"], gcc_version, tool_dir)
 
 
@@ -176,30 +242,68 @@ def colcon_env(
     return env, scrubbed
 
 
+DEV_PACKAGES = ".uros-dev-packages.json"  # in dev_ws/install: what the dev build built, of what
+
+
+def dev_record(ws: Workspace) -> tuple[frozenset[str], frozenset[str]] | None:
+    """(built, available): the dev_ws packages the last dev build built and those dev_ws had
+    then; None for a dev_ws built whole (before uros built only the closure)."""
+    try:
+        data = json.loads((ws.dev_install / DEV_PACKAGES).read_text(encoding="utf-8"))
+        return frozenset(data["built"]), frozenset(data["available"])
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+
+
+def dev_needs_building(ws: Workspace, mcu: Sequence[PackageInfo]) -> bool:
+    """dev_ws was never built, or the MCU packages now need a dev_ws package it did not build
+    (a new extra package that finds another ament_cmake extension). Reads no package.xml."""
+    if not ws.dev_built():
+        return True
+    record = dev_record(ws)
+    if record is None:
+        return False
+    built, available = record
+    wanted = {d for p in mcu for d in p.build_deps} & available
+    return not wanted <= built
+
+
 def build_dev_workspace(
     ws: Workspace, cfg: WorkspaceConfig, runner: Runner, verbose: bool, jobs: int | None = None
 ) -> None:
-    """Build dev_ws (ament and friends) for the host, once; every target reuses it."""
-    _cmake, version = cmake_version(runner)
-    env, _ = colcon_env(ws, cfg, version, with_dev=False)
-    console.step("building the host tools workspace (dev_ws)")
-    plan = colcon.ColconPlan(
-        base_paths=(ws.dev_dir,),
-        build_base=ws.dev_dir / "build",
-        install_base=ws.dev_install,
-        log_base=ws.dev_dir / "log",
-        metas=(),
-        toolchain_file=None,
-        python=colcon.host_python(),
-        generator=colcon.generator(env),
-        verbose=verbose,
-        parallel_workers=jobs,
-        ignore_regex=None,
+    """Build the part of dev_ws (ament and friends) the MCU packages need, for the host; every
+    target reuses it. micro_ros_setup builds all of it, uncrustify and a dozen linters included,
+    which a BUILD_TESTING=OFF cross build never calls."""
+    dev = packages_mod.discover(ws.dev_dir)
+    needed = packages_mod.tool_closure(packages_mod.discover(ws.source_dir), dev)
+    console.step(
+        f"building the host tools workspace (dev_ws): {len(needed)} of its {len(dev)} packages, "
+        "those the MCU packages need"
     )
-    runner.run(
-        colcon.colcon_argv(plan, runner.which(colcon_program())),
-        step="colcon build (dev_ws)",
-        cwd=ws.dev_dir,
-        env=env,
-    )
+    if needed:
+        _cmake, version = cmake_version(runner)
+        env, _ = colcon_env(ws, cfg, version, with_dev=False)
+        plan = colcon.ColconPlan(
+            base_paths=(ws.dev_dir,),
+            build_base=ws.dev_dir / "build",
+            install_base=ws.dev_install,
+            log_base=ws.dev_dir / "log",
+            metas=(),
+            toolchain_file=None,
+            python=colcon.host_python(),
+            generator=colcon.generator(env),
+            verbose=verbose,
+            parallel_workers=jobs,
+            ignore_regex=None,
+            packages_up_to=tuple(sorted(needed)),
+        )
+        runner.run(
+            colcon.colcon_argv(plan, runner.which(colcon_program())),
+            step="colcon build (dev_ws)",
+            cwd=ws.dev_dir,
+            env=env,
+        )
+    ws.dev_install.mkdir(parents=True, exist_ok=True)
+    record = {"built": sorted(needed), "available": sorted(p.name for p in dev)}
+    (ws.dev_install / DEV_PACKAGES).write_text(json.dumps(record, indent=1) + "\n", encoding="utf-8")
     ws.mark_dev_built()

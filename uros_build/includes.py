@@ -24,9 +24,11 @@ class IncludeReport:
     bytes: int
 
 
-def _copy_headers(src: Path, dst: Path, origin: dict[Path, Path]) -> None:
+def _copy_headers(src: Path, dst: Path, origin: dict[Path, Path], only: frozenset[Path] | None) -> None:
     for path in sorted(src.rglob("*")):
         if not path.is_file() or path.suffix not in HEADER_SUFFIXES:
+            continue
+        if only is not None and path not in only:
             continue
         rel = path.relative_to(src)
         target = dst / rel
@@ -42,28 +44,31 @@ def _copy_headers(src: Path, dst: Path, origin: dict[Path, Path]) -> None:
         origin[target] = path
 
 
-def flatten_includes(install_include: Path, out: Path) -> IncludeReport:
+def flatten_includes(install_include: Path, out: Path, only: frozenset[Path] | None = None) -> IncludeReport:
+    """Flatten ``install_include`` into ``out``; ``only``: copy just these files (the headers of
+    one build's packages), so that headers of packages outside the build stay out."""
     out.mkdir(parents=True, exist_ok=True)
     origin: dict[Path, Path] = {}
     packages = 0
     if install_include.is_dir():
         for entry in sorted(install_include.iterdir()):
             if entry.is_dir():
-                packages += 1
+                before = len(origin)
                 nested = entry / entry.name
                 if nested.is_dir():
                     # include/<pkg>/<pkg>/x.h -> include/<pkg>/x.h; siblings of the nested folder
                     # (rare) are kept at include/<pkg>/ too.
-                    _copy_headers(nested, out / entry.name, origin)
+                    _copy_headers(nested, out / entry.name, origin, only)
                     for other in sorted(entry.iterdir()):
                         if other != nested:
                             if other.is_dir():
-                                _copy_headers(other, out / entry.name / other.name, origin)
-                            elif other.suffix in HEADER_SUFFIXES:
+                                _copy_headers(other, out / entry.name / other.name, origin, only)
+                            elif other.suffix in HEADER_SUFFIXES and (only is None or other in only):
                                 _copy_headers_file(other, out / entry.name / other.name, origin)
                 else:
-                    _copy_headers(entry, out / entry.name, origin)
-            elif entry.is_file() and entry.suffix in HEADER_SUFFIXES:
+                    _copy_headers(entry, out / entry.name, origin, only)
+                packages += len(origin) > before
+            elif entry.is_file() and entry.suffix in HEADER_SUFFIXES and (only is None or entry in only):
                 _copy_headers_file(entry, out / entry.name, origin)
     size = sum(p.stat().st_size for p in origin)
     return IncludeReport(files=len(origin), packages=packages, bytes=size)

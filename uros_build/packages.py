@@ -32,6 +32,10 @@ class PackageInfo:
     build_type: str
     build_deps: frozenset[str]
     path: Path
+    # REP 149 groups: <group_depend> names a group, <member_of_group> joins one (colcon-ros
+    # resolves a group dependency to every member in the workspace)
+    group_deps: frozenset[str] = frozenset()
+    groups: frozenset[str] = frozenset()
 
 
 def discover(source_dir: Path) -> list[PackageInfo]:
@@ -60,7 +64,9 @@ def discover(source_dir: Path) -> list[PackageInfo]:
             raise ConfigError(f"{xml}: has no <name>", hint)
         build_type = (root.findtext("export/build_type") or "ament_cmake").strip()
         deps = frozenset((e.text or "").strip() for tag in _BUILD_DEPS for e in root.findall(tag))
-        found.append(PackageInfo(name, build_type, deps, Path(dirpath)))
+        group_deps = frozenset((e.text or "").strip() for e in root.findall("group_depend"))
+        groups = frozenset((e.text or "").strip() for e in root.findall("member_of_group"))
+        found.append(PackageInfo(name, build_type, deps, Path(dirpath), group_deps, groups))
     return sorted(found, key=lambda p: p.name)
 
 
@@ -89,6 +95,45 @@ def plain_cmake_packages(source_dir: Path) -> set[str]:
 def closest(name: str, names: Iterable[str]) -> list[str]:
     """Package names that look like ``name`` (a typo in --set or a meta file), best first."""
     return difflib.get_close_matches(name, list(names), n=3, cutoff=0.6)
+
+
+def closure(packages: Iterable[PackageInfo], roots: Iterable[str]) -> set[str]:
+    """``roots`` and every package of ``packages`` they depend on, transitively, through the
+    dependencies colcon's --packages-up-to follows (names not among ``packages`` are left out:
+    they come from elsewhere or are not needed)."""
+    by_name = {p.name: p for p in packages}
+    members: dict[str, list[str]] = {}
+    for p in by_name.values():
+        for group in p.groups:
+            members.setdefault(group, []).append(p.name)
+    found: set[str] = set()
+    todo = [r for r in roots if r in by_name]
+    while todo:
+        name = todo.pop()
+        if name in found:
+            continue
+        found.add(name)
+        info = by_name[name]
+        todo.extend(d for d in info.build_deps if d in by_name)
+        todo.extend(m for group in info.group_deps for m in members.get(group, ()))
+    return found
+
+
+def tool_closure(mcu: Iterable[PackageInfo], dev: Iterable[PackageInfo]) -> set[str]:
+    """The host tools workspace's packages an MCU build needs (pure): those the MCU packages
+    depend on (every dependency but tests and docs: build tools, CMake modules they find,
+    generators' run-time imports), and everything those need in turn. Linters and uncrustify are
+    only test dependencies, which a BUILD_TESTING=OFF build never calls: they are left out."""
+    dev = list(dev)
+    names = {p.name for p in dev}
+    groups = {g for p in dev for g in p.groups}
+    roots: set[str] = set()
+    for package in mcu:
+        roots |= package.build_deps & names
+        # an MCU package in a group of dev packages needs the group's members
+        for group in package.group_deps & groups:
+            roots |= {p.name for p in dev if group in p.groups}
+    return closure(dev, roots)
 
 
 def host_only(packages: list[PackageInfo]) -> list[str]:

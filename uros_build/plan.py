@@ -11,13 +11,15 @@ from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-from uros_build import defaults, espidf, loader
+from uros_build import defaults, espidf, firmware_scan, loader
 from uros_build import distros as distros_mod
 from uros_build import meta as meta_mod
+from uros_build import options as options_mod
 from uros_build import packages as packages_mod
 from uros_build.distros import Distro, Mirror, Source
-from uros_build.errors import ConfigError
+from uros_build.errors import ConfigError, did_you_mean
 from uros_build.espidf import IdfProject
+from uros_build.outputs import check_output_dir, is_uros_output, target_keys
 from uros_build.packages import PackageInfo
 from uros_build.profiles import (
     TargetProfile,
@@ -35,7 +37,6 @@ from uros_build.workspace import (
     check_build_folder,
     check_extra_package,
     check_folder_target,
-    check_output_dir,
     find_workspace,
     load_config,
     parse_config,
@@ -69,6 +70,38 @@ def open_workspace(given: Path | None, cwd: Path | None = None) -> Workspace:
             "(makes ./firmware), or pass -w DIR (a colcon workspace with packages works too)",
         )
     return Workspace.open(path)
+
+
+def resolve_output(output: Path | None, workspace: Path | None, toolchain: str | None) -> Path:
+    """The build output a command reads (uros info, uros size): OUTPUT as given, else in the
+    workspace: --toolchain's output, else uros.yaml's target's, else the only one built."""
+    if output is not None:
+        return output
+    root = resolve_workspace(workspace)
+    ws = Workspace(root.resolve())
+    built = [k for k in target_keys(ws) if is_uros_output(ws.default_output(k))]
+    if toolchain is None:
+        cfg = load_config(ws.root) if ws.root.is_dir() else None
+        named: tuple[str, ...] = ()
+        if cfg is not None:
+            named = cfg.targets or ((cfg.target,) if cfg.target else ())
+        if len(named) == 1:
+            toolchain = named[0]
+        elif len(built) == 1:
+            toolchain = built[0]
+        else:
+            raise ConfigError(
+                f"which output? {len(built)} built in {ws.root}: {', '.join(built) or 'none'}",
+                "pass the output folder (e.g. firmware/build/cortex-m7), or --toolchain NAME",
+            )
+    key = target_key(Path(toolchain).stem if toolchain.endswith(".cmake") else toolchain)
+    if key not in built:
+        raise ConfigError(
+            f"--toolchain {toolchain}: no output of it in {ws.root}{did_you_mean(key, built)}",
+            f"build it first: uros build --toolchain {toolchain}"
+            + (f" (built: {', '.join(built)})" if built else ""),
+        )
+    return ws.default_output(key)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -126,12 +159,12 @@ def resolve_target(
             raise ConfigError(
                 f"{flag} {toolchain}: no such file", "pass a target name or an existing .cmake file"
             )
-        return ToolchainFileTarget(target_key(path.stem), path)
+        return ToolchainFileTarget(target_key(path.stem, f"{flag} {toolchain}"), path)
     profile = find_profile(toolchain, flag)
     if derive:
         profile = derive_profile(profile, compiler_prefix, cflags)
         return ProfileTarget(target_key(profile.name), profile)
-    return ProfileTarget(profile.name, profile)
+    return ProfileTarget(target_key(profile.name), profile)
 
 
 def target_profile(target: Target | None) -> TargetProfile | None:
@@ -189,6 +222,9 @@ class BuildArgs:
     jobs: int | None = None
     compiler_prefix: str | None = None
     cflags: tuple[str, ...] = ()
+    rebuild: bool = False  # run every step even when no input changed
+    packages: tuple[str, ...] = ()  # --packages: what the firmware wants (the core is added)
+    for_firmware: Path | None = None  # --for-firmware: read what it wants from its sources
     toolchain_from: str = "--toolchain"  # where toolchain came from (uros.yaml's target), for messages
     idf_build: Path | None = None  # an ESP-IDF project's build folder to compile micro-ROS against
 
@@ -219,6 +255,21 @@ def expand_targets(args: BuildArgs) -> tuple[BuildArgs, ...]:
 
 
 @dataclass(frozen=True)
+class Selection:
+    """The packages `uros build` asks colcon for (--packages-up-to), and why each."""
+
+    wanted: tuple[str, ...]  # --packages / uros.yaml packages:
+    firmware: firmware_scan.FirmwareUse | None  # --for-firmware's findings
+    core: tuple[str, ...]  # the core packages the workspace has
+    extra: tuple[str, ...]  # the workspace's extra packages
+
+    @property
+    def request(self) -> tuple[str, ...]:
+        found = tuple(self.firmware.packages) if self.firmware else ()
+        return tuple(sorted({*self.wanted, *found, *self.core, *self.extra}))
+
+
+@dataclass(frozen=True)
 class BuildPlan:
     workspace: Workspace
     config: WorkspaceConfig | None  # None: a plain colcon workspace, not made by create-firmware
@@ -233,6 +284,8 @@ class BuildPlan:
     packages: tuple[PackageInfo, ...] = ()  # every package colcon will find in the workspace
     warnings: tuple[str, ...] = ()  # inputs that are valid but likely not what the user meant
     idf: IdfProject | None = None  # the ESP-IDF project micro-ROS is compiled against
+    rebuild: bool = False
+    selection: Selection | None = None  # --packages/--for-firmware/uros.yaml packages: (None: all)
 
     @property
     def profile(self) -> TargetProfile | None:
@@ -297,6 +350,55 @@ def idf_platform(target: Target, idf: IdfProject | None) -> Target:
     return ProfileTarget(target.key, profile)
 
 
+def _select(
+    args: BuildArgs, cfg: WorkspaceConfig | None, ws: Workspace, packages: list[PackageInfo], names: set[str]
+) -> Selection | None:
+    """What --packages, --for-firmware or uros.yaml's packages: ask for, plus the core and the
+    extra packages; None when none of them is given (every package is built)."""
+    wanted = args.packages or (cfg.packages if cfg and args.for_firmware is None else ())
+    use = None
+    if args.for_firmware is not None:
+        folder = args.for_firmware
+        if not folder.is_dir():
+            raise ConfigError(
+                f"--for-firmware {folder}: no such folder", "pass your firmware's source folder"
+            )
+        use = firmware_scan.scan_folder(folder.resolve())
+        if not use.packages:
+            raise ConfigError(
+                f"--for-firmware {folder}: no interface type found in {use.scanned} C/C++ files",
+                "it looks for #include <pkg/msg/...>, <pkg/srv/...>, <pkg/action/...> and "
+                "ROSIDL_GET_MSG_TYPE_SUPPORT(pkg, msg, Type); or name them: --packages PKG",
+            )
+    if not wanted and use is None:
+        return None
+    if args.packages_up_to:
+        raise ConfigError(
+            "--packages-up-to and --packages/--for-firmware/uros.yaml packages: both choose the packages",
+            "use one: --packages adds the core and the extra packages, "
+            "--packages-up-to takes exactly what it names",
+        )
+    flag = "--packages" if args.packages else f"{ws.root / CONFIG}: packages"
+    for pkg in wanted:
+        if pkg not in names:
+            raise ConfigError(
+                f"{flag} {pkg}: no package {pkg} in {ws.source_dir}{_closest(pkg, names)}",
+                "name a package of the workspace (a folder with a package.xml)",
+            )
+    for pkg in sorted(use.packages if use else ()):
+        if pkg not in names:
+            files = ", ".join((use.files[pkg] if use else ())[:3])
+            raise ConfigError(
+                f"--for-firmware {args.for_firmware}: the firmware uses {pkg} ({files}), "
+                f"which is not in the workspace{_closest(pkg, names)}",
+                "add the package to the workspace: uros add-package PATH",
+            )
+    core = tuple(p for p in defaults.CORE_PACKAGES if p in names)
+    extra_dir = ws.extra_dir
+    extra = tuple(p.name for p in packages if p.path.is_relative_to(extra_dir))
+    return Selection(tuple(wanted), use, core, extra)
+
+
 def plan_build(args: BuildArgs) -> BuildPlan:
     """Validate every input of `uros build` (reads files, starts nothing)."""
     ws = open_workspace(args.workspace)
@@ -335,9 +437,12 @@ def plan_build(args: BuildArgs) -> BuildPlan:
                 "name a package of the workspace (a folder with a package.xml or a CMakeLists.txt)",
             )
     warnings = unknown_packages(given_metas, sets, names)
+    warnings += options_mod.check_sets(sets, options_mod.by_package(options_mod.known_options()))
+    selection = _select(args, cfg, ws, packages, names)
     out = (args.output or ws.default_output(target.key)).resolve()
-    check_folder_target(out, "--output")
-    check_output_dir(out, args.force)
+    flag = "--output" if args.output else "the output folder"
+    check_folder_target(out, flag)
+    check_output_dir(out, args.force, flag, ws.root)
     return BuildPlan(
         workspace=ws,
         config=cfg,
@@ -346,12 +451,14 @@ def plan_build(args: BuildArgs) -> BuildPlan:
         meta=meta,
         output=out,
         target_dir=ws.target_dir(target.key),
-        packages_up_to=args.packages_up_to,
+        packages_up_to=selection.request if selection else args.packages_up_to,
         jobs=args.jobs,
         verbose=args.verbose,
         packages=tuple(packages),
         warnings=tuple(warnings),
         idf=idf,
+        rebuild=args.rebuild,
+        selection=selection,
     )
 
 

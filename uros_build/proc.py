@@ -20,21 +20,23 @@ subprocesses and log locations, everything else builds argv lists as data.
 from __future__ import annotations
 
 import contextlib
+import ctypes
 import os
 import re
 import shlex
 import shutil
 import signal
 import subprocess
+import sys
 import threading
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import NoReturn
 
 from uros_build import console
-from uros_build.errors import Interrupted, MissingToolError, StepFailed
+from uros_build.errors import DiskFull, MissingToolError, StepFailed, interrupted
 
 # Where a missing program comes from, by name pattern. Target compilers carry their own hint
 # in the target profile (toolchains/*.yaml); this covers the host tools.
@@ -86,6 +88,27 @@ def first_error(lines: Sequence[str]) -> str | None:
                 # ninja's FAILED lines list every output of the step: keep the message one line
                 return text if len(text) <= _LONGEST else text[: _LONGEST - 3] + "..."
     return lines[-1].strip() if lines else None
+
+
+# What tools print when a write fails for want of space (strerror of ENOSPC and EDQUOT; the tools
+# run with LC_MESSAGES=C, so in English).
+_DISK_FULL = re.compile(r"No space left on device|Disk quota exceeded")
+
+
+def disk_full_line(lines: Sequence[str]) -> str | None:
+    """The first line of ``lines`` saying that a disk is full (pure)."""
+    for line in lines:
+        if _DISK_FULL.search(line):
+            text = _COLCON_LOG_PREFIX.sub("", line.strip())
+            return text if len(text) <= _LONGEST else text[: _LONGEST - 3] + "..."
+    return None
+
+
+def disk_full_path(line: str) -> str | None:
+    """The absolute path a disk-full message names ("... No space left on device [/a/b.log]",
+    "... writing to /tmp/ccX.s: No space left ..."), or None (pure)."""
+    found = re.search(r"(/[^\s'\"\[\]:]+)", line)
+    return found.group(1) if found else None
 
 
 def install_hint(program: str) -> str:
@@ -157,6 +180,9 @@ class Runner:
 
     log_path: Path
     verbose: bool = False
+    # Marks every process this runner starts, and every process those start, with UROS_OWNER=owner
+    # in its environment: how a later run finds the leftovers of a killed one (stop_leftovers).
+    owner: str = ""
     _resolved: dict[str, str] = field(default_factory=dict)
     _lock: threading.Lock = field(default_factory=threading.Lock)
 
@@ -204,13 +230,15 @@ class Runner:
         hint: str | None = None,
         quiet: bool = False,
         label: str = "",
+        on_line: Callable[[str], None] | None = None,
     ) -> list[str]:
         """Run ``argv`` to completion, streaming its output; return the output lines.
 
         ``quiet`` keeps the ``+ argv`` echo out of the console (it is always in the log);
-        ``label`` prefixes every logged line (``[uros/rclc] ``) when commands run in parallel.
+        ``label`` prefixes every logged line (``[uros/rclc] ``) when commands run in parallel;
+        ``on_line`` sees every line as it arrives (a build's progress).
         """
-        env = messages_in_c(env if env is not None else os.environ)
+        env = self._marked(messages_in_c(env if env is not None else os.environ))
         argv = self._prepare(argv, hint, cwd, env, label)
         if not quiet:
             console.info(format_argv(argv))
@@ -225,12 +253,18 @@ class Runner:
                 lines.append(text)
                 if self.verbose:
                     console.tool_line(label + text)
+                if on_line is not None:
+                    on_line(text)
             code = proc.wait()
-        except KeyboardInterrupt:
-            self._interrupted(proc, step, started)
+        except KeyboardInterrupt as exc:
+            self._interrupted(proc, step, started, exc)
+        except BaseException:
+            # e.g. the log cannot be written (a full disk): the tools must not run on unwatched
+            self._stop(proc)
+            raise
         self.log(f"{label}exit {code} after {time.monotonic() - started:.1f} s")
         if code != 0:
-            self._failed(step, code, lines, hint)
+            self._failed(step, code, lines, hint, cwd)
         return lines
 
     def query(
@@ -244,20 +278,23 @@ class Runner:
     ) -> str:
         """Run a tool whose output uros parses: stdout only, in the C locale; stderr goes to the
         log (and into the error on failure), never into the parsed text."""
-        base = dict(env if env is not None else os.environ)
+        base = self._marked(env if env is not None else os.environ)
         base["LC_ALL"] = "C"
         argv = self._prepare(argv, hint, cwd, base, "")
         started = time.monotonic()
         proc = self._start(argv, step, cwd, base, subprocess.PIPE)
         try:
             out, err = proc.communicate()
-        except KeyboardInterrupt:
-            self._interrupted(proc, step, started)
+        except KeyboardInterrupt as exc:
+            self._interrupted(proc, step, started, exc)
+        except BaseException:
+            self._stop(proc)
+            raise
         if err:
             self.log("stderr:\n" + err)
         self.log(f"exit {proc.returncode} after {time.monotonic() - started:.1f} s ({len(out)} bytes)")
         if proc.returncode != 0:
-            self._failed(step, proc.returncode, err.splitlines() or out.splitlines(), hint)
+            self._failed(step, proc.returncode, err.splitlines() or out.splitlines(), hint, cwd)
         return out
 
     def _start(
@@ -275,18 +312,44 @@ class Runner:
                 text=True,
                 errors="replace",
                 start_new_session=True,
+                preexec_fn=_dies_with(os.getpid()),
             )
         except OSError as exc:
             raise StepFailed(
                 f"{step}: could not start {argv[0]}: {exc}", f"the log is {self.log_path}"
             ) from exc
 
-    def _interrupted(self, proc: subprocess.Popen[str], step: str, started: float) -> NoReturn:
-        _stop(proc)
-        self.log(f"interrupted after {time.monotonic() - started:.1f} s")
-        raise Interrupted(f"{step} was interrupted", "the previous output was left untouched") from None
+    def _marked(self, env: Mapping[str, str]) -> dict[str, str]:
+        out = dict(env)
+        if self.owner:
+            out[OWNER_VARIABLE] = self.owner
+        return out
 
-    def _failed(self, step: str, code: int, lines: Sequence[str], hint: str | None) -> NoReturn:
+    def _stop(self, proc: subprocess.Popen[str]) -> None:
+        """Stop the tool's process group, then whatever it started that left the group (ninja
+        runs each command in a group of its own), with further signals held until that is done."""
+        with signals_held():
+            _stop(proc)
+            if self.owner:
+                stopped = stop_processes(marked_processes(self.owner))
+                if stopped:
+                    self.log(f"stopped {len(stopped)} more processes: {' '.join(map(str, stopped))}")
+
+    def _interrupted(
+        self, proc: subprocess.Popen[str], step: str, started: float, cause: BaseException
+    ) -> NoReturn:
+        self._stop(proc)
+        self.log(f"interrupted after {time.monotonic() - started:.1f} s")
+        hint = "the previous output was left untouched"
+        raise interrupted(cause, f"{step} was interrupted", hint) from None
+
+    def _failed(
+        self, step: str, code: int, lines: Sequence[str], hint: str | None, cwd: Path | None = None
+    ) -> NoReturn:
+        full = disk_full_line(lines)
+        if full is not None:
+            where = disk_full_path(full) or cwd or self.log_path.parent
+            raise DiskFull.at(where, f"{step} failed: {full}")
         cause = first_error(lines)
         detail = f": {cause}" if cause else ""
         raise StepFailed(
@@ -303,3 +366,122 @@ def _stop(proc: subprocess.Popen[str]) -> None:
     except (ProcessLookupError, subprocess.TimeoutExpired):
         with contextlib.suppress(ProcessLookupError):
             os.killpg(proc.pid, signal.SIGKILL)
+
+
+# ---------------------------------------------------------------------------------------------
+# signals, and the processes of a uros run that outlive it
+
+OWNER_VARIABLE = "UROS_OWNER"
+_HELD = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+
+
+@contextlib.contextmanager
+def signals_held() -> Iterator[None]:
+    """Ctrl-C, SIGTERM and SIGHUP wait until the block is done (a second Ctrl-C while the tools
+    are being stopped, a signal during the renames of a swap)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, _HELD)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+
+
+_PR_SET_PDEATHSIG = 1  # linux/prctl.h
+
+
+def _dies_with(parent: int) -> Callable[[], None] | None:
+    """On Linux, the tool uros starts gets SIGKILL when uros dies, even by SIGKILL (the OOM killer,
+    `kill -9`, a CI runner): colcon then starts no more packages. The parent-death signal reaches
+    that one process only; the cmake and ninja it already started are stopped by the next build of
+    the target (stop_leftovers). Only from the main thread: the signal follows the thread that
+    started the child, and clones run in worker threads."""
+    if not sys.platform.startswith("linux") or threading.current_thread() is not threading.main_thread():
+        return None
+    try:
+        prctl = ctypes.CDLL(None, use_errno=True).prctl
+    except (OSError, AttributeError):
+        return None
+
+    def set_parent_death_signal() -> None:
+        prctl(_PR_SET_PDEATHSIG, signal.SIGKILL)
+        if os.getppid() != parent:  # uros died before the call took effect
+            os._exit(1)
+
+    return set_parent_death_signal
+
+
+def environ_has(data: bytes, name: str, value: str) -> bool:
+    """Whether a /proc/<pid>/environ (NUL-separated NAME=value) holds ``name=value`` (pure)."""
+    return f"{name}={value}".encode() in data.split(b"\0")
+
+
+def marked_processes(owner: str) -> list[int]:
+    """Processes (other than uros itself) carrying UROS_OWNER=owner: started by a run for the same
+    owner, and their children. Linux only (/proc); elsewhere none are found."""
+    found = []
+    me = os.getpid()
+    proc_dir = Path("/proc")
+    if not proc_dir.is_dir():
+        return []
+    for entry in proc_dir.iterdir():
+        if not entry.name.isdigit() or int(entry.name) == me:
+            continue
+        try:
+            data = (entry / "environ").read_bytes()
+        except OSError:  # gone, or another user's
+            continue
+        if environ_has(data, OWNER_VARIABLE, owner) and not _zombie(entry):
+            found.append(int(entry.name))
+    return sorted(found)
+
+
+def _zombie(entry: Path) -> bool:
+    try:
+        stat = (entry / "stat").read_text(encoding="utf-8", errors="replace")
+    except OSError:
+        return True
+    return stat.rpartition(")")[2].split()[:1] == ["Z"]
+
+
+def stop_processes(pids: Sequence[int], grace: float = 5.0) -> list[int]:
+    """SIGTERM each, SIGKILL what is still there after ``grace`` seconds; returns those signalled."""
+    stopped = []
+    for pid in pids:
+        with contextlib.suppress(ProcessLookupError, PermissionError):
+            os.kill(pid, signal.SIGTERM)
+            stopped.append(pid)
+    deadline = time.monotonic() + grace
+    while stopped and time.monotonic() < deadline:
+        if not [p for p in stopped if not _zombie(Path(f"/proc/{p}")) and _exists(p)]:
+            return stopped
+        time.sleep(0.1)
+    for pid in stopped:
+        with contextlib.suppress(ProcessLookupError, PermissionError):
+            os.kill(pid, signal.SIGKILL)
+    return stopped
+
+
+def _exists(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def stop_leftovers(owner: str) -> list[int]:
+    """Stop the processes a killed uros run for ``owner`` left running (called with the owner's lock
+    held, so none of them belongs to a live uros run). Repeated until none is found: a leftover may
+    start another process while the first are being stopped."""
+    stopped: list[int] = []
+    for _ in range(20):
+        pids = [p for p in marked_processes(owner) if p not in stopped]
+        if not pids:
+            break
+        stopped += stop_processes(pids)
+    return stopped

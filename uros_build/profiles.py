@@ -154,8 +154,28 @@ def _build(cls: Any, source: str, data: Any, prefix: str = "") -> Any:
 _SEARCH_PLACEHOLDERS = ("{IDF_TOOLS_PATH}", "{IDF_PATH}")
 
 
+# A target's name is an identifier: it names <workspace>/.uros/targets/<name> and the default
+# output <workspace>/build/<name>, so '..', '.', '' or 'a/b' would point those at the workspace
+# itself (and `--force` once replaced it).
+NAME = re.compile(r"[a-z0-9][a-z0-9._-]*")
+NAME_MAX = 100
+
+
+def check_name(name: str, source: Path | str) -> str:
+    if not NAME.fullmatch(name) or len(name) > NAME_MAX:
+        raise _fail(
+            source,
+            "name",
+            f"{name!r} is not a target name: lower-case letters, digits, '.', '_' and '-', "
+            f"starting with a letter or digit, at most {NAME_MAX} characters",
+            "name the target like its file, e.g. name: my-board",
+        )
+    return name
+
+
 def _validate(profile: TargetProfile, source: Path | str) -> TargetProfile:
     """Checks across fields, shared by profile files and command-line derivation."""
+    check_name(profile.name, source)
     if profile.transport not in TRANSPORTS:
         raise _fail(source, "transport", f"{profile.transport!r} is not one of {', '.join(TRANSPORTS)}")
     if not profile.optimization.startswith("-O"):
@@ -245,7 +265,8 @@ def derive_profile(
                 f"--compiler-prefix {compiler_prefix}: cannot tell the architecture from the prefix",
                 "derive from a target (--toolchain NAME) or write a profile file (--profile my-board.yaml)",
             )
-        name = f"custom-{triplet.rstrip('-')}"
+        # a triplet may hold upper-case letters or '+': the name is an identifier (check_name)
+        name = "custom-" + re.sub(r"[^a-z0-9._-]", "-", triplet.rstrip("-").lower())
         profile = TargetProfile(
             name=name,
             description=f"from the command line: {compiler_prefix}gcc {' '.join(cflags)}".rstrip(),
@@ -288,6 +309,13 @@ OR_PROFILE_FILE = "or pass your own profile (a path ending in .yaml)"
 def find_profile(name: str, flag: str = "--toolchain", alternative: str = OR_TOOLCHAIN_FILE) -> TargetProfile:
     """A shipped profile by name; a typo is an error naming the closest names and what else
     ``flag`` takes (``alternative``; "" for nothing else)."""
+    path = resources.toolchains_dir() / f"{name}.yaml"
+    if "/" not in name and path.is_file():
+        # the one file (a build with nothing to do should not parse all fourteen)
+        profile = load_profile_file(path)
+        if profile.name != path.stem:
+            raise _fail(path, "name", f"{profile.name!r} differs from the file name {path.stem!r}")
+        return profile
     profiles = shipped_profiles()
     if name not in profiles:
         raise ConfigError(

@@ -18,23 +18,22 @@ This module only reads and writes files; it starts no processes.
 
 from __future__ import annotations
 
-import fcntl
 import json
 import os
 import re
 import shutil
 import xml.etree.ElementTree as ET
-from collections.abc import Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
+import filelock
 import yaml
 
 from uros_build import __version__, console, defaults, loader, proc
 from uros_build import distros as distros_mod
-from uros_build.buildinfo import BUILD_INFO
 from uros_build.distros import Mirror, Source
 from uros_build.errors import ConfigError, did_you_mean
 from uros_build.profiles import TRANSPORTS
@@ -105,9 +104,21 @@ def parse_config(data: Any, source: str, partial: bool = False) -> WorkspaceConf
         targets=targets,
         transport=transport,
         set=sets,
-        packages=loader.string_list(top, "packages", source),
+        packages=_package_names(loader.string_list(top, "packages", source), f"{source}: packages"),
         idf_build=loader.string(top, "idf_build", source) if top.get("idf_build") is not None else None,
     )
+
+
+_PACKAGE_NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.-]*")
+
+
+def _package_names(names: tuple[str, ...], where: str) -> tuple[str, ...]:
+    for name in names:
+        if not _PACKAGE_NAME.fullmatch(name):
+            raise ConfigError(
+                f"{where}: {name!r} is not a package name", "e.g. packages: [std_msgs, my_msgs]"
+            )
+    return names
 
 
 def load_config(root: Path) -> WorkspaceConfig | None:
@@ -399,10 +410,16 @@ class Workspace:
         (self.dev_install / DEV_MARKER).write_text(lock, encoding="utf-8")
 
     def target_dir(self, key: str) -> Path:
-        return self.state_dir / "targets" / key
+        return _target_folder(self.state_dir / "targets", key)
 
     def default_output(self, key: str) -> Path:
-        return self.root / "build" / key
+        return _target_folder(self.root / "build", key)
+
+    def tree_keys(self) -> list[str]:
+        """The targets uros has trees of here (.uros/targets/<key>); outputs.target_keys adds
+        those with only an output."""
+        trees = self.state_dir / "targets"
+        return sorted(p.name for p in trees.iterdir() if p.is_dir()) if trees.is_dir() else []
 
     def new_log(self, command: str, key: str = "") -> Path:
         return proc.new_run_log(self.log_dir, command, key)
@@ -466,26 +483,166 @@ def check_build_folder(root: Path, flag: str) -> None:
 # target keys, locks, generated files, outputs
 
 
-def target_key(name: str) -> str:
-    return re.sub(r"[^A-Za-z0-9_.-]", "_", name)
+# One folder name: .uros/targets/<key> and build/<key>. Never '.', '..' or hidden, never a path.
+_KEY = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,99}")
+
+
+def target_key(name: str, where: str = "--toolchain") -> str:
+    """The folder name of a target: its profile's name (an identifier already), or the stem of the
+    user's toolchain file with anything but letters, digits, '.', '_' and '-' made '_'."""
+    key = re.sub(r"[^A-Za-z0-9_.-]", "_", name)
+    if not _KEY.fullmatch(key):
+        raise ConfigError(
+            f"{where}: {name!r} cannot name a target folder (it must start with a letter or digit)",
+            "rename the file, e.g. my-board.cmake",
+        )
+    return key
+
+
+def _target_folder(base: Path, key: str) -> Path:
+    """``base/key``, checked to be one folder directly inside ``base``: whatever made ``key``, the
+    trees and outputs of a target never land on the workspace or outside it."""
+    path = base / key
+    if not _KEY.fullmatch(key) or path.parent != base:
+        raise ConfigError(f"{key!r} cannot name a target folder", "name targets with letters, digits, '.-_'")
+    return path
+
+
+def lock_holder(text: str) -> int | None:
+    """The process id a target's lock file names (pure)."""
+    first = text.split("\n", 1)[0].strip()
+    return int(first) if first.isdigit() else None
 
 
 @contextmanager
-def locked(folder: Path) -> Iterator[None]:
-    """One build per target tree at a time: a second `uros build` waits, then reuses the trees."""
+def locked(folder: Path, target: str) -> Iterator[None]:
+    """One build per target tree at a time: a second `uros build` waits, then reuses the trees.
+    filelock takes an OS lock on <folder>/.lock (flock on POSIX, msvcrt on Windows), which the
+    OS releases when the process ends, however it ends. The holder writes its process id beside
+    it (filelock truncates the lock file itself), so that a waiting build can say whom it waits for."""
     folder.mkdir(parents=True, exist_ok=True)
-    with (folder / ".lock").open("w") as handle:
+    lock = filelock.FileLock(str(folder / ".lock"))
+    owner = folder / ".lock.owner"
+    try:
+        lock.acquire(timeout=0)
+    except filelock.Timeout:
         try:
-            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            console.info(
-                f"waiting for another uros build of this target to finish (it holds {folder / '.lock'})"
-            )
-            fcntl.flock(handle, fcntl.LOCK_EX)
-        try:
-            yield
-        finally:
-            fcntl.flock(handle, fcntl.LOCK_UN)
+            holder = lock_holder(owner.read_text(encoding="utf-8"))
+        except OSError:
+            holder = None
+        who = f" (pid {holder})" if holder else ""
+        console.info(f"waiting for another uros build of {target}{who} to finish (lock: {folder / '.lock'})")
+        lock.acquire()
+    try:
+        owner.write_text(f"{os.getpid()}\n", encoding="utf-8")
+        yield
+    finally:
+        lock.release()
+
+
+def workspace_of_output(out: Path, key: str) -> Workspace | None:
+    """The workspace an output was built in: <ws>/build/<key> beside <ws>/.uros/targets/<key>."""
+    if out.parent.name != "build":
+        return None
+    ws = Workspace(out.parent.parent)
+    return ws if ws.target_dir(key).is_dir() else None
+
+
+def tree_bytes(path: Path) -> int:
+    """Bytes of the files under ``path`` (links counted as links, not followed)."""
+    if path.is_symlink() or path.is_file():
+        return path.lstat().st_size
+    total = 0
+    for dirpath, _dirnames, filenames in os.walk(path):
+        total += sum(os.lstat(os.path.join(dirpath, name)).st_size for name in filenames)
+    return total
+
+
+# What CMake's configure writes into a package's build folder and reads back at every build. A
+# write that fails on a full disk leaves it empty or cut short, and every later build fails
+# (ninja: "unknown build rule", CMake: "Parse error in cache file") until the folder is dropped.
+CONFIGURE_FILES = (
+    "CMakeCache.txt",
+    "build.ninja",
+    "CMakeFiles/rules.ninja",
+    "Makefile",
+    "CMakeFiles/Makefile2",
+)
+_TAIL = 4096
+
+
+def configure_damage(name: str, size: int, tail: bytes) -> str | None:
+    """Why a configure file is damaged, from its size and its last bytes, or None (pure). Each is
+    a text file CMake writes whole, ending in a line break; the cache ends with its INTERNAL
+    entries."""
+    if size == 0:
+        return f"{name} is empty"
+    if b"\0" in tail:
+        return f"{name} holds NUL bytes"
+    if not tail.endswith(b"\n"):
+        return f"{name} is cut short"
+    if name == "CMakeCache.txt" and b":INTERNAL=" not in tail:
+        return f"{name} is cut short (no INTERNAL entries at its end)"
+    return None
+
+
+_AR_MAGIC = b"!<arch>\n"
+_AR_HEADER = 60  # https://en.wikipedia.org/wiki/Ar_(Unix)#File_header: size at 48..58, "`\n" at 58
+
+
+def archive_damage(size: int, read_at: Callable[[int, int], bytes]) -> str | None:
+    """Why an ar archive of ``size`` bytes is cut short or broken, or None: its member headers,
+    read with ``read_at(offset, length)``, must chain exactly to its end (pure over the reader)."""
+    if read_at(0, len(_AR_MAGIC)) != _AR_MAGIC:
+        return "is not an ar archive (a write cut short?)"
+    offset = len(_AR_MAGIC)
+    while offset < size:
+        header = read_at(offset, _AR_HEADER)
+        if len(header) < _AR_HEADER or header[58:60] != b"`\n" or not header[48:58].strip().isdigit():
+            return f"is cut short or broken at byte {offset}"
+        offset += _AR_HEADER + int(header[48:58]) + int(header[48:58]) % 2
+    return None if offset in (size, size + 1) else f"is cut short (a member ends at byte {offset} of {size})"
+
+
+def damaged_archives(folders: list[Path]) -> list[tuple[Path, str]]:
+    """The static libraries (``*.a``) in ``folders`` that are cut short or broken, with why."""
+    found = []
+    for folder in folders:
+        for path in sorted(folder.glob("*.a")) if folder.is_dir() else []:
+            try:
+                with path.open("rb") as handle:
+
+                    def read_at(offset: int, length: int, handle: Any = handle) -> bytes:
+                        handle.seek(offset)
+                        return bytes(handle.read(length))
+
+                    why = archive_damage(os.fstat(handle.fileno()).st_size, read_at)
+            except OSError as exc:
+                why = f"cannot be read ({exc.strerror})"
+            if why is not None:
+                found.append((path, why))
+    return found
+
+
+def damaged_configures(build_base: Path) -> list[tuple[Path, str]]:
+    """The package build folders under ``build_base`` whose configure files are damaged, with why."""
+    found = []
+    for folder in sorted(p for p in build_base.iterdir() if p.is_dir()) if build_base.is_dir() else []:
+        for name in CONFIGURE_FILES:
+            path = folder / name
+            try:
+                with path.open("rb") as handle:
+                    size = os.fstat(handle.fileno()).st_size
+                    handle.seek(max(0, size - _TAIL))
+                    why = configure_damage(name, size, handle.read())
+            except FileNotFoundError:
+                continue
+            except OSError as exc:
+                why = f"{name} cannot be read ({exc.strerror})"
+            if why is not None:
+                found.append((folder, why))
+                break
+    return found
 
 
 def write_if_changed(path: Path, text: str) -> bool:
@@ -499,7 +656,7 @@ def write_if_changed(path: Path, text: str) -> bool:
     return True
 
 
-def _nearest_existing(path: Path) -> Path:
+def nearest_existing(path: Path) -> Path:
     while not path.exists() and path != path.parent:
         path = path.parent
     return path
@@ -508,7 +665,7 @@ def _nearest_existing(path: Path) -> Path:
 def check_folder_target(path: Path, flag: str) -> None:
     """A folder uros will create or fill: it, or the nearest of its parents that exists, must
     be a folder, not a file (else a traceback from mkdir after the work is done)."""
-    found = _nearest_existing(path)
+    found = nearest_existing(path)
     if found.exists() and not found.is_dir():
         what = "is a file" if found == path else f"is inside {found}, which is a file"
         raise ConfigError(f"{flag} {path}: {what}", "pass a folder (it is created if missing)")
@@ -518,25 +675,6 @@ def check_file_target(path: Path, flag: str) -> None:
     """A file uros will write: not a folder, and the nearest existing parent is a folder."""
     if path.is_dir():
         raise ConfigError(f"{flag} {path}: is a folder", f"pass a file name, e.g. {path / 'out.txt'}")
-    found = _nearest_existing(path.parent)
+    found = nearest_existing(path.parent)
     if found.exists() and not found.is_dir():
         raise ConfigError(f"{flag} {path}: {found} is a file, not a folder", "pass a path in a folder")
-
-
-def check_output_dir(out: Path, force: bool, flag: str = "--output") -> None:
-    if out.exists() and any(out.iterdir()) and not (out / BUILD_INFO).is_file() and not force:
-        raise ConfigError(
-            f"{flag} {out}: the folder exists and is not a uros build output",
-            "choose a new or empty folder, or pass --force to replace its contents",
-        )
-
-
-def swap_into_place(staging: Path, out: Path) -> None:
-    """Replace ``out`` by ``staging`` with renames only, so ``out`` is never half-written."""
-    out.parent.mkdir(parents=True, exist_ok=True)
-    old = out.with_name(f".{out.name}.old-{os.getpid()}")
-    if out.exists():
-        out.rename(old)
-    staging.rename(out)
-    if old.exists():
-        shutil.rmtree(old)

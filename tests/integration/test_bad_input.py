@@ -4,7 +4,6 @@ traceback, and the first error of a failed build carrying the package and the re
 
 from __future__ import annotations
 
-import fcntl
 import json
 import shutil
 import subprocess
@@ -14,6 +13,7 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
+import filelock
 import pytest
 from conftest import need
 from fixture_ws import make_fixture_workspace
@@ -353,8 +353,7 @@ def test_a_build_waiting_for_the_lock_says_so(tmp_path: Path) -> None:
     lock = ws / ".uros" / "targets" / "cortex-m7" / ".lock"
     lock.parent.mkdir(parents=True)
     lines: list[str] = []
-    with lock.open("w") as held:
-        fcntl.flock(held, fcntl.LOCK_EX)  # another build of this target, as far as uros can tell
+    with filelock.FileLock(str(lock)):  # another build of this target, as far as uros can tell
         proc = subprocess.Popen(
             [sys.executable, "-m", "uros_build", "build", "--toolchain", "cortex-m7", "--workspace", str(ws),
              "--packages-up-to", "fx_core"],
@@ -370,7 +369,7 @@ def test_a_build_waiting_for_the_lock_says_so(tmp_path: Path) -> None:
         assert not any("colcon build" in line for line in lines)  # it waits before building
     assert proc.wait(timeout=120) == 0, "".join(lines)
     reader.join()
-    assert any(f"(it holds {lock})" in line for line in lines)
+    assert any(f"to finish (lock: {lock})" in line for line in lines)
 
 
 def test_a_cmake_package_without_package_xml_is_a_package(tmp_path: Path) -> None:

@@ -20,7 +20,7 @@ from fixture_ws import (
     FIXTURE_SYMBOLS,
     make_fixture_workspace,
 )
-from uros_helpers import run_uros
+from uros_helpers import defined_globals, run_uros
 
 pytestmark = pytest.mark.integration
 
@@ -30,16 +30,6 @@ def _members(lib: Path) -> list[str]:
         ["arm-none-eabi-ar", "t", str(lib)], capture_output=True, text=True, check=True
     ).stdout
     return out.split()
-
-
-def _defined_globals(lib: Path) -> Counter[str]:
-    out = subprocess.run(
-        ["arm-none-eabi-nm", "-g", "--defined-only", "--format=posix", str(lib)],
-        capture_output=True,
-        text=True,
-        check=True,
-    ).stdout
-    return Counter(line.split()[0] for line in out.splitlines() if line and not line.endswith(":"))
 
 
 def _sha(path: Path) -> str:
@@ -55,7 +45,7 @@ def test_library_keeps_every_member_and_symbol(m7_build: Path) -> None:
     assert sum("common.c" in m for m in members) == 2
     assert sum("util.c" in m for m in members) == 2  # fx_core's and fx_util's util.c
     assert len(set(members)) == len(members)
-    assert _defined_globals(lib) == Counter(FIXTURE_SYMBOLS)
+    assert defined_globals(lib) == Counter(FIXTURE_SYMBOLS)
     # the inputs add up to the same
     install_lib = m7_build / ".uros" / "targets" / "cortex-m7" / "install" / "lib"
     assert sorted(p.name for p in install_lib.glob("*.a")) == list(FIXTURE_LIBRARIES)
@@ -113,13 +103,15 @@ def test_second_build_reuses_trees_and_is_reproducible(m7_build: Path) -> None:
     me = Path(sys.executable)
     names = ("python3", "python", f"python3.{sys.version_info.minor}")
     other = next((me.with_name(n) for n in names if me.with_name(n).is_file() and me.with_name(n) != me), me)
-    proc = subprocess.run(
-        [str(other), "-m", "uros_build", "build", "--toolchain", "cortex-m7", "--workspace", str(m7_build),
-         "--meta", str(m7_build / "fixture.meta"), "--verbose"],
-        capture_output=True, text=True, check=True,
-    )  # fmt: skip
+    again = [str(other), "-m", "uros_build", "build", "--toolchain", "cortex-m7", "--workspace", str(m7_build),
+             "--meta", str(m7_build / "fixture.meta"), "--verbose"]  # fmt: skip
+    proc = subprocess.run(again, capture_output=True, text=True, check=True)
+    assert "up to date" in proc.stderr and "+ " not in proc.stderr  # no input changed: no process
+    # --rebuild runs colcon all the same: nothing is reconfigured or compiled
+    proc = subprocess.run([*again, "--rebuild"], capture_output=True, text=True, check=True)
     assert cache.stat().st_mtime_ns == cache_mtime  # not reconfigured from scratch
     assert "no work to do" in proc.stderr  # ninja had nothing to compile
+    assert "merging 5 libraries" in proc.stderr
     assert _sha(out / "libmicroros.a") == before
 
 

@@ -231,6 +231,14 @@ def test_firmware_workspace_builds_end_to_end(upstream: Path, tmp_path: Path) ->
         'file(WRITE ${CMAKE_BINARY_DIR}/host_toolConfig.cmake "set(HOST_TOOL_FOUND TRUE)\\n")\n'
         "install(FILES ${CMAKE_BINARY_DIR}/host_toolConfig.cmake DESTINATION share/host_tool/cmake)\n"
     )
+    # A host tool nothing in mcu_ws depends on (as uncrustify and the linters): never built.
+    (host / "linter_tool").mkdir()
+    (host / "linter_tool/package.xml").write_text(
+        (host / "host_tool/package.xml").read_text().replace("host_tool", "linter_tool")
+    )
+    (host / "linter_tool/CMakeLists.txt").write_text(
+        'cmake_minimum_required(VERSION 3.16)\nproject(linter_tool NONE)\nmessage(FATAL_ERROR "not needed")\n'
+    )
     _commit(host, "host tool")
     # The MCU sources: the fixture packages inside the micro-ROS rclc repository.
     mcu = tmp_path / "up" / "ros2+rclc"
@@ -246,6 +254,7 @@ def test_firmware_workspace_builds_end_to_end(upstream: Path, tmp_path: Path) ->
     (extra / "package.xml").write_text(
         "<package format='3'><name>fx_extra</name><version>0.1.0</version><description>d</description>"
         "<maintainer email='a@b.c'>m</maintainer><license>MIT</license>"
+        "<buildtool_depend>host_tool</buildtool_depend>"
         "<export><build_type>cmake</build_type></export></package>\n"
     )
     (extra / "CMakeLists.txt").write_text(
@@ -270,6 +279,9 @@ def test_firmware_workspace_builds_end_to_end(upstream: Path, tmp_path: Path) ->
         f"uros/rclc={mcu}",
     )
     assert (fw / "dev_ws/install/share/host_tool/cmake/host_toolConfig.cmake").is_file()  # dev_ws built once
+    # only what the MCU packages need (fx_extra's buildtool_depend): not linter_tool
+    dev_built = json.loads((fw / "dev_ws/install/.uros-dev-packages.json").read_text())
+    assert dev_built["built"] == ["host_tool"] and "linter_tool" in dev_built["available"]
     # the workspace's colcon.meta is layered into every build: fx_time needs this option
     meta = json.loads((fw / "colcon.meta").read_text())
     meta["names"]["fx_time"] = {"cmake-args": ["-DFX_TIME_ENABLE=ON"]}
@@ -300,6 +312,13 @@ def test_firmware_workspace_builds_end_to_end(upstream: Path, tmp_path: Path) ->
     assert json.loads((out / "build-info.json").read_text())["transport"] == "udp"
     cache = fw / ".uros/targets/cortex-m7/build/fx_core/CMakeCache.txt"
     assert "FX_CORE_LEVEL:UNINITIALIZED=3" in cache.read_text()
+    # uros info: the packages with the commits of the repositories they came from
+    info = json.loads(run_uros("info", "--json", cwd=fw).stdout)
+    lock = json.loads((fw / "uros.lock").read_text())["repositories"]
+    rows = {p["name"]: p for p in info["packages"]}
+    assert rows["fx_core"]["repository"] == "mcu_ws/uros/rclc"
+    assert rows["fx_core"]["commit"] == lock["mcu_ws/uros/rclc"]["commit"]
+    assert rows["fx_extra"]["commit"] is None  # an extra package: no lock entry
     # a key uros does not know is an error naming file and line, before anything runs
     (fw / "uros.yaml").write_text(yaml.safe_dump(cfg) + "tragets: [rp2040]\n")
     proc = run_uros("build", cwd=fw, check=False)

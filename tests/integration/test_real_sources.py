@@ -105,5 +105,17 @@ def test_real_humble_library_links_the_stm32h7_example(tmp_path: Path) -> None:
     syms = subprocess.run(["arm-none-eabi-nm", str(elf)], check=True, capture_output=True, text=True).stdout
     assert " rclc_publisher_init_default\n" in syms and " uxr_create_session\n" in syms
 
-    # a second build of the same target reuses colcon's trees
-    run_uros("build", "--toolchain", "cortex-m7", "--workspace", str(fw))
+    # the same command again: nothing changed, nothing done
+    again = run_uros("build", "--toolchain", "cortex-m7", "--workspace", str(fw))
+    assert "up to date" in again.stderr
+
+    # only what the example uses (its interfaces) and the core: a smaller library that still links
+    pruned = tmp_path / "pruned"
+    run_uros(
+        "build", "--toolchain", "cortex-m7", "--workspace", str(fw), "--for-firmware", str(EXAMPLE),
+        "--output", str(pruned),
+    )  # fmt: skip
+    small = json.loads((pruned / "build-info.json").read_text())
+    assert "eic_demo_interface" in small["packages"] and "sensor_msgs" not in small["packages"]
+    assert small["library"]["members"] < info["library"]["members"]
+    build_firmware_project(EXAMPLE, pruned, tmp_path / "fw-pruned")

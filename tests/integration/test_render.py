@@ -73,3 +73,17 @@ def test_render_of_an_unknown_target_names_only_what_render_takes(tmp_path: Path
     proc = run_uros("toolchain", "render", "cortex-m9", cwd=tmp_path, check=False)
     assert "--toolchain" not in proc.stderr and ".cmake" not in proc.stderr, proc.stderr
     assert "profile (a path ending in .yaml)" in proc.stderr
+
+
+def test_meta_options_and_set_checked_against_them(tmp_path: Path) -> None:
+    rows = json.loads(run_uros("meta", "options", "--json", cwd=tmp_path).stdout)
+    nodes = next(r for r in rows if r["option"] == "RMW_UXRCE_MAX_NODES")
+    assert nodes["default"] == "4" and nodes["preset"] == "1" and "RAM" in nodes["cost"]
+    header = run_uros("meta", "options", cwd=tmp_path).stdout.splitlines()[0].split()
+    assert header == ["PACKAGE", "OPTION", "DEFAULT", "PRESET", "COST"]
+    typo = run_uros("meta", "write", "--set", "rmw_microxrcedds.RMW_UXRCE_MAX_NODE=2", cwd=tmp_path)
+    assert "did you mean RMW_UXRCE_MAX_NODES" in typo.stderr and "-DRMW_UXRCE_MAX_NODE=2" in typo.stdout
+    wrong = run_uros(
+        "meta", "write", "--set", "rmw_microxrcedds.RMW_UXRCE_STREAM_HISTORY=3", cwd=tmp_path, check=False
+    )
+    assert wrong.returncode == 2 and "must be a power of two" in wrong.stderr

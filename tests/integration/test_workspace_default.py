@@ -69,3 +69,18 @@ def test_firmware_is_the_default_elsewhere(tmp_path: Path) -> None:
     # create-firmware resolves the same way: here that is the existing ./firmware
     proc = run_uros("create-firmware", cwd=tmp_path, check=False)
     assert proc.returncode == 2 and f"{fw}: already exists" in proc.stderr, proc.stderr
+
+
+def test_uros_build_builds_every_target_uros_yaml_names(tmp_path: Path) -> None:
+    """A colcon workspace with a hand-written uros.yaml: `uros build` with no options, from a
+    folder inside it, builds each of its targets with its set: options."""
+    ws = make_fixture_workspace(tmp_path / "ws")
+    (ws / "uros.yaml").write_text(
+        "distro: humble\ntargets: [cortex-m7, cortex-m0plus]\nset: [fx_time.FX_TIME_ENABLE=ON]\n"
+    )
+    proc = run_uros("build", cwd=ws / "mcu_ws" / "src")
+    assert "building 2 targets (cortex-m7, cortex-m0plus)" in proc.stderr, proc.stderr
+    for key in ("cortex-m7", "cortex-m0plus"):
+        assert (ws / "build" / key / "libmicroros.a").is_file(), key
+    one = run_uros("build", "--toolchain", "cortex-m7", cwd=ws)  # the command line wins
+    assert "building 2 targets" not in one.stderr

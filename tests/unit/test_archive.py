@@ -246,8 +246,43 @@ def test_verify_merge_fails_on_extra_symbols_too() -> None:
 # --- merge_archives, over a runner that starts nothing ---------------------------------------
 
 
+def ar_bytes(names: Sequence[str], symbol_table: bool = True) -> bytes:
+    """A GNU ar archive holding members of these names (long names through the // table), as
+    GNU ar writes it."""
+
+    def header(name: bytes, size: int) -> bytes:
+        return (
+            name.ljust(16)
+            + b"0".ljust(12)
+            + b"0".ljust(6)
+            + b"0".ljust(6)
+            + b"644".ljust(8)
+            + (str(size).encode().ljust(10))
+            + b"`\n"
+        )
+
+    out = bytearray(b"!<arch>\n")
+    if symbol_table:
+        out += header(b"/", 4) + b"\0\0\0\0"
+    table = bytearray()
+    refs = []
+    for name in names:
+        raw = name.encode()
+        if len(raw) > 15:
+            refs.append(b"/" + str(len(table)).encode())
+            table += raw + b"/\n"
+        else:
+            refs.append(raw + b"/")
+    if table:
+        out += header(b"//", len(table)) + table + (b"\n" if len(table) % 2 else b"")
+    for ref in refs:
+        body = b"obj"
+        out += header(ref, len(body)) + body + b"\n"
+    return bytes(out)
+
+
 class FakeRunner:
-    """Answers ar t / nm from the fixtures and does what ar x / ar q would to the files."""
+    """Answers nm from the fixtures and does what ar x / ar q would to the files."""
 
     def __init__(self, lose: str | None = None) -> None:
         self.calls: list[list[str]] = []
@@ -255,9 +290,13 @@ class FakeRunner:
 
     def query(self, argv: Sequence[str], *, step: str, cwd: Path | None = None) -> str:
         self.calls.append(list(argv))
-        name = Path(argv[-1]).name
-        stem = name[3:-2] if name in INPUTS else "merged"
-        return _text(f"archive-{stem}.ar-t.txt" if argv[1] == "t" else f"archive-{stem}.nm.txt")
+        assert argv[1:4] == ["-g", "--defined-only", "--format=posix"]
+        texts = []
+        for path in argv[4:]:
+            name = Path(path).name
+            stem = name[3:-2] if name in INPUTS else "merged"
+            texts.append(_text(f"archive-{stem}.nm.txt"))
+        return "".join(texts)
 
     def run(
         self, argv: Sequence[str], *, step: str, cwd: Path | None = None, quiet: bool = False
@@ -270,11 +309,11 @@ class FakeRunner:
             for name in names:
                 if name != self.lose:
                     (cwd / name).write_text(f"{argv}", encoding="utf-8")
-        elif argv[1] == "qcD":
+        elif argv[1] == "qcsD":
             rsp = (cwd / argv[3].removeprefix("@")).read_text(encoding="utf-8").split()
             assert all((cwd / name).is_file() for name in rsp)
             assert rsp == list(archive.parse_members(_text("archive-merged.ar-t.txt")))
-            Path(argv[2]).write_text("merged", encoding="utf-8")
+            Path(argv[2]).write_bytes(ar_bytes(rsp))
         return []
 
 
@@ -285,23 +324,65 @@ def _lib(tmp_path: Path) -> list[Path]:
     lib = tmp_path / "lib"
     lib.mkdir()
     for name in reversed(INPUTS):  # merge_archives sorts them by name
-        (lib / name).write_text("!<arch>\n", encoding="utf-8")
+        (lib / name).write_bytes(ar_bytes(_contents(name[3:-2]).members))
     return [lib / name for name in reversed(INPUTS)]
 
 
 def test_merge_archives_process_count(tmp_path: Path) -> None:
     runner = FakeRunner()
+    libs = _lib(tmp_path)
     report = archive.merge_archives(
-        cast(Runner, runner), TOOLS, _lib(tmp_path), tmp_path / "libmicroros.a", tmp_path / "merge"
+        cast(Runner, runner), TOOLS, libs, tmp_path / "libmicroros.a", tmp_path / "merge"
     )
     assert report == archive.MergeReport(inputs=INPUTS, members=9, symbols=11, renamed_duplicates=3)
-    # 3 archives: 2 reads each, 1 ar x each, 3 ar xN for the 3 common.c.obj; ar q, ranlib, 2 reads
+    # one nm over the 3 archives (their member tables are read from the files), 1 ar x each and
+    # 3 ar xN for the 3 common.c.obj, one ar qcsD (with the index), one nm of the output
     assert [c[:2] for c in runner.calls] == [
-        ["ar", "t"], ["nm", "-g"], ["ar", "t"], ["nm", "-g"], ["ar", "t"], ["nm", "-g"],
+        ["nm", "-g"],
         ["ar", "x"], ["ar", "x"], ["ar", "xN"], ["ar", "xN"], ["ar", "xN"], ["ar", "x"],
-        ["ar", "qcD"], ["ranlib", "-D"], ["ar", "t"], ["nm", "-g"],
+        ["ar", "qcsD"], ["nm", "-g"],
     ]  # fmt: skip
+    assert runner.calls[0][4:] == [str(p.resolve()) for p in sorted(libs)]
     assert not (tmp_path / "merge").exists()
+
+
+# --- parse_ar: the member table read from the archive itself ----------------------------------
+
+
+@pytest.mark.parametrize("stem", ["fx_core", "fx_dup", "fx_util", "merged"])
+def test_parse_ar_lists_what_ar_t_lists(stem: str) -> None:
+    import io
+
+    names = archive.parse_members(_text(f"archive-{stem}.ar-t.txt"))
+    assert archive.parse_ar(io.BytesIO(ar_bytes(names)), stem) == names
+    assert archive.parse_ar(io.BytesIO(ar_bytes(names, symbol_table=False)), stem) == names
+
+
+def test_parse_ar_bsd_names_and_symbol_table() -> None:
+    import io
+
+    def member(name: bytes, body: bytes) -> bytes:
+        size = len(body)
+        head = name.ljust(16) + b"0".ljust(12) + b"0".ljust(6) + b"0".ljust(6) + b"644".ljust(8)
+        return head + str(size).encode().ljust(10) + b"`\n" + body + (b"\n" if size % 2 else b"")
+
+    data = (
+        b"!<arch>\n"
+        + member(b"#1/20", b"__.SYMDEF SORTED\0\0\0\0")
+        + member(b"#1/36", b"a_long_name_with spaces_in_it.c.obj" + b"\0")
+        + member(b"short.o", b"x")
+    )
+    assert archive.parse_ar(io.BytesIO(data), "bsd") == ("a_long_name_with spaces_in_it.c.obj", "short.o")
+
+
+@pytest.mark.parametrize(
+    "data", [b"", b"!<thin>\n", b"not an archive", b"!<arch>\nshort.o/        0  0 0 644 12345678ZZ"]
+)
+def test_parse_ar_refuses_what_is_not_an_archive(data: bytes) -> None:
+    import io
+
+    with pytest.raises(VerifyError):
+        archive.parse_ar(io.BytesIO(data), "x.a")
 
 
 def test_merge_archives_notices_a_member_ar_did_not_extract(tmp_path: Path) -> None:

@@ -155,6 +155,9 @@ def _info() -> dict[str, object]:
             {"idf": {"version": "5.3.1", "target": "esp32s3", "sdkconfig_sha256": "s", "components": "x"}},
             "idf: components: must be a whole number",
         ),
+        ({"package_seconds": {"rcl": "slow"}}, "package_seconds: rcl: must be a number of seconds"),
+        ({"package_seconds": {"rcl": -1}}, "package_seconds: rcl: must be a number of seconds"),
+        ({"package_seconds": [1]}, "package_seconds: expected a mapping"),
     ],
 )
 def test_malformed_build_info_names_the_key(change: dict[str, object], expected: str) -> None:
@@ -209,3 +212,10 @@ def test_cmake_packages_without_package_xml_count_as_packages(tmp_path: Path) ->
     (tmp_path / "ignored" / "COLCON_IGNORE").write_text("")
     (tmp_path / "ignored" / "CMakeLists.txt").write_text("project(ignored)\n")
     assert packages.plain_cmake_packages(tmp_path) == {"my_plain"}
+
+
+def test_build_info_keeps_package_timings() -> None:
+    info = parse_build_info({**_info(), "package_seconds": {"rcl": 12.5, "rclc": 3}}, "b")
+    assert info.package_seconds == {"rcl": 12.5, "rclc": 3.0}
+    again = parse_build_info(json.loads(info.to_json()), "b")
+    assert again == info

@@ -123,3 +123,47 @@ def test_pure_python_packages_nothing_compiled_needs_are_skipped(tmp_path: Path)
         "ros2trace",
         "rosidl_cli",
     ]
+
+
+# --- colcon's job events -------------------------------------------------------------------------
+
+
+def test_parse_event_reads_console_start_end_lines() -> None:
+    from uros_build.colcon import JobEvent, parse_event
+
+    assert parse_event("Starting >>> fx_core") == JobEvent("start", "fx_core")
+    assert parse_event("Finished <<< fx_core [0.52s]") == JobEvent("finish", "fx_core", 0.52)
+    assert parse_event("Finished <<< rcl [1min 3s]") == JobEvent("finish", "rcl", 63.0)
+    assert parse_event("Failed   <<< fx_dup [0.05s, exited with code 1]") == JobEvent("fail", "fx_dup", 0.05)
+    assert parse_event("Aborted  <<< rclc [2.1s]") == JobEvent("abort", "rclc", 2.1)
+    # an output style's colours
+    assert parse_event("\x1b[1mFinished\x1b[0m <<< \x1b[32mfx_util\x1b[0m [1.0s]") == JobEvent(
+        "finish", "fx_util", 1.0
+    )
+    for line in ("Summary: 5 packages finished [3.1s]", "-- Starting >>> x", "", "Finished building"):
+        assert parse_event(line) is None
+
+
+def test_parse_duration() -> None:
+    from uros_build.colcon import parse_duration
+
+    assert parse_duration("0.05s") == 0.05
+    assert parse_duration("2min 1s") == 121.0
+    assert parse_duration("1h 0min 5s") == 3605.0
+    assert parse_duration("soon") is None
+
+
+def test_build_progress_tracks_running_finished_and_failed() -> None:
+    from uros_build.colcon import BuildProgress
+
+    p = BuildProgress(total=3, started_at=0.0)
+    p.feed("Starting >>> a", 1.0)
+    p.feed("Starting >>> b", 2.0)
+    assert p.running == {"a": 1.0, "b": 2.0} and p.done == 0
+    p.feed("Finished <<< a [4.0s]", 5.0)
+    p.feed("some compiler output", 5.5)
+    p.feed("Failed   <<< b [exited with code 2]", 6.0)  # no duration: measured from the lines
+    assert p.finished == {"a": 4.0} and p.failed == ["b"] and p.running == {} and p.done == 2
+    p.feed("Starting >>> c", 6.0)
+    p.feed("Finished <<< c [9.0s]", 15.0)
+    assert p.slowest(2) == [("c", 9.0), ("a", 4.0)]

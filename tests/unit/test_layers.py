@@ -47,3 +47,24 @@ def test_the_graph_has_no_cycle() -> None:
     for node in sorted(graph):
         if node not in state:
             visit(node, [])
+
+
+# Modules only POSIX has: importing one at import time would stop `uros targets` on Windows.
+POSIX_ONLY = {"fcntl", "termios", "pwd", "grp", "resource", "pty", "tty", "posix", "crypt"}
+
+
+def test_no_module_imports_a_posix_only_module() -> None:
+    import ast
+
+    from import_graph import PACKAGE
+
+    found = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            names = []
+            if isinstance(node, ast.Import):
+                names = [a.name.split(".")[0] for a in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+                names = [node.module.split(".")[0]]
+            found += [f"{path.name}: {n}" for n in names if n in POSIX_ONLY]
+    assert found == []

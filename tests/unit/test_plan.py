@@ -320,3 +320,87 @@ def test_workspace_default_is_the_nearest_uros_yaml_upward(tmp_path: Path) -> No
     assert resolve_workspace(None, tmp_path / "fw" / "mcu_ws" / "src") == (tmp_path / "fw").resolve()
     assert resolve_workspace(None, tmp_path) == tmp_path / "firmware"
     assert resolve_workspace(Path("given"), tmp_path / "fw") == Path("given")
+
+
+# -- package selection: --packages, --for-firmware, uros.yaml packages: ----------------------------
+
+
+def _pkg(root: Path, name: str, deps: tuple[str, ...] = ()) -> None:
+    folder = root / name
+    folder.mkdir(parents=True)
+    dep_lines = "".join(f"<depend>{d}</depend>" for d in deps)
+    (folder / "package.xml").write_text(
+        f"<package><name>{name}</name>{dep_lines}</package>", encoding="utf-8"
+    )
+
+
+def _firmware_ws(tmp_path: Path, packages: str = "") -> Path:
+    ws = tmp_path / "fw"
+    src = ws / "mcu_ws"
+    for name in ("rcl", "rclc", "rmw_microxrcedds", "std_msgs", "nav_msgs", "rcutils"):
+        _pkg(src / "src", name)
+    _pkg(src / "extra_packages", "my_msgs", ("std_msgs",))
+    (ws / "uros.yaml").write_text(f"distro: humble\n{packages}", encoding="utf-8")
+    return ws
+
+
+def test_no_selection_builds_everything(tmp_path: Path) -> None:
+    plan = plan_build(BuildArgs(workspace=_firmware_ws(tmp_path), toolchain="cortex-m7"))
+    assert plan.selection is None and plan.packages_up_to == ()
+
+
+def test_packages_add_the_core_the_workspace_has_and_the_extra_packages(tmp_path: Path) -> None:
+    plan = plan_build(
+        BuildArgs(workspace=_firmware_ws(tmp_path), toolchain="cortex-m7", packages=("nav_msgs",))
+    )
+    assert plan.selection is not None
+    assert plan.selection.core == ("rcl", "rclc", "rmw_microxrcedds")  # no micro_ros_utilities here
+    assert plan.selection.extra == ("my_msgs",)
+    assert plan.packages_up_to == ("my_msgs", "nav_msgs", "rcl", "rclc", "rmw_microxrcedds")
+
+
+def test_uros_yaml_packages_and_the_command_line_overriding_them(tmp_path: Path) -> None:
+    ws = _firmware_ws(tmp_path, "packages: [std_msgs]\n")
+    plan = plan_build(BuildArgs(workspace=ws, toolchain="cortex-m7"))
+    assert plan.selection is not None and plan.selection.wanted == ("std_msgs",)
+    plan = plan_build(BuildArgs(workspace=ws, toolchain="cortex-m7", packages=("nav_msgs",)))
+    assert plan.selection is not None and plan.selection.wanted == ("nav_msgs",)
+    assert "std_msgs" not in plan.packages_up_to
+
+
+def test_for_firmware_builds_what_the_sources_use(tmp_path: Path) -> None:
+    ws = _firmware_ws(tmp_path, "packages: [std_msgs]\n")
+    app = tmp_path / "app"
+    app.mkdir()
+    (app / "main.c").write_text("#include <nav_msgs/msg/odometry.h>\n", encoding="utf-8")
+    plan = plan_build(BuildArgs(workspace=ws, toolchain="cortex-m7", for_firmware=app))
+    assert plan.selection is not None and plan.selection.wanted == ()  # uros.yaml's are replaced
+    assert plan.packages_up_to == ("my_msgs", "nav_msgs", "rcl", "rclc", "rmw_microxrcedds")
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        ({"packages": ("nav_msg",)}, "--packages nav_msg: no package nav_msg in"),
+        ({"packages": ("nav_msgs",), "packages_up_to": ("rcl",)}, "--packages-up-to and --packages"),
+        ({"for_firmware": Path("missing")}, "--for-firmware missing: no such folder"),
+    ],
+)
+def test_bad_selections(tmp_path: Path, args: dict[str, object], message: str) -> None:
+    ws = _firmware_ws(tmp_path)
+    with pytest.raises(ConfigError, match=message.replace("(", r"\(")) as err:
+        plan_build(BuildArgs(workspace=ws, toolchain="cortex-m7", **args))  # type: ignore[arg-type]
+    if "nav_msg:" in message:
+        assert "closest: nav_msgs" in err.value.message
+
+
+def test_for_firmware_naming_a_package_the_workspace_lacks(tmp_path: Path) -> None:
+    ws = _firmware_ws(tmp_path)
+    app = tmp_path / "app"
+    app.mkdir()
+    (app / "main.c").write_text("x = ROSIDL_GET_MSG_TYPE_SUPPORT(sensor_msgs, msg, Imu);\n", encoding="utf-8")
+    with pytest.raises(ConfigError, match=r"the firmware uses sensor_msgs \(main.c\), which is not in the"):
+        plan_build(BuildArgs(workspace=ws, toolchain="cortex-m7", for_firmware=app))
+    (app / "main.c").write_text("int main(void) { return 0; }\n", encoding="utf-8")
+    with pytest.raises(ConfigError, match="no interface type found in 1 C/C"):
+        plan_build(BuildArgs(workspace=ws, toolchain="cortex-m7", for_firmware=app))

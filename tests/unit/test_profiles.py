@@ -58,6 +58,15 @@ def test_minimal_profile(tmp_path: Path) -> None:
         ({"compiler_prefix": "arm-none-eabi"}, r"compiler_prefix: 'arm-none-eabi' is not a prefix"),
         ({"c_flags": ["-DA=1\n-DB"]}, r"c_flags: '-DA=1\\n-DB' is not a single compiler flag"),
         ({"libc_flags": [""]}, r"libc_flags: '' is not a single compiler flag"),
+        # a name is a folder name under .uros/targets/ and build/: never a path (issue 8, item 1)
+        ({"name": ".."}, r"board.yaml: name: '\.\.' is not a target name"),
+        ({"name": "."}, r"board.yaml: name: '\.' is not a target name"),
+        ({"name": ""}, r"board.yaml: name: must be a non-empty string"),
+        ({"name": "a/b"}, r"board.yaml: name: 'a/b' is not a target name"),
+        ({"name": "../../x"}, r"board.yaml: name: '\.\./\.\./x' is not a target name"),
+        ({"name": ".hidden"}, r"board.yaml: name: '\.hidden' is not a target name"),
+        ({"name": "My Board"}, r"board.yaml: name: 'My Board' is not a target name"),
+        ({"name": "x" * 101}, r"board.yaml: name: 'x+' is not a target name"),
     ],
 )
 def test_bad_profiles_name_file_and_key(tmp_path: Path, change: dict[str, object], expected: str) -> None:
@@ -174,6 +183,8 @@ def test_derive_from_a_target_keeps_flags_as_words() -> None:
 def test_derive_standalone_from_the_prefix() -> None:
     p = derive_profile(None, "riscv64-unknown-elf-", ("-march=rv32imac", "-mabi=ilp32"))
     assert p.name == "custom-riscv64-unknown-elf" and p.system_processor == "riscv"
+    # the derived name is an identifier too
+    assert derive_profile(None, "/opt/x/arm-Vendor+x-eabi-", ()).name == "custom-arm-vendor-x-eabi"
     assert p.cpu_flags == ("-march=rv32imac", "-mabi=ilp32") and p.elf.machine == "RISC-V"
     with pytest.raises(ConfigError, match="cannot tell the architecture"):
         derive_profile(None, "avr-", ())

@@ -191,6 +191,8 @@ def test_uros_schema_equals_the_workspace_config() -> None:
         ({"distro": "humble", "targets": "rp2040"}, "'rp2040' is not of type 'array'"),
         ({"distro": "humble", "idf_build": ["build"]}, "['build'] is not of type 'string'"),
         ({"distro": "humble", "idf_build": ""}, "'' should be non-empty"),
+        ({"distro": "humble", "packages": "std_msgs"}, "'std_msgs' is not of type 'array'"),
+        ({"distro": "humble", "packages": ["../x"]}, "does not match"),
     ],
 )
 def test_bad_uros_yaml_fails_the_schema(data: dict[str, Any], expected: str) -> None:

@@ -156,3 +156,25 @@ def test_clone_argv_branch_and_commit() -> None:
 
 def test_workspace_config_defaults() -> None:
     assert WorkspaceConfig("humble").extra_packages == ()
+
+
+def test_clean_counts_and_recognises_only_uros_outputs(tmp_path: Path) -> None:
+    from uros_build.commands.clean import human
+    from uros_build.outputs import is_uros_output, write_marker
+    from uros_build.workspace import tree_bytes
+
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "a.bin").write_bytes(b"x" * 1000)
+    (out / "sub").mkdir()
+    (out / "sub" / "b.bin").write_bytes(b"y" * 24)
+    assert tree_bytes(out) == 1024 and human(1024) == "1.0 KiB" and human(12) == "12 bytes"
+    assert not is_uros_output(out)
+    (out / "build-info.json").write_text('{"generated_by": "me", "target": "t", "library": {}}')
+    assert not is_uros_output(out)
+    (out / "build-info.json").write_text(
+        '{"generated_by": "uros 0.1.0", "target": "t", "library": {"file": "libmicroros.a", "sha256": "0"}}'
+    )
+    assert not is_uros_output(out)  # its library is not the one build-info.json names
+    write_marker(out, "t", ["a.bin", "sub", "build-info.json"])
+    assert is_uros_output(out)

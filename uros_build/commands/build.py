@@ -1,27 +1,46 @@
 """`uros build`: one target's libmicroros.a, include tree, CMake package and build-info.json.
 
 plan (validate every input) → probe the host → sync extra packages, dev_ws once → render the
-toolchain and colcon.meta → colcon → merge, check, stage → swap the output into place.
+toolchain and colcon.meta → fingerprint the inputs: unchanged and the output intact → done →
+drop packages the workspace lost → colcon (stamping each package it finishes) → merge this
+build's packages (or reuse the library when no archive changed), check, stage → swap the output
+into place → record the state.
 """
 
 from __future__ import annotations
 
-import hashlib
-import os
+import dataclasses
+import importlib.metadata
+import re
 import shutil
+import sys
 import time
+from collections.abc import Mapping
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from uros_build import __version__, abi, colcon, console, export, hosttools, includes
+import uros_build
+from uros_build import __version__, abi, colcon, console, export, hosttools, includes, installtree, outputs
+from uros_build import fingerprint as fp
 from uros_build import meta as meta_mod
 from uros_build import packages as packages_mod
-from uros_build.archive import BinTools, merge_archives
-from uros_build.buildinfo import BUILD_INFO, BuildInfo, Compiler, Flags, IdfInfo, Include, Library
-from uros_build.errors import StepFailed
+from uros_build.archive import BinTools, MergeReport, merge_archives
+from uros_build.buildinfo import (
+    BUILD_INFO,
+    BuildInfo,
+    Compiler,
+    Flags,
+    IdfInfo,
+    Include,
+    Library,
+    read_build_info,
+)
+from uros_build.errors import ConfigError, DiskFull, StepFailed, VerifyError, interrupted
 from uros_build.hosttools import HostFacts
 from uros_build.plan import BuildArgs, BuildPlan, ProfileTarget, expand_targets, meta_transport, plan_build
-from uros_build.proc import Runner, first_error
+from uros_build.proc import Runner, disk_full_line, disk_full_path, first_error, stop_leftovers
+from uros_build.profiles import TargetProfile
 from uros_build.toolchain import (
     CLOCK_HEADER_NAME,
     CLOCK_HEADER_TEXT,
@@ -30,7 +49,7 @@ from uros_build.toolchain import (
     render_toolchain,
     tool_paths,
 )
-from uros_build.workspace import locked, swap_into_place, write_if_changed
+from uros_build.workspace import DEV_MARKER, damaged_archives, damaged_configures, locked, write_if_changed
 
 
 def build_all(args: BuildArgs) -> list[Path]:
@@ -47,7 +66,7 @@ def build(args: BuildArgs) -> Path:
     plan = plan_build(args)
     ws = plan.workspace
     ws.mark_ignored()
-    runner = Runner(ws.new_log("build", plan.target.key), verbose=plan.verbose)
+    runner = Runner(ws.new_log("build", plan.target.key), verbose=plan.verbose, owner=str(plan.target_dir))
     console.step(f"uros build: target {plan.target.key}, workspace {ws.root}")
     console.info(f"log: {runner.log_path}")
     for warning in plan.warnings:
@@ -58,48 +77,149 @@ def build(args: BuildArgs) -> Path:
             f"ESP-IDF {idf.version_text} project {idf.build_dir} ({idf.target}): {idf.components} "
             f"components, {len(idf.include_dirs)} include folders, sdkconfig.h {idf.sdkconfig_sha256[:12]}"
         )
+    _say_selection(plan)
     facts = hosttools.probe_host(
-        runner, plan.profile, plan.target_dir, check_libraries=plan.config is not None
+        runner,
+        plan.profile,
+        plan.target_dir,
+        check_libraries=plan.config is not None,
+        cache=hosttools.ProbeCache(ws.state_dir / "probes.json"),
     )
     if plan.config is not None:
         ws.sync_extra_packages(plan.config)
-        if not ws.dev_built():
+        # a workspace with a hand-written uros.yaml may have no dev_ws: nothing to build then
+        if ws.dev_dir.is_dir() and hosttools.dev_needs_building(ws, plan.packages):
             hosttools.build_dev_workspace(ws, plan.config, runner, plan.verbose, plan.jobs)
-    with locked(plan.target_dir):
+    with locked(plan.target_dir, plan.target.key):
+        repaired = _repair(plan)
         started = time.monotonic()
         toolchain_file = _prepare_toolchain(plan, facts)
         meta_path = plan.target_dir / "colcon.meta"
-        write_if_changed(
-            meta_path, meta_mod.dump_meta(plan.meta, f"uros build --toolchain {plan.target.key}")
-        )
-        skipped = _run_colcon(plan, facts, runner, toolchain_file, meta_path)
-        staging = plan.output.with_name(f".{plan.output.name}.staging-{os.getpid()}")
+        meta_text = meta_mod.dump_meta(plan.meta, f"uros build --toolchain {plan.target.key}")
+        write_if_changed(meta_path, meta_text)
+        setup = _colcon_setup(plan, facts, toolchain_file, meta_path)
+        parts = _input_parts(plan, facts, toolchain_file, meta_text, setup)
+        state_path = plan.target_dir / fp.STATE
+        previous = fp.read_state(state_path)
+        fingerprint = fp.combine(parts)
+        # A repair changed the trees the state vouches for: build again.
+        if previous is not None and not plan.rebuild and not repaired:
+            if previous.fingerprint == fingerprint and _output_intact(plan, previous):
+                console.step(
+                    f"up to date: {plan.output} (no input changed since its build; --rebuild forces one)"
+                )
+                return plan.output
+            changed = fp.differing(previous.parts, parts) or ["the output folder"]
+            console.info(f"changed since the last build: {', '.join(changed)}")
+        # From here the trees change: until this build succeeds, no state vouches for the output.
+        fp.forget_state(state_path)
+        _drop_removed_packages(plan)
+        progress = _run_colcon(plan, facts, runner, setup, parts)
+        built = _check_built(plan, setup, progress, parts)
+        staging = outputs.staging_dir(plan.output)
         try:
-            info = _stage_output(runner, plan, facts, staging, skipped)
+            info, merge_key = _stage_output(runner, plan, facts, staging, setup, built, progress, previous)
             (staging / BUILD_INFO).write_text(info.to_json(), encoding="utf-8")
-            swap_into_place(staging, plan.output)
+            outputs.write_marker(staging, plan.target.key, [p.name for p in staging.iterdir()])
+            left = outputs.install_output(staging, plan.output)
         except BaseException:
-            shutil.rmtree(staging, ignore_errors=True)
+            outputs.remove_tree(staging)
             raise
-    lib = plan.output / "libmicroros.a"
-    console.step(
-        f"built {lib} ({lib.stat().st_size:,} bytes, {info.library.members} objects) "
-        f"and {info.include.files} headers in {plan.output / 'include'} ({time.monotonic() - started:.1f} s)"
-    )
+        fp.write_state(
+            state_path,
+            fp.BuildState(
+                fingerprint=fingerprint,
+                parts=parts,
+                output=str(plan.output),
+                output_files=fp.stat_folder(plan.output),
+                library_sha256=info.library.sha256,
+                merge_key=merge_key,
+                packages=info.packages,
+            ),
+        )
+    try:
+        for why in left:  # the new output is in place: a warning, not a failure
+            console.warn(f"could not remove the previous output {why}: remove it by hand")
+        lib = plan.output / "libmicroros.a"
+        console.step(
+            f"built {lib} ({lib.stat().st_size:,} bytes, {info.library.members} objects) and "
+            f"{info.include.files} headers in {plan.output / 'include'} ({time.monotonic() - started:.1f} s)"
+        )
+    except KeyboardInterrupt as stop:
+        raise interrupted(
+            stop, "interrupted", f"the new output was already in place: {plan.output}"
+        ) from None
     return plan.output
 
 
-def _run_colcon(
-    plan: BuildPlan, facts: HostFacts, runner: Runner, toolchain_file: Path, meta_path: Path
-) -> tuple[str, ...]:
-    """colcon build into the target's own trees; returns the pure-Python packages left out."""
+def _repair(plan: BuildPlan) -> bool:
+    """Before the target's trees or output are touched (its lock held): stop what a killed build of
+    it left running, finish or undo a swap it left half-way, and drop package build folders whose
+    configure a full disk (or a crash) cut short. True when anything was repaired."""
+    repaired = False
+    stopped = stop_leftovers(str(plan.target_dir))
+    if stopped:
+        console.warn(
+            f"stopped {len(stopped)} processes left running by an earlier uros build of {plan.target.key} "
+            f"that was killed (pids {' '.join(map(str, stopped))})"
+        )
+    for line in outputs.recover(plan.output):
+        console.info(line)
+        repaired = True
+    trees = plan.target_dir
+    for path, why in damaged_archives([trees / "install" / "lib", *sorted((trees / "build").glob("*/"))]):
+        # ninja builds it again, colcon's install step copies it again
+        console.warn(f"{path.name} {why} (a full disk or a crash?): removing {path}")
+        outputs.remove_tree(path)
+        repaired = True
+    for folder, why in damaged_configures(plan.target_dir / "build"):
+        console.warn(f"{folder.name}: {why} (a full disk or a crash?): configuring it afresh in {folder}")
+        outputs.remove_tree(folder)
+        repaired = True
+    return repaired or bool(stopped)
+
+
+def _say_selection(plan: BuildPlan) -> None:
+    sel = plan.selection
+    if sel is None:
+        return
+    if sel.firmware is not None:
+        console.info(f"the firmware uses ({sel.firmware.scanned} files read): {sel.firmware.describe()}")
+    parts = [f"{', '.join(sel.wanted)} (asked for)"] if sel.wanted else []
+    if sel.firmware is not None:
+        parts.append(f"{', '.join(sorted(sel.firmware.packages))} (the firmware's)")
+    if sel.core:
+        parts.append(f"{', '.join(sel.core)} (core)")
+    if sel.extra:
+        parts.append(f"{', '.join(sel.extra)} (extra packages)")
+    console.info(f"building {'; '.join(parts)} and what they depend on")
+
+
+@dataclass(frozen=True)
+class ColconSetup:
+    plan: colcon.ColconPlan
+    argv: tuple[str, ...]
+    env: Mapping[str, str]
+    skipped: tuple[str, ...]  # pure-Python packages left out
+
+    @property
+    def build_base(self) -> Path:
+        return self.plan.build_base
+
+    @property
+    def install_base(self) -> Path:
+        return self.plan.install_base
+
+
+def _colcon_setup(plan: BuildPlan, facts: HostFacts, toolchain_file: Path, meta_path: Path) -> ColconSetup:
     ws = plan.workspace
     env, scrubbed = hosttools.colcon_env(ws, plan.config, facts.cmake_version)
     if scrubbed:
         console.warn(f"ignoring the sourced environment for this build: {', '.join(scrubbed)}")
+    # colcon prints its job events with flush=True, but its other output is block-buffered in a
+    # pipe: unbuffered, the live view sees each line when it is written.
+    env = {**env, "PYTHONUNBUFFERED": "1"}
     skipped = tuple(packages_mod.host_only(list(plan.packages)))
-    if skipped:
-        console.info(f"not building {len(skipped)} pure-Python packages: {', '.join(skipped)}")
     colcon_plan = colcon.ColconPlan(
         base_paths=(ws.source_dir,),
         packages_ignore=skipped,
@@ -114,38 +234,244 @@ def _run_colcon(
         packages_up_to=plan.packages_up_to,
         parallel_workers=plan.jobs,
     )
+    return ColconSetup(colcon_plan, tuple(colcon.colcon_argv(colcon_plan, facts.colcon)), env, skipped)
+
+
+# ---------------------------------------------------------------------------------------------
+# what the build is made of
+
+
+def _uros_code() -> str:
+    """uros's own code, by file identity (a development checkout changes without a version)."""
+    root = Path(uros_build.__file__).parent
+    return fp.digest(*(fp.stat_key(p) for p in sorted(root.rglob("*.py"))))
+
+
+def _versions(*distributions: str) -> str:
+    found = []
+    for name in distributions:
+        try:
+            found.append(f"{name} {importlib.metadata.version(name)}")
+        except importlib.metadata.PackageNotFoundError:
+            found.append(f"{name} -")
+    return ", ".join(found)
+
+
+_ENV_THAT_MATTERS = ("CMAKE_GENERATOR", "CMAKE_POLICY_VERSION_MINIMUM", "PYTHONPATH", "AMENT_PREFIX_PATH")
+
+
+def _input_parts(
+    plan: BuildPlan, facts: HostFacts, toolchain_file: Path, meta_text: str, setup: ColconSetup
+) -> dict[str, str]:
+    """Every input of the build, each as a digest: equal parts, equal build."""
+    ws = plan.workspace
+    cache_path = plan.target_dir / fp.SOURCES_CACHE
+    cached = fp.load_sources_cache(cache_path)
+    # An --output inside a plain workspace (and its staging folders beside it) is not a source.
+    out = plan.output
+    sources = fp.scan_tree(ws.source_dir, cached, (str(out), str(out.parent / f".{out.name}.")))
+    if sources != cached:
+        fp.save_sources_cache(cache_path, sources)
+    # The colcon command without what does not change its result (progress output, workers).
+    stable = colcon.colcon_argv(
+        dataclasses.replace(setup.plan, verbose=False, parallel_workers=None), facts.colcon
+    )
+    env = {k: v for k, v in setup.env.items() if k in _ENV_THAT_MATTERS or k.startswith("GIT_CONFIG_")}
+    marker = ws.dev_install / DEV_MARKER
+    ninja = shutil.which("ninja", path=setup.env.get("PATH"))
+    return {
+        "sources": fp.tree_digest(sources),
+        "colcon.meta": fp.digest(meta_text),
+        "toolchain file": fp.file_sha256(toolchain_file),
+        "profile": fp.digest(repr(plan.profile)),
+        # the ESP-IDF project's version, target, include folders, flags and sdkconfig.h hash
+        "ESP-IDF project": fp.digest(repr(plan.idf)),
+        "compiler": fp.digest(
+            facts.gcc, facts.gcc_version, fp.stat_key(Path(facts.gcc)) if facts.gcc else ""
+        ),
+        "tools": fp.digest(
+            facts.cmake,
+            facts.cmake_version,
+            fp.stat_key(Path(facts.cmake)),
+            fp.stat_key(Path(facts.colcon)),
+            _versions("colcon-core", "colcon-cmake", "colcon-ros", "colcon-package-selection"),
+            fp.stat_key(Path(ninja)) if ninja else "",
+            sys.version,
+            __version__,
+            _uros_code(),
+        ),
+        "dev_ws": fp.digest(
+            marker.read_text(encoding="utf-8") if marker.is_file() else "", fp.stat_key(marker)
+        ),
+        "packages": fp.digest_json([list(plan.packages_up_to), list(setup.skipped)]),
+        "colcon": fp.digest_json([stable, sorted(env.items())]),
+        "output": fp.digest(str(plan.output)),
+    }
+
+
+def _output_intact(plan: BuildPlan, state: fp.BuildState) -> bool:
+    """The output folder is what the recorded build wrote (its build-info.json names the
+    library's sha256, and every file is as written)."""
+    try:
+        info = read_build_info(plan.output)
+    except ConfigError:
+        return False
+    return fp.output_intact(state, plan.output, info.library.file, info.library.sha256)
+
+
+def _flags_fingerprint(parts: Mapping[str, str]) -> str:
+    """What every package of the target is compiled with: the toolchain file, the compiler and
+    colcon's CMake arguments (a package's own colcon.meta entry is added per package)."""
+    return fp.digest(parts["toolchain file"], parts["compiler"], parts["colcon"])
+
+
+def _drop_removed_packages(plan: BuildPlan) -> None:
+    """A package the workspace no longer has must leave the target's trees, or its archive and
+    headers would ship in the next library."""
+    build_base, install_base = plan.target_dir / "build", plan.target_dir / "install"
+    names = {p.name for p in plan.packages}
+    if installtree.tree_packages(build_base) - names:
+        names |= packages_mod.plain_cmake_packages(plan.workspace.source_dir)
+    gone = installtree.drop_removed(build_base, install_base, names)
+    if gone:
+        console.info(f"dropped from the target's trees (no longer in the workspace): {', '.join(gone)}")
+
+
+# ---------------------------------------------------------------------------------------------
+# colcon
+
+
+def _run_colcon(
+    plan: BuildPlan, facts: HostFacts, runner: Runner, setup: ColconSetup, parts: Mapping[str, str]
+) -> colcon.BuildProgress:
+    """colcon build into the target's own trees, shown as it goes (colcon's own job events).
+    Every package colcon reports finished is stamped with the flags it was built with; one being
+    built vouches for nothing."""
+    if setup.skipped:
+        console.info(f"not building {len(setup.skipped)} pure-Python packages: {', '.join(setup.skipped)}")
+    flags = _flags_fingerprint(parts)
+    progress = colcon.BuildProgress(total=_expected_packages(plan, setup), started_at=time.monotonic())
     console.step("colcon build")
+    view = console.ProgressView(progress.total, plain=plan.verbose)
+
+    def on_line(line: str) -> None:
+        event = progress.feed(line, time.monotonic())
+        if event is None:
+            return
+        if event.kind == "start":
+            (setup.build_base / event.package / installtree.STAMP).unlink(missing_ok=True)
+        elif event.kind == "finish":
+            entry = plan.meta.names.get(event.package, {})
+            installtree.write_stamp(
+                setup.build_base, event.package, installtree.package_stamp(flags, event.package, entry)
+            )
+        ended = None
+        if event.kind != "start":
+            what = {"finish": "built", "fail": "FAILED", "abort": "stopped"}[event.kind]
+            ended = (what, event.package, event.seconds or 0.0)
+        view.update(
+            console.Progress(
+                progress.done,
+                progress.total,
+                tuple(progress.running.items()),
+                progress.started_at,
+                tuple(progress.failed),
+            ),
+            ended,
+        )
+
     try:
         runner.run(
-            colcon.colcon_argv(colcon_plan, facts.colcon),
+            setup.argv,
             step="colcon build",
-            cwd=ws.root,
-            env=env,
+            cwd=plan.workspace.root,
+            env=setup.env,
             hint=f"the full output is in {runner.log_path}",
+            on_line=on_line,
+            quiet=not plan.verbose,  # the command is in the log; the progress says the rest
         )
     except StepFailed as exc:
-        raise _colcon_failure(exc, colcon_plan.log_base, runner.log_path) from None
-    return skipped
+        raise _colcon_failure(exc, setup.plan.log_base, runner.log_path) from None
+    finally:
+        view.stop()
+    elapsed = time.monotonic() - progress.started_at
+    slowest = ", ".join(f"{name} {seconds:.1f} s" for name, seconds in progress.slowest(5))
+    console.info(f"colcon built {len(progress.finished)} packages in {elapsed:.1f} s; slowest: {slowest}")
+    return progress
 
 
-def _colcon_failure(exc: StepFailed, log_base: Path, run_log: Path) -> StepFailed:
+def _expected_packages(plan: BuildPlan, setup: ColconSetup) -> int:
+    """How many packages colcon will build (for the progress view; colcon does not say)."""
+    ignored = set(setup.skipped)
+    pattern = re.compile(setup.plan.ignore_regex) if setup.plan.ignore_regex else None
+    names = (
+        packages_mod.closure(plan.packages, plan.packages_up_to)
+        if plan.packages_up_to
+        else {p.name for p in plan.packages}
+    )
+    return len([n for n in names if n not in ignored and not (pattern and pattern.fullmatch(n))])
+
+
+def _check_built(
+    plan: BuildPlan, setup: ColconSetup, progress: colcon.BuildProgress, parts: Mapping[str, str]
+) -> tuple[str, ...]:
+    """The packages of this build (those colcon reported finished), each stamped with this
+    build's flags: VerifyError otherwise, before anything is merged."""
+    built = tuple(sorted(progress.finished))
+    if not built:
+        raise StepFailed(
+            "colcon reported no package built",
+            f"check that colcon finds packages in {plan.workspace.source_dir}; the log is above",
+        )
+    flags = _flags_fingerprint(parts)
+    expected = {p: installtree.package_stamp(flags, p, plan.meta.names.get(p, {})) for p in built}
+    stale = installtree.stale(setup.build_base, expected)
+    if stale:
+        raise VerifyError(
+            f"{', '.join(stale)}: built with other flags than this build's (build stamp differs)",
+            "run `uros build --rebuild` to build them again with the flags recorded",
+        )
+    return built
+
+
+def _colcon_failure(exc: StepFailed, log_base: Path, run_log: Path) -> StepFailed | DiskFull:
     """Name the package that failed and its own first error, read from colcon's log of that
     package (the interleaved output of parallel packages can put another's line first)."""
     failed = colcon.failed_packages(exc.output)
     if not failed:
-        return exc
+        return _disk_full(exc.output, log_base, "colcon build failed") or exc
     package = failed[0]
     log = colcon.package_log(log_base, package)
     lines = log.read_text(encoding="utf-8", errors="replace").splitlines() if log.is_file() else []
+    full = _disk_full([*lines, *exc.output], log_base, f"colcon build failed in package {package}")
+    if full is not None:
+        return full
     cause = first_error(lines) or first_error(exc.output) or "no error line in its output"
     others = f" (also failed: {', '.join(failed[1:])})" if failed[1:] else ""
     where = f"its log: {log}; everything: {run_log}" if lines else f"the full output is in {run_log}"
     return StepFailed(f"colcon build failed in package {package}{others}: {cause}", where, exc.output)
 
 
+# Below this, a failed build is taken for a full disk even when no tool said so (some, like CMake's
+# file(WRITE) or an install step, report a short write in their own words).
+_NEARLY_FULL = 1 << 20
+
+
+def _disk_full(lines: list[str] | tuple[str, ...], where: Path, what: str) -> DiskFull | None:
+    full = disk_full_line(lines)
+    error = DiskFull.at((full and disk_full_path(full)) or where, f"{what}: {full}" if full else what)
+    if full is not None or (error.free is not None and error.free < _NEARLY_FULL):
+        return error
+    return None
+
+
 def _prepare_toolchain(plan: BuildPlan, facts: HostFacts) -> Path:
     target = plan.target
     if not isinstance(target, ProfileTarget):
+        # The user's own file: its flags, too, reach the compiles only through a fresh configure.
+        seen = plan.target_dir / "toolchain-file.sha256"
+        if write_if_changed(seen, fp.file_sha256(target.toolchain_file) + "\n"):
+            _forget_configured_flags(plan.target_dir / "build")
         return target.toolchain_file
     profile = target.profile
     header = plan.target_dir / CLOCK_HEADER_NAME
@@ -187,25 +513,21 @@ def _bintools(plan: BuildPlan, facts: HostFacts) -> BinTools:
     return hosttools.bintools_from_build(plan.target_dir / "build") or BinTools("ar", "ranlib", "nm")
 
 
-def _built_packages(install: Path) -> tuple[str, ...]:
-    # colcon records every package it installed into a merged prefix here.
-    marker = install / "share" / "colcon-core" / "packages"
-    return tuple(sorted(p.name for p in marker.iterdir())) if marker.is_dir() else ()
-
-
-def _sha256(path: Path) -> str:
-    digest = hashlib.sha256()
-    with path.open("rb") as handle:
-        for chunk in iter(lambda: handle.read(1 << 20), b""):
-            digest.update(chunk)
-    return digest.hexdigest()
-
-
 def _stage_output(
-    runner: Runner, plan: BuildPlan, facts: HostFacts, staging: Path, skipped: tuple[str, ...]
-) -> BuildInfo:
-    install = plan.target_dir / "install"
-    libs = sorted((install / "lib").glob("*.a"))
+    runner: Runner,
+    plan: BuildPlan,
+    facts: HostFacts,
+    staging: Path,
+    setup: ColconSetup,
+    built: tuple[str, ...],
+    progress: colcon.BuildProgress,
+    previous: fp.BuildState | None,
+) -> tuple[BuildInfo, str]:
+    """The output in ``staging``: the archives and headers of this build's packages only.
+    Returns its build-info and the merge key (what the library depends on)."""
+    install = setup.install_base
+    by_package = installtree.archives(setup.build_base, install, built)
+    libs = sorted({lib for libs in by_package.values() for lib in libs}, key=lambda p: p.name)
     if not libs:
         raise StepFailed(
             f"colcon built no static library into {install / 'lib'}",
@@ -214,24 +536,44 @@ def _stage_output(
     if staging.exists():
         shutil.rmtree(staging)
     staging.mkdir(parents=True)
-    console.step(f"merging {len(libs)} libraries into libmicroros.a")
     library = staging / "libmicroros.a"
-    report = merge_archives(runner, _bintools(plan, facts), libs, library, plan.target_dir / "merge")
+    tools = _bintools(plan, facts)
     profile = plan.profile
-    # Before the output is swapped in: a library that fails the check never replaces a good one.
-    abi_check: dict[str, Any]
-    if profile is None:
-        abi_check = {"checked": False, "reason": "your own toolchain file: no target profile to compare with"}
+    merge_key = fp.digest_json(
+        {
+            "archives": fp.stat_files(libs),
+            "tools": [tools.ar, tools.nm, tools.ranlib],
+            "profile": repr(profile),
+            "uros": __version__,
+        }
+    )
+    reused = _previous_library(plan, previous, merge_key) if not plan.rebuild else None
+    abi_check: Mapping[str, Any]
+    if reused is not None:
+        console.step(f"no archive changed: reusing libmicroros.a of {plan.output}")
+        shutil.copy2(plan.output / reused.library.file, library)
+        lib_info = dataclasses.replace(reused.library)
+        abi_check = reused.abi_check
     else:
-        console.step(f"checking every object against {profile.name}'s ELF facts")
-        abi_check = abi.check_library(runner, library, profile)
-        console.info(abi.describe(abi_check))
-        for warning in abi_check.get("warnings", ()):
-            console.warn(warning)
-    inc = includes.flatten_includes(install / "include", staging / "include")
-    size = None
+        console.step(f"merging {len(libs)} libraries into libmicroros.a")
+        report = merge_archives(runner, tools, libs, library, plan.target_dir / "merge")
+        # Before the output is swapped in: a library that fails the check never replaces a good one.
+        if profile is None:
+            abi_check = {
+                "checked": False,
+                "reason": "your own toolchain file: no target profile to compare with",
+            }
+        else:
+            console.step(f"checking every object against {profile.name}'s ELF facts")
+            abi_check = abi.check_library(runner, library, profile)
+            console.info(abi.describe(abi_check))
+        lib_info = _library_info(runner, facts, profile, library, report)
+    for warning in abi_check.get("warnings", ()):
+        console.warn(warning)
+    inc = includes.flatten_includes(
+        install / "include", staging / "include", only=installtree.headers(setup.build_base, install, built)
+    )
     if profile is not None:
-        size = hosttools.size_totals(runner, tool_paths(profile, facts.tool_dir)["size"], library)
         firmware_tc = render_toolchain(
             ToolchainRequest(profile, micro_ros=False, command=f"uros toolchain render {profile.name}")
         )
@@ -262,25 +604,51 @@ def _stage_output(
         if profile
         else Flags(),
         transport=meta_transport(plan.meta),
-        packages=_built_packages(install),
-        library=Library(
-            file="libmicroros.a",
-            bytes=library.stat().st_size,
-            sha256=_sha256(library),
-            members=report.members,
-            defined_global_symbols=report.symbols,
-            renamed_duplicate_members=report.renamed_duplicates,
-            inputs=report.inputs,
-            size=size,
-        ),
+        packages=built,
+        library=lib_info,
         include=Include(dir="include", files=inc.files, bytes=inc.bytes, packages=inc.packages),
         abi_check=abi_check,
-        skipped_python_packages=skipped,
+        skipped_python_packages=setup.skipped,
         idf_target=profile.idf_target or None if profile else None,
         idf=_idf_info(plan),
+        package_seconds={p: round(progress.finished[p], 2) for p in built if p in progress.finished},
     )
     export.write_cmake_package(staging, info)
-    return info
+    return info, merge_key
+
+
+def _library_info(
+    runner: Runner, facts: HostFacts, profile: TargetProfile | None, library: Path, report: MergeReport
+) -> Library:
+    size = None
+    if profile is not None:
+        size = hosttools.size_totals(runner, tool_paths(profile, facts.tool_dir)["size"], library)
+    return Library(
+        file="libmicroros.a",
+        bytes=library.stat().st_size,
+        sha256=fp.file_sha256(library),
+        members=report.members,
+        defined_global_symbols=report.symbols,
+        renamed_duplicate_members=report.renamed_duplicates,
+        inputs=report.inputs,
+        size=size,
+    )
+
+
+def _previous_library(plan: BuildPlan, previous: fp.BuildState | None, merge_key: str) -> BuildInfo | None:
+    """The last build's output when its library was merged from the very archives this build
+    installed (same sizes and mtimes: CMake's install leaves an unchanged file alone) and is
+    still intact; None otherwise."""
+    if previous is None or previous.merge_key != merge_key or previous.output != str(plan.output):
+        return None
+    try:
+        info = read_build_info(plan.output)
+    except ConfigError:
+        return None
+    lib = plan.output / info.library.file
+    if info.library.sha256 != previous.library_sha256 or not lib.is_file():
+        return None
+    return info if fp.file_sha256(lib) == previous.library_sha256 else None
 
 
 def _idf_info(plan: BuildPlan) -> IdfInfo | None:

@@ -2,15 +2,19 @@
 
 from __future__ import annotations
 
+import json
+import sys
 from pathlib import Path
 
 from uros_build import abi, console
-from uros_build.errors import ConfigError
+from uros_build.errors import ConfigError, VerifyError
 from uros_build.proc import Runner, new_run_log, user_log_dir
 from uros_build.profiles import find_profile, load_profile_file
 
 
-def check_library(library: Path, target: str | None, profile_path: Path | None, verbose: bool) -> None:
+def check_library(
+    library: Path, target: str | None, profile_path: Path | None, verbose: bool, as_json: bool = False
+) -> None:
     if (target is None) == (profile_path is None):
         raise ConfigError("uros check needs one target", "pass --toolchain NAME or --profile FILE")
     if not library.is_file():
@@ -21,7 +25,16 @@ def check_library(library: Path, target: str | None, profile_path: Path | None, 
         else find_profile(str(target), alternative="or pass your own profile with --profile FILE")
     )
     runner = Runner(new_run_log(user_log_dir(), "check"), verbose=verbose)
-    summary = abi.check_library(runner, library.resolve(), profile)
-    console.step(f"{library}: {abi.describe(summary)}")
+    try:
+        summary = abi.check_library(runner, library.resolve(), profile)
+    except VerifyError as exc:
+        if as_json:  # the verdict on stdout for scripts; the message and exit 5 as always
+            failed = {"library": str(library), "target": profile.name, "result": "fail", "error": exc.message}
+            sys.stdout.write(json.dumps(failed, indent=2, sort_keys=True) + "\n")
+        raise
+    if as_json:  # the warnings are in the summary too
+        sys.stdout.write(json.dumps({"library": str(library), **summary}, indent=2, sort_keys=True) + "\n")
+    else:
+        console.step(f"{library}: {abi.describe(summary)}")
     for warning in summary.get("warnings", ()):
         console.warn(warning)

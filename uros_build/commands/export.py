@@ -4,27 +4,36 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from uros_build import console, export
+from uros_build import console, export, outputs
 from uros_build.buildinfo import BuildInfo, read_build_info
 from uros_build.errors import ConfigError
-from uros_build.workspace import check_folder_target, check_output_dir
+from uros_build.workspace import check_folder_target
 
 
 def _prepare(source: Path | None, output: Path) -> tuple[BuildInfo, Path]:
     """Read the build-info of the output to export and copy that output to ``output``."""
     src = (source or output).resolve()
-    info = read_build_info(src, "--from" if source else "--output")
     out = output.resolve()
+    for folder in {src, out}:  # a swap a killed build left half-way is finished or undone first
+        for line in outputs.recover(folder):
+            console.info(line)
+    info = read_build_info(src, "--from" if source else "--output")
     if src != out:
         check_folder_target(out, "--output")
-        check_output_dir(out, force=False)
-        export.copy_build_output(src, out)
+        outputs.check_output_dir(out, force=False)
+        outputs.write_marker(out, info.target, export.copy_build_output(src, out))
     return info, out
+
+
+def _record(out: Path, written: list[Path]) -> None:
+    if outputs.owned_entries(out) is not None:
+        outputs.add_to_marker(out, [p.name for p in written])
 
 
 def export_cmake(source: Path | None, output: Path) -> Path:
     info, out = _prepare(source, output)
     written = export.write_cmake_package(out, info)
+    _record(out, written)
     console.step(f"wrote {', '.join(p.name for p in written)} in {out}")
     return out
 
@@ -39,6 +48,7 @@ def export_esp_idf(source: Path | None, output: Path) -> Path:
         )
     info, out = _prepare(source, output)
     written = export.write_esp_idf_component(out, info)
+    _record(out, written)
     console.step(
         f"wrote the ESP-IDF component {out} ({', '.join(p.name for p in written)}): copy it into your "
         f"project's components/ and add its folder name to PRIV_REQUIRES"

@@ -7,11 +7,13 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from uros_build import console, defaults, loader
+from uros_build import console, contents, defaults, loader
 from uros_build import distros as distros_mod
 from uros_build import meta as meta_mod
+from uros_build import options as options_mod
+from uros_build import packages as packages_mod
 from uros_build.errors import ConfigError
-from uros_build.plan import meta_for, resolve_target
+from uros_build.plan import meta_for, resolve_target, resolve_workspace
 from uros_build.profiles import OR_PROFILE_FILE, find_profile, load_profile_file, shipped_profiles
 from uros_build.toolchain import CLOCK_HEADER_NAME, CLOCK_HEADER_TEXT, ToolchainRequest, render_toolchain
 from uros_build.workspace import check_file_target, write_if_changed
@@ -50,6 +52,24 @@ def distros_table() -> list[dict[str, Any]]:
             }
         )
     return rows
+
+
+def options_table() -> list[dict[str, Any]]:
+    """`uros meta options`: the known options, their upstream default and the value uros's
+    default preset (the default distro's generate_lib meta) builds with."""
+    preset = contents.cmake_options(meta_mod.load_preset(defaults.PRESET))
+    return [
+        {
+            "package": o.package,
+            "option": o.name,
+            "default": o.default,
+            "preset": preset.get(o.package, {}).get(o.name, ""),
+            "type": o.type,
+            "choices": list(o.choices),
+            "cost": o.cost,
+        }
+        for o in options_mod.known_options()
+    ]
 
 
 def write_output_file(path: Path | None, text: str, flag: str = "--output") -> None:
@@ -109,6 +129,44 @@ def write_meta(
 ) -> None:
     """`uros meta write`: the colcon.meta `uros build` would use (JSON, sorted keys)."""
     resolved = resolve_target(target, None) if target else None
+    for warning in options_mod.check_sets(sets, options_mod.by_package(options_mod.known_options())):
+        console.warn(warning)
     merged = meta_for(preset, resolved, transport, list(metas), list(sets))
     text = meta_mod.dump_meta(merged, f"uros meta write --preset {preset or defaults.PRESET}")
     write_output_file(output, text)
+
+
+# -- names for shell completion (never raise: a completion must not print a traceback) ----------
+
+
+def target_names() -> list[str]:
+    try:
+        return list(shipped_profiles())
+    except Exception:
+        return []
+
+
+def distro_names() -> list[str]:
+    try:
+        return distros_mod.known_distros()
+    except Exception:
+        return []
+
+
+def package_names(workspace: Path | None) -> list[str]:
+    """The packages of the workspace (-w, else the default one), for --packages-up-to and --set."""
+    try:
+        root = resolve_workspace(workspace)
+        source = root / "mcu_ws" if (root / "mcu_ws").is_dir() else root
+        return [p.name for p in packages_mod.discover(source)] if root.is_dir() else []
+    except Exception:
+        return []
+
+
+def set_candidates(workspace: Path | None) -> list[str]:
+    """PKG.OPTION= for the known options, and PKG. for the workspace's packages."""
+    try:
+        known = [f"{o.package}.{o.name}=" for o in options_mod.known_options()]
+    except Exception:
+        known = []
+    return known + [f"{name}." for name in package_names(workspace)]

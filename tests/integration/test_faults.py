@@ -1,0 +1,163 @@
+"""Faults (issue 8, items 11 and 12) through the real CLI: SIGTERM, SIGHUP and SIGKILL of uros in
+the middle of a build, and a full disk."""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from conftest import need
+from fixture_ws import make_fixture_workspace
+from test_trust_outputs import _in_namespace, _mount_namespace, _result, _uros_line
+from uros_helpers import run_uros
+
+pytestmark = pytest.mark.integration
+
+
+def _sha(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def _args(ws: Path, *more: str) -> list[str]:
+    return ["build", "--toolchain", "cortex-m7", "--workspace", str(ws), "--packages-up-to", "fx_core", *more]
+
+
+def _running(marker: str) -> list[str]:
+    """The processes whose command line holds ``marker`` (pgrep -f)."""
+    done = subprocess.run(["pgrep", "-af", marker], capture_output=True, text=True)
+    return [line for line in done.stdout.splitlines() if "pgrep" not in line]
+
+
+def _start_sleeping_build(ws: Path, marker: str) -> subprocess.Popen[str]:
+    """`uros build` whose configure of fx_core runs `sleep <marker>`; returns once that sleep runs."""
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "uros_build", *_args(ws, "--set", f"fx_core.FX_SLEEP={marker}")],
+        stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    deadline = time.monotonic() + 120
+    while not _running(f"sleep {marker}"):
+        assert proc.poll() is None, proc.communicate()[1]
+        assert time.monotonic() < deadline, "the configure step never started"
+        time.sleep(0.2)
+    return proc
+
+
+@pytest.mark.parametrize(("signum", "code"), [(signal.SIGTERM, 143), (signal.SIGHUP, 129)])
+def test_sigterm_and_sighup_stop_the_tools(tmp_path: Path, signum: int, code: int) -> None:
+    """Issue 8, item 11: SIGTERM (CI cancel, `timeout`) printed nothing, left colcon, cmake and
+    ninja running in their own session, and a `.staging-PID` folder."""
+    need("arm-none-eabi-gcc", "cmake", "pgrep")
+    ws = make_fixture_workspace(tmp_path / "ws")
+    run_uros(*_args(ws))
+    out = ws / "build" / "cortex-m7"
+    good = _sha(out / "libmicroros.a")
+    marker = f"47.{os.getpid()}{signum}"
+    proc = _start_sleeping_build(ws, marker)
+    os.kill(proc.pid, signum)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == code, err
+    errors = [line for line in err.splitlines() if line.startswith("error:")]
+    assert errors == [f"error: colcon build was interrupted ({signal.Signals(signum).name})"], err
+    assert "Traceback" not in err
+    time.sleep(0.5)
+    assert not _running(f"sleep {marker}") and not _running(f"colcon --log-base {ws}")
+    assert _sha(out / "libmicroros.a") == good
+    assert sorted(p.name for p in (ws / "build").iterdir()) == ["COLCON_IGNORE", "cortex-m7"]
+
+
+def test_a_killed_build_leaves_nothing_running_into_the_next(tmp_path: Path) -> None:
+    """Issue 8, item 11: after SIGKILL of uros (the OOM killer, a CI runner) its tools ran on and a
+    next build ran two ninjas in one folder. colcon dies with uros (parent-death signal); what it
+    had started is stopped by the next build of the target, once it holds the target's lock."""
+    need("arm-none-eabi-gcc", "cmake", "pgrep")
+    ws = make_fixture_workspace(tmp_path / "ws")
+    run_uros(*_args(ws))
+    marker = f"48.{os.getpid()}"
+    proc = _start_sleeping_build(ws, marker)
+    proc.kill()
+    proc.communicate(timeout=30)
+    time.sleep(0.5)
+    assert not _running(f"colcon --log-base {ws}")  # the parent-death signal
+    assert _running(f"sleep {marker}")  # cmake's child runs on, for now
+    again = run_uros(*_args(ws))
+    assert "stopped 2 processes left running by an earlier uros build of cortex-m7" in again.stderr, (
+        again.stderr
+    )
+    assert not _running(f"sleep {marker}")
+    assert sorted(p.name for p in (ws / "build").iterdir()) == ["COLCON_IGNORE", "cortex-m7"]
+
+
+def test_a_build_waiting_for_the_lock_names_the_build_it_waits_for(tmp_path: Path) -> None:
+    need("arm-none-eabi-gcc", "cmake", "pgrep")
+    ws = make_fixture_workspace(tmp_path / "ws")
+    marker = f"49.{os.getpid()}"
+    first = _start_sleeping_build(ws, marker)
+    second = subprocess.Popen(
+        [sys.executable, "-m", "uros_build", *_args(ws)],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    time.sleep(3)
+    first.terminate()
+    first.communicate(timeout=60)
+    _, err = second.communicate(timeout=120)
+    assert second.returncode == 0, err
+    assert f"waiting for another uros build of cortex-m7 (pid {first.pid}) to finish" in err, err
+
+
+def test_damaged_configures_and_archives_are_repaired(tmp_path: Path) -> None:
+    """Issue 8, item 12: a full disk left rules.ninja empty (every later build: "unknown build
+    rule"), a cache cut short ("Parse error in cache file"), an installed archive cut short ("file
+    format not recognized"), until the user deleted .uros/targets by hand."""
+    need("arm-none-eabi-gcc", "cmake")
+    ws = make_fixture_workspace(tmp_path / "ws")
+    args = ["build", "--toolchain", "cortex-m7", "--workspace", str(ws), "--meta", str(ws / "fixture.meta")]
+    run_uros(*args)
+    trees = ws / ".uros" / "targets" / "cortex-m7"
+    (trees / "build" / "fx_core" / "CMakeFiles" / "rules.ninja").write_bytes(b"")
+    cache = trees / "build" / "fx_util" / "CMakeCache.txt"
+    cache.write_bytes(cache.read_bytes()[:4096])
+    archive = trees / "install" / "lib" / "libfx_dup.a"
+    archive.write_bytes(archive.read_bytes()[:1000])
+    proc = run_uros(*args, check=False)
+    assert proc.returncode == 0, proc.stderr
+    warnings = [line for line in proc.stderr.splitlines() if line.startswith("warning:")]
+    assert any(w.startswith("warning: fx_core: CMakeFiles/rules.ninja is empty") for w in warnings), warnings
+    assert any(w.startswith("warning: fx_util: CMakeCache.txt is cut short") for w in warnings), warnings
+    assert any(w.startswith("warning: libfx_dup.a is cut short") for w in warnings), warnings
+    assert "8 objects" in proc.stderr
+
+
+def test_a_full_disk_is_one_line_and_the_next_run_repairs_it(tmp_path: Path) -> None:
+    """Issue 8, item 12, on a real full disk: the target's trees on a 400 KiB tmpfs, then on a
+    bigger one (the same tmpfs remounted, its files kept)."""
+    need("arm-none-eabi-gcc", "cmake")
+    prefix = _mount_namespace(tmp_path)
+    ws = make_fixture_workspace(tmp_path / "ws")
+    trees = ws / ".uros" / "targets" / "cortex-m7"
+    trees.mkdir(parents=True)
+    logs = tmp_path / "logs"
+    logs.mkdir()
+    script = (
+        f"mount -t tmpfs -o size=400k tmpfs {trees}\n"
+        + _uros_line(ws, logs / "full")
+        + f"mount -o remount,size=64m {trees}\n"
+        + _uros_line(ws, logs / "again")
+    )
+    done = _in_namespace(prefix, script)
+    assert done.returncode == 0, done.stderr
+    code, err = _result(logs / "full")
+    assert code == 4, err
+    (error,) = [line for line in err.splitlines() if line.startswith("error:")]
+    assert error.startswith("error: no space left on device: "), error
+    assert " free on the disk of " in error
+    assert "hint: free some space" in err
+    code, err = _result(logs / "again")
+    assert code == 0, err

@@ -1,0 +1,41 @@
+"""`uros info` through the real CLI on the fixture build (and, with a uros.lock, in
+test_create_firmware's end-to-end test)."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import pytest
+from uros_helpers import run_uros
+
+pytestmark = pytest.mark.integration
+
+
+def test_info_on_the_fixture_build(m7_build: Path, tmp_path: Path) -> None:
+    ws = tmp_path / "ws"
+    shutil.copytree(m7_build, ws, symlinks=True)
+    out = ws / "build" / "cortex-m7"
+    # an interface package's headers, as rosidl generates them into the include tree
+    msg = out / "include" / "fx_msgs" / "msg"
+    (msg / "detail").mkdir(parents=True)
+    (msg / "u_int8.h").write_text('#include "fx_msgs/msg/detail/u_int8__struct.h"\n')
+    (msg / "detail" / "u_int8__struct.h").write_text(
+        "typedef struct fx_msgs__msg__UInt8 { int data; } fx_msgs__msg__UInt8;\n"
+    )
+
+    data = json.loads(run_uros("info", "--json", "--toolchain", "cortex-m7", "-w", str(ws)).stdout)
+    built = json.loads((out / "build-info.json").read_text())
+    assert data["types"] == ["fx_msgs/msg/UInt8"]
+    assert [p["name"] for p in data["packages"]] == built["packages"]
+    assert data["library"]["size"] == built["library"]["size"] and data["transport"] == "custom"
+    assert data["options"]["rmw_microxrcedds"]["RMW_UXRCE_MAX_NODES"] == "1"  # the target's colcon.meta
+    assert data["options"]["fx_time"] == {"FX_TIME_ENABLE": "ON"}
+
+    text = run_uros("info", str(out)).stdout  # OUTPUT named directly, as text
+    assert "rmw_microxrcedds: RMW_UXRCE_MAX_NODES=1" in text and "  fx_msgs/msg/UInt8" in text
+    assert "types (1):" in text and "packages (5):" in text
+
+    none = run_uros("info", str(ws / "mcu_ws"), check=False)
+    assert none.returncode == 2 and "not a uros build output" in none.stderr

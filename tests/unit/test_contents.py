@@ -1,0 +1,67 @@
+"""What `uros info` reads from an output: interface types, options in force, package sources."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from uros_build import contents
+from uros_build.commands.info import package_sources
+from uros_build.meta import Meta
+from uros_build.workspace import Lock, LockedRepo
+
+
+def _header(include: Path, rel: str, text: str = "") -> None:
+    path = include / rel
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(text)
+
+
+def test_interface_types_come_from_the_generated_structs(tmp_path: Path) -> None:
+    inc = tmp_path / "include"
+    _header(inc, "std_msgs/msg/u_int8.h")
+    _header(inc, "std_msgs/msg/detail/u_int8__struct.h", "typedef struct std_msgs__msg__UInt8\n{\n")
+    _header(inc, "std_msgs/msg/int32_multi_array.h")  # no struct header: named from the file
+    _header(inc, "action_msgs/srv/cancel_goal.h")
+    _header(
+        inc,
+        "action_msgs/srv/detail/cancel_goal__struct.h",
+        "typedef struct action_msgs__srv__CancelGoal_Request\n",
+    )
+    _header(inc, "example_interfaces/action/fibonacci.h")
+    _header(
+        inc,
+        "example_interfaces/action/detail/fibonacci__struct.h",
+        "typedef struct example_interfaces__action__Fibonacci_Goal\n",
+    )
+    _header(inc, "rcl/rcl.h")  # not an interface
+    assert contents.interface_types(inc) == (
+        "std_msgs/msg/Int32MultiArray",
+        "std_msgs/msg/UInt8",
+        "action_msgs/srv/CancelGoal",
+        "example_interfaces/action/Fibonacci",
+    )
+
+
+def test_options_in_force() -> None:
+    meta = Meta(
+        names={
+            "rmw_microxrcedds": {"cmake-args": ("-DRMW_UXRCE_MAX_NODES=2", "-DRMW_UXRCE_TRANSPORT=custom")},
+            "rcutils": {"cmake-args": ("-DENABLE_TESTING:BOOL=OFF", "--no-warn-unused-cli")},
+        }
+    )
+    options = contents.cmake_options(meta)
+    assert options == {
+        "rcutils": {"ENABLE_TESTING": "OFF"},
+        "rmw_microxrcedds": {"RMW_UXRCE_MAX_NODES": "2", "RMW_UXRCE_TRANSPORT": "custom"},
+    }
+    assert contents.memory_options(options) == {"rmw_microxrcedds": options["rmw_microxrcedds"]}
+
+
+def test_package_sources_from_the_lock(tmp_path: Path) -> None:
+    lock = Lock("humble", {"mcu_ws/uros/rcl": LockedRepo("u", "humble", "s", "a" * 40)})
+    found = {"rcl": tmp_path / "mcu_ws/uros/rcl/rcl", "mine": tmp_path / "mcu_ws/extra_packages/mine"}
+    rows = package_sources(("mine", "rcl"), found, tmp_path, lock)
+    assert rows == [
+        {"name": "mine", "repository": None, "commit": None},
+        {"name": "rcl", "repository": "mcu_ws/uros/rcl", "commit": "a" * 40},
+    ]

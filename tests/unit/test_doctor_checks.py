@@ -1,0 +1,70 @@
+"""uros doctor's checks: pure functions of what the probes found."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from uros_build.commands import doctor as d
+from uros_build.profiles import find_profile
+from uros_build.workspace import Lock, LockedRepo
+
+
+def test_versions_and_tools() -> None:
+    assert d.version_tuple("2.39.5") == (2, 39, 5) and d.version_tuple("3.3.4rc1") == (3, 3)
+    assert d.eval_cmake(None).status == d.FAIL and "apt-get install cmake" in d.eval_cmake(None).fix
+    assert d.eval_cmake("3.25.1").status == d.OK and "POLICY" not in d.eval_cmake("3.25.1").detail
+    assert "CMAKE_POLICY_VERSION_MINIMUM=3.5" in d.eval_cmake("4.0.2").detail
+    assert d.eval_git("2.30.1", mirrors=True).status == d.FAIL
+    assert d.eval_git("2.30.1", mirrors=False).status == d.WARN
+    assert d.eval_git("2.31.0", mirrors=True).status == d.OK
+    assert d.eval_git(None, mirrors=False).status == d.FAIL
+    assert d.eval_empy("4.1", "py").status == d.FAIL and "'empy>=3.3.4,<4'" in d.eval_empy("4.1", "py").fix
+    assert d.eval_empy(None, "py").status == d.FAIL and d.eval_empy("3.3.4", "py").status == d.OK
+    assert d.eval_ninja(None).status == d.WARN and d.eval_colcon(None).status == d.FAIL
+
+
+def test_ros_environment_and_disk() -> None:
+    assert d.eval_ros_env({"HOME": "/root"}).status == d.OK
+    sourced = d.eval_ros_env({"ROS_DISTRO": "humble", "AMENT_PREFIX_PATH": "/opt/ros/humble"})
+    assert (
+        sourced.status == d.WARN and "ROS_DISTRO" in sourced.detail and "AMENT_PREFIX_PATH" in sourced.detail
+    )
+    assert d.eval_disk(100 << 20, Path("/w")).status == d.FAIL
+    assert d.eval_disk(2 << 30, Path("/w")).status == d.WARN
+    assert d.eval_disk(50 << 30, Path("/w")).status == d.OK
+
+
+def test_target_checks_name_what_is_missing() -> None:
+    m7 = find_profile("cortex-m7")
+    missing = d.eval_target(m7, None, "'arm-none-eabi-gcc' was not found on PATH")
+    assert [c.status for c in missing] == [d.FAIL] and "gcc-arm-none-eabi" in missing[0].fix
+    no_libc = d.eval_target(m7, "/usr/bin/arm-none-eabi-gcc", "arm-none-eabi-gcc has no C library (libc.a)")
+    assert [c.status for c in no_libc] == [d.OK, d.FAIL, d.SKIP]
+    no_cxx = d.eval_target(m7, "/usr/bin/arm-none-eabi-gcc", "arm-none-eabi-g++ has no C++ standard headers")
+    assert [c.status for c in no_cxx] == [d.OK, d.OK, d.FAIL]
+    assert [c.status for c in d.eval_target(m7, "/usr/bin/arm-none-eabi-gcc", None)] == [d.OK] * 3
+
+
+def test_workspace_state() -> None:
+    lock = Lock("humble", {f"mcu_ws/r{i}": LockedRepo("u", "v", "s", f"c{i}") for i in range(5)})
+    assert d.eval_lock(lock, {f"mcu_ws/r{i}": f"c{i}" for i in range(5)}).status == d.OK
+    moved = d.eval_lock(lock, {**{f"mcu_ws/r{i}": f"c{i}" for i in range(5)}, "mcu_ws/r2": "other"})
+    assert moved.status == d.WARN and "mcu_ws/r2" in moved.detail and "--locked --force" in moved.fix
+    gone = d.eval_lock(lock, {"mcu_ws/r0": "c0"})
+    assert gone.status == d.FAIL and "(and 1 more)" in gone.detail
+    assert d.eval_dev_ws(False, False, True).status == d.WARN
+    assert d.eval_dev_ws(True, False, True).detail == "built from another uros.lock"
+    assert (
+        d.eval_dev_ws(True, True, True).status == d.OK and d.eval_dev_ws(False, False, False).status == d.SKIP
+    )
+    assert d.eval_output("cortex-m7", 100.0, 50.0).status == d.OK
+    assert "stale" in d.eval_output("cortex-m7", 100.0, 150.0).detail
+    assert d.eval_output("cortex-m7", None, 0.0).status == d.WARN
+
+
+def test_render_one_line_per_check_with_the_fix() -> None:
+    text = d.render(
+        [d.Check("cmake", d.OK, "3.25.1"), d.Check("colcon", d.FAIL, "not found", "pip install colcon")]
+    )
+    assert text.splitlines() == ["ok    cmake   3.25.1", "FAIL  colcon  not found  -> pip install colcon"]
+    assert d.failed([d.Check("a", d.WARN, "")]) == []

@@ -1,0 +1,59 @@
+"""meta/options.yaml: the known memory/entity options, and --set checked against them."""
+
+from __future__ import annotations
+
+import pytest
+
+from uros_build import options
+from uros_build.errors import ConfigError
+
+
+def _known() -> dict[str, dict[str, options.KnownOption]]:
+    return options.by_package(options.known_options())
+
+
+def test_the_shipped_options_load() -> None:
+    known = _known()
+    rmw = known["rmw_microxrcedds"]
+    for name in ("RMW_UXRCE_MAX_NODES", "RMW_UXRCE_MAX_PUBLISHERS", "RMW_UXRCE_MAX_SUBSCRIPTIONS",
+                 "RMW_UXRCE_MAX_SERVICES", "RMW_UXRCE_MAX_CLIENTS", "RMW_UXRCE_MAX_HISTORY",
+                 "RMW_UXRCE_STREAM_HISTORY", "RMW_UXRCE_STREAM_HISTORY_INPUT", "RMW_UXRCE_STREAM_HISTORY_OUTPUT"):  # fmt: skip
+        assert rmw[name].cost, name
+    assert rmw["RMW_UXRCE_MAX_HISTORY"].default == "8" and rmw["RMW_UXRCE_STREAM_HISTORY"].power_of_two
+    assert known["microxrcedds_client"]["UCLIENT_UDP_TRANSPORT_MTU"].default == "512"
+
+
+def test_unknown_option_of_a_known_package_is_a_warning_with_the_closest() -> None:
+    warnings = options.check_sets(
+        ["rmw_microxrcedds.RMW_UXRCE_MAX_NODE=2", "rmw_microxrcedds.RMW_UXRCE_MAX_NODES=2", "rcl.ANYTHING=1"],
+        _known(),
+    )
+    assert len(warnings) == 1 and "did you mean RMW_UXRCE_MAX_NODES" in warnings[0]
+
+
+@pytest.mark.parametrize(
+    ("item", "message"),
+    [
+        ("rmw_microxrcedds.RMW_UXRCE_MAX_NODES=two", "must be a whole number"),
+        ("rmw_microxrcedds.RMW_UXRCE_STREAM_HISTORY=3", "must be a power of two"),
+        ("rmw_microxrcedds.RMW_UXRCE_TRANSPORT=can", "must be one of udp, tcp, serial, custom"),
+        ("microxrcedds_client.UCLIENT_PROFILE_DISCOVERY=maybe", "must be ON or OFF"),
+    ],
+)
+def test_clearly_wrong_values_are_errors(item: str, message: str) -> None:
+    with pytest.raises(ConfigError, match=message):
+        options.check_sets([item], _known())
+
+
+def test_a_broken_options_file_is_one_line() -> None:
+    with pytest.raises(ConfigError, match=r"packages.p.X: default: must be a string"):
+        options.parse_options({"packages": {"p": {"X": {"default": 4, "cost": "c"}}}}, "options.yaml")
+    with pytest.raises(ConfigError, match=r"packages.p.X: colour: unknown key"):
+        options.parse_options(
+            {"packages": {"p": {"X": {"default": "4", "cost": "c", "colour": 1}}}}, "options.yaml"
+        )
+    with pytest.raises(ConfigError, match=r"default '3' must be a power of two"):
+        options.parse_options(
+            {"packages": {"p": {"X": {"default": "3", "cost": "c", "type": "int", "power_of_two": True}}}},
+            "o.yaml",
+        )

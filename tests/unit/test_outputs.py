@@ -1,0 +1,396 @@
+"""Output folders (issue 8, data loss): target names and keys, the marker, the guard, the journaled
+swap and its recovery, and the pure pieces of fault handling (ENOSPC, damaged configures and
+archives, leftover processes, signals). No process is started: the swap runs on tmp folders."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import signal
+from pathlib import Path
+
+import pytest
+
+from uros_build import outputs
+from uros_build.errors import ConfigError, HungUp, Interrupted, Signalled, Terminated, disk_full_message
+from uros_build.errors import interrupted as interrupted_error
+from uros_build.outputs import Journal, Move, recovery_actions
+from uros_build.proc import disk_full_line, disk_full_path, environ_has
+from uros_build.workspace import Workspace, archive_damage, configure_damage, lock_holder, target_key
+
+DEAD = 2**22 + 1000  # above the largest pid_max Linux allows: never a live process
+
+
+# -- target keys ------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("stem", [".", "..", "", ".cmake", "-x", "_x"])
+def test_a_target_key_is_never_a_path_or_hidden(stem: str) -> None:
+    with pytest.raises(ConfigError, match="cannot name a target folder"):
+        target_key(stem, "--toolchain t.cmake")
+
+
+def test_a_target_key_keeps_a_plain_name() -> None:
+    assert target_key("cortex-m7") == "cortex-m7"
+    assert target_key("my board (v2)") == "my_board__v2_"
+
+
+@pytest.mark.parametrize("key", ["..", ".", "", "a/b", "../x"])
+def test_target_folders_stay_inside_the_workspace(tmp_path: Path, key: str) -> None:
+    ws = Workspace(tmp_path)
+    with pytest.raises(ConfigError, match="cannot name a target folder"):
+        ws.target_dir(key)
+    with pytest.raises(ConfigError, match="cannot name a target folder"):
+        ws.default_output(key)
+    assert ws.default_output("cortex-m7") == tmp_path / "build" / "cortex-m7"
+
+
+# -- the marker and the guard -----------------------------------------------------------------
+
+
+def _output(folder: Path, *extra: str) -> Path:
+    """A uros output as `uros build` writes it (with its marker), plus ``extra`` files of the user's."""
+    (folder / "include" / "pkg").mkdir(parents=True)
+    (folder / "include" / "pkg" / "a.h").write_text("int a;\n")
+    (folder / "libmicroros.a").write_bytes(b"!<arch>\n")
+    (folder / "build-info.json").write_text("{}\n")
+    outputs.write_marker(folder, "cortex-m7", ["include", "libmicroros.a", "build-info.json"])
+    for name in extra:
+        (folder / name).write_text("mine\n")
+    return folder
+
+
+def test_a_file_named_build_info_json_is_not_a_uros_output(tmp_path: Path) -> None:
+    (tmp_path / "build-info.json").write_text("{}\n")
+    assert outputs.owned_entries(tmp_path) is None
+    (tmp_path / "build-info.json").write_text(json.dumps({"generated_by": "uros 0.1.0"}))
+    assert outputs.owned_entries(tmp_path) is None
+
+
+def test_the_marker_names_what_uros_wrote(tmp_path: Path) -> None:
+    out = _output(tmp_path / "out")
+    assert outputs.owned_entries(out) == {"include", "libmicroros.a", "build-info.json", ".uros-output"}
+    assert outputs.parse_marker('{"generated_by": "someone", "files": []}') is None
+    assert outputs.parse_marker('{"generated_by": "uros 1", "files": ["../x"]}') is None
+    assert outputs.parse_marker("not json") is None
+
+
+def test_an_output_of_uros_before_the_marker_is_known_by_its_library(tmp_path: Path) -> None:
+    lib = b"!<arch>\nlibrary bytes"
+    (tmp_path / "libmicroros.a").write_bytes(lib)
+    info = {
+        "generated_by": "uros 0.1.0",
+        "target": "cortex-m7",
+        "library": {"file": "libmicroros.a", "sha256": hashlib.sha256(lib).hexdigest()},
+    }
+    (tmp_path / "build-info.json").write_text(json.dumps(info))
+    assert outputs.owned_entries(tmp_path) == {"libmicroros.a", "build-info.json"}
+    (tmp_path / "libmicroros.a").write_bytes(b"another library")
+    assert outputs.owned_entries(tmp_path) is None
+
+
+def test_the_guard_refuses_a_users_folder_without_force(tmp_path: Path) -> None:
+    """The reproduction of issue 8, item 2: `echo {} > proj/build-info.json`."""
+    proj = tmp_path / "proj"
+    (proj / "src").mkdir(parents=True)
+    (proj / "src" / "main.c").write_text("int main(void) { return 0; }\n")
+    (proj / "build-info.json").write_text("{}\n")
+    with pytest.raises(ConfigError, match=r"holds files uros did not write \(build-info.json, src\)"):
+        outputs.check_output_dir(proj, force=False)
+    outputs.check_output_dir(proj, force=True)  # allowed: uros writes its entries, keeps src/
+
+
+@pytest.mark.parametrize(
+    ("layout", "message"),
+    [
+        (["mcu_ws/src/pkg/package.xml"], r"holds mcu_ws, so it is a workspace or its sources"),
+        (["src/pkg/package.xml"], r"holds src/pkg/package.xml"),
+        (["uros.yaml"], r"holds uros.yaml"),
+        (["cortex-m7/.uros-output"], r"holds the uros output cortex-m7/ of another target"),
+    ],
+)
+def test_the_guard_never_takes_sources_or_other_outputs_even_with_force(
+    tmp_path: Path, layout: list[str], message: str
+) -> None:
+    out = tmp_path / "out"
+    for rel in layout:
+        (out / rel).parent.mkdir(parents=True, exist_ok=True)
+        (out / rel).write_text('{"generated_by": "uros 1", "files": []}' if rel.endswith("output") else "")
+    with pytest.raises(ConfigError, match=message):
+        outputs.check_output_dir(out, force=True)
+
+
+def test_the_guard_never_takes_the_workspace_or_its_trees(tmp_path: Path) -> None:
+    ws = tmp_path / "ws"
+    (ws / "mcu_ws" / "src" / "p").mkdir(parents=True)
+    (ws / "mcu_ws" / "src" / "p" / "package.xml").write_text("<package/>")
+    for out, message in (
+        (ws, "is the workspace"),
+        (tmp_path, "holds it"),
+        (ws / "mcu_ws" / "out", r"inside the workspace's mcu_ws/"),
+        (ws / ".uros" / "targets", r"inside the workspace's .uros/"),
+    ):
+        with pytest.raises(ConfigError, match=message):
+            outputs.check_output_dir(out, True, "--output", ws)
+    outputs.check_output_dir(ws / "build" / "cortex-m7", False, "--output", ws)
+
+
+def test_the_guard_accepts_a_uros_output_and_a_half_done_swap(tmp_path: Path) -> None:
+    outputs.check_output_dir(_output(tmp_path / "out", "notes.txt"), force=False)
+    half = tmp_path / "half"
+    half.mkdir()
+    (half / "notes.txt").write_text("mine")
+    (half / outputs.JOURNAL).write_text("{}")
+    outputs.check_output_dir(half, force=False)
+
+
+# -- the swap -----------------------------------------------------------------------------------
+
+
+def _staging(out: Path, text: str = "new") -> Path:
+    staging = out.with_name(f".{out.name}.staging-{os.getpid()}")
+    (staging / "include" / "pkg").mkdir(parents=True)
+    (staging / "include" / "pkg" / "b.h").write_text("int b;\n")
+    (staging / "libmicroros.a").write_text(text)
+    (staging / "build-info.json").write_text("{}\n")
+    outputs.write_marker(staging, "cortex-m7", ["include", "libmicroros.a", "build-info.json"])
+    return staging
+
+
+def _tree(folder: Path) -> list[str]:
+    return sorted(str(p.relative_to(folder)) for p in folder.rglob("*"))
+
+
+def test_a_swap_replaces_the_whole_output_and_leaves_nothing_beside_it(tmp_path: Path) -> None:
+    out = _output(tmp_path / "out")
+    assert outputs.install_output(_staging(out), out) == []
+    assert (out / "libmicroros.a").read_text() == "new"
+    assert not (out / "include" / "pkg" / "a.h").exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+
+
+def test_a_swap_keeps_the_users_files(tmp_path: Path) -> None:
+    out = _output(tmp_path / "out", "notes.txt")
+    (out / "toolchain.cmake").write_text("an earlier build's")
+    outputs.add_to_marker(out, ["toolchain.cmake"])
+    outputs.install_output(_staging(out), out)
+    assert (out / "notes.txt").read_text() == "mine\n"
+    assert (out / "libmicroros.a").read_text() == "new"
+    assert not (out / "toolchain.cmake").exists()  # uros's, and this build wrote none
+    assert _tree(out) == [
+        ".uros-output", "build-info.json", "include", "include/pkg", "include/pkg/b.h", "libmicroros.a",
+        "notes.txt",
+    ]  # fmt: skip
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+
+
+def test_force_into_a_users_folder_replaces_only_uros_files(tmp_path: Path) -> None:
+    proj = tmp_path / "proj"
+    (proj / "src").mkdir(parents=True)
+    (proj / "src" / "main.c").write_text("int main(void) { return 0; }\n")
+    (proj / "build-info.json").write_text("{}\n")
+    outputs.install_output(_staging(proj), proj)
+    assert (proj / "src" / "main.c").read_text() == "int main(void) { return 0; }\n"
+    assert outputs.owned_entries(proj) == {"include", "libmicroros.a", "build-info.json", ".uros-output"}
+
+
+def test_a_read_only_previous_output_is_removed(tmp_path: Path) -> None:
+    out = _output(tmp_path / "out")
+    (out / "include" / "pkg").chmod(0o555)
+    (out / "include").chmod(0o555)
+    assert outputs.install_output(_staging(out), out) == []
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+
+
+# -- recovery (pure) ----------------------------------------------------------------------------
+
+FOLDER_SWAP = Journal(DEAD, (Move("cortex-m7", ".cortex-m7.staging-9", ".cortex-m7.old-9"),))
+ENTRY_SWAP = Journal(
+    DEAD,
+    (
+        Move("include", ".uros-new-9/include", ".uros-old-9/include"),
+        Move("libmicroros.a", ".uros-new-9/libmicroros.a", ".uros-old-9/libmicroros.a"),
+        Move("toolchain.cmake", None, ".uros-old-9/toolchain.cmake"),
+    ),
+    (".uros-new-9", ".uros-old-9"),
+)
+
+
+@pytest.mark.parametrize(
+    ("journal", "exists", "verdict", "actions"),
+    [
+        # journal written, nothing renamed: drop the staging
+        (FOLDER_SWAP, {"cortex-m7", ".cortex-m7.staging-9"}, "rolled back", [("remove", ".cortex-m7.staging-9")]),
+        # killed between the two renames (the window of issue 8, item 5): the previous output back
+        (
+            FOLDER_SWAP,
+            {".cortex-m7.old-9", ".cortex-m7.staging-9"},
+            "rolled back",
+            [("rename", ".cortex-m7.old-9", "cortex-m7"), ("remove", ".cortex-m7.staging-9")],
+        ),
+        # both renames done, the old one not yet removed: finish
+        (FOLDER_SWAP, {"cortex-m7", ".cortex-m7.old-9"}, "finished", [("remove", ".cortex-m7.old-9")]),
+        # no previous output, killed before the rename: drop the staging
+        (FOLDER_SWAP, {".cortex-m7.staging-9"}, "rolled back", [("remove", ".cortex-m7.staging-9")]),
+        # entries: one new entry in, another still waiting: undo all
+        (
+            ENTRY_SWAP,
+            {"include", ".uros-old-9/include", ".uros-old-9/libmicroros.a", ".uros-new-9",
+             ".uros-new-9/libmicroros.a", ".uros-old-9", ".uros-old-9/toolchain.cmake"},
+            "rolled back",
+            [("remove", "include"), ("rename", ".uros-old-9/include", "include"),
+             ("rename", ".uros-old-9/libmicroros.a", "libmicroros.a"),
+             ("rename", ".uros-old-9/toolchain.cmake", "toolchain.cmake"),
+             ("remove", ".uros-new-9/libmicroros.a"), ("remove", ".uros-new-9"), ("remove", ".uros-old-9")],
+        ),
+        # entries: all new entries in: finish
+        (
+            ENTRY_SWAP,
+            {"include", "libmicroros.a", ".uros-old-9/include", ".uros-new-9", ".uros-old-9"},
+            "finished",
+            [("remove", ".uros-old-9/include"), ("remove", ".uros-new-9"), ("remove", ".uros-old-9")],
+        ),
+    ],
+)  # fmt: skip
+def test_recovery_finishes_or_rolls_back(
+    journal: Journal, exists: set[str], verdict: str, actions: list[tuple[str, ...]]
+) -> None:
+    assert recovery_actions(journal, exists) == (verdict, actions)
+
+
+def test_a_journal_reads_back_and_refuses_paths_outside_its_folder() -> None:
+    assert outputs.parse_journal(ENTRY_SWAP.to_json()) == ENTRY_SWAP
+    bad = json.dumps({"pid": 1, "moves": [{"dest": "../../home", "new": None, "old": "x"}]})
+    with pytest.raises(ValueError, match="not a path inside the folder"):
+        outputs.parse_journal(bad)
+
+
+# -- recovery on disk ---------------------------------------------------------------------------
+
+
+def test_recover_puts_back_an_output_a_killed_swap_moved_aside(tmp_path: Path) -> None:
+    out = _output(tmp_path / "cortex-m7")
+    staging = _staging(out)
+    old = tmp_path / f".cortex-m7.old-{DEAD}"
+    out.rename(old)
+    journal = Journal(DEAD, (Move("cortex-m7", staging.name, old.name),))
+    (tmp_path / ".cortex-m7.swap").write_text(journal.to_json())
+    done = outputs.recover(out)
+    assert "rolled back the swap" in done[0] and "the previous output is back" in done[0]
+    assert (out / "include" / "pkg" / "a.h").is_file()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["cortex-m7"]
+
+
+def test_recover_without_a_journal_puts_back_the_old_folder(tmp_path: Path) -> None:
+    """The state a uros without the journal left (issue 8, item 5): no output, `.X.old-PID`."""
+    out = _output(tmp_path / "cortex-m7")
+    out.rename(tmp_path / f".cortex-m7.old-{DEAD}")
+    (tmp_path / f".cortex-m7.staging-{DEAD}").mkdir()
+    (tmp_path / ".cortex-m7.staging-1").mkdir()  # pid 1 is alive: another run's, left alone
+    done = outputs.recover(out)
+    assert any("put back the previous output" in line for line in done), done
+    assert (out / "include" / "pkg" / "a.h").is_file()
+    assert sorted(p.name for p in tmp_path.iterdir()) == [".cortex-m7.staging-1", "cortex-m7"]
+
+
+def test_recover_removes_what_runs_that_are_gone_left_inside_an_output(tmp_path: Path) -> None:
+    out = _output(tmp_path / "out", "notes.txt")
+    (out / f".uros-staging-{DEAD}").mkdir()
+    (out / f".uros-old-{DEAD}").mkdir()
+    outputs.recover(out)
+    assert sorted(p.name for p in out.iterdir()) == [
+        ".uros-output", "build-info.json", "include", "libmicroros.a", "notes.txt",
+    ]  # fmt: skip
+
+
+# -- faults (pure) ------------------------------------------------------------------------------
+
+
+def test_lock_holder() -> None:
+    assert lock_holder("1234\n") == 1234
+    assert lock_holder("") is None and lock_holder("x\n") is None
+
+
+@pytest.mark.parametrize(
+    ("name", "data", "why"),
+    [
+        ("CMakeFiles/rules.ninja", b"", "CMakeFiles/rules.ninja is empty"),
+        ("build.ninja", b"rule CC\n  command = gcc", "build.ninja is cut short"),
+        ("build.ninja", b"default all\n\0\0\0", "build.ninja holds NUL bytes"),
+        ("CMakeCache.txt", b"CMAKE_C_COMPILER:FILEPATH=/usr/bin/gcc\n", "no INTERNAL entries"),
+        ("CMakeCache.txt", b"X:STRING=1\nCMAKE_UNAME:INTERNAL=/usr/bin/uname\n", None),
+        ("build.ninja", b"default all\n", None),
+    ],
+)
+def test_configure_damage(name: str, data: bytes, why: str | None) -> None:
+    found = configure_damage(name, len(data), data)
+    assert (found is None) if why is None else (found is not None and why in found)
+
+
+def _ar(*members: tuple[str, bytes]) -> bytes:
+    out = b"!<arch>\n"
+    for name, data in members:
+        out += f"{name + '/':<16}{0:<12}{0:<6}{0:<6}{644:<8}{len(data):<10}`\n".encode() + data
+        out += b"\n" if len(data) % 2 else b""
+    return out
+
+
+@pytest.mark.parametrize(
+    ("data", "why"),
+    [
+        (_ar(("a.o", b"abc"), ("b.o", b"defg")), None),
+        (_ar(("a.o", b"abc"), ("b.o", b"defg"))[:-2], "cut short"),
+        (_ar(("a.o", b"abc"), ("b.o", b"defg"))[:70], "cut short"),
+        (b"", "not an ar archive"),
+        (b"\0" * 64, "not an ar archive"),
+    ],
+)
+def test_archive_damage(data: bytes, why: str | None) -> None:
+    found = archive_damage(len(data), lambda offset, length: data[offset : offset + length])
+    assert (found is None) if why is None else (found is not None and why in found)
+
+
+def test_disk_full_is_one_line_with_the_path_and_the_free_space() -> None:
+    line = (
+        "[2.1s] ERROR:colcon: Exception in event handler: [Errno 28] No space left on device [/w/log/x.log]"
+    )
+    found = disk_full_line(["-- Configuring done", line, "more"])
+    assert found == "Exception in event handler: [Errno 28] No space left on device [/w/log/x.log]"
+    assert disk_full_path(found) == "/w/log/x.log"
+    assert disk_full_line(["cc1: fatal error: error writing to /tmp/ccA.s: Disk quota exceeded"])
+    assert disk_full_line(["error: expected ';'"]) is None
+    text = disk_full_message("writing /w/.uros/log/x.log", "/w/.uros/log/x.log", 12 * 1024)
+    assert (
+        text
+        == "no space left on device: writing /w/.uros/log/x.log (12.0 KiB free on the disk of /w/.uros/log/x.log)"
+    )
+    assert "\n" not in text
+
+
+def test_leftover_processes_are_found_by_their_exact_mark() -> None:
+    environ = b"PATH=/bin\0UROS_OWNER=/w/.uros/targets/cortex-m7\0HOME=/root\0"
+    assert environ_has(environ, "UROS_OWNER", "/w/.uros/targets/cortex-m7")
+    assert not environ_has(environ, "UROS_OWNER", "/w/.uros/targets/cortex-m")
+    assert not environ_has(b"X=UROS_OWNER=/w/.uros/targets/cortex-m7\0", "UROS_OWNER", "/w")
+
+
+def test_signals_map_to_exit_codes() -> None:
+    assert isinstance(interrupted_error(KeyboardInterrupt(), "x", "h"), Interrupted)
+    term = interrupted_error(Signalled(signal.SIGTERM), "colcon build was interrupted", "h")
+    assert isinstance(term, Terminated) and term.exit_code == 143
+    assert term.message == "colcon build was interrupted (SIGTERM)"
+    assert interrupted_error(Signalled(signal.SIGHUP), "x", "h").exit_code == HungUp.exit_code == 129
+    assert interrupted_error(None, "x", "h").exit_code == 130
+
+
+def test_mount_points_read_octal_escapes() -> None:
+    info = "36 35 98:0 /mnt1 /mnt/my\\040volume rw,noatime master:1 - ext3 /dev/root rw\n"
+    assert outputs.mount_points(info) == {"/mnt/my volume"}
+
+
+def test_recover_leaves_a_file_and_a_missing_folder_alone(tmp_path: Path) -> None:
+    notes = tmp_path / "notes.txt"
+    notes.write_text("mine")
+    assert outputs.recover(notes) == [] and notes.read_text() == "mine"
+    assert outputs.recover(tmp_path / "none" / "out") == []

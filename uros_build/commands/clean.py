@@ -1,0 +1,87 @@
+"""`uros clean`: remove uros's own per-target trees and outputs from a workspace, and say how much
+that freed. Only what uros wrote goes: .uros/targets/<key> (colcon's build/install/log, the
+rendered toolchain and meta) and, of build/<key>, the entries its `.uros-output` marker names
+(the folder itself only when nothing else is left in it); the sources, uros.yaml, colcon.meta,
+dev_ws, a file the user put into an output and any folder of the user's stay."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+from uros_build import console, outputs
+from uros_build.errors import ConfigError, did_you_mean
+from uros_build.plan import BuildArgs, expand_targets, resolve_workspace
+from uros_build.workspace import Workspace, locked, target_key, tree_bytes
+
+
+def human(n: int) -> str:
+    """Bytes as people read them (1024-based units, one decimal)."""
+    size = float(n)
+    for unit in ("bytes", "KiB", "MiB", "GiB"):
+        if size < 1024 or unit == "GiB":
+            return f"{n:,} bytes" if unit == "bytes" else f"{size:.1f} {unit}"
+        size /= 1024
+    raise AssertionError("unreachable")
+
+
+def _chosen(ws: Workspace, toolchain: str | None, everything: bool) -> list[str]:
+    present = outputs.target_keys(ws)
+    if toolchain is not None and everything:
+        raise ConfigError("--toolchain and --all: pass one of them")
+    if everything:
+        return present
+    if toolchain is None:
+        # the target(s) `uros build` would build here by default
+        names = [str(a.toolchain) for a in expand_targets(BuildArgs(workspace=ws.root)) if a.toolchain]
+        if not names:
+            built = ", ".join(present) or "none"
+            raise ConfigError(
+                "uros clean: which target?", f"pass --toolchain NAME or --all (built here: {built})"
+            )
+        return [target_key(Path(n).stem if n.endswith(".cmake") else n) for n in names]
+    key = target_key(toolchain)
+    if key not in present:
+        raise ConfigError(
+            f"--toolchain {toolchain}: nothing of it in {ws.root}{did_you_mean(key, present)}",
+            f"built here: {', '.join(present) or 'none'}",
+        )
+    return [key]
+
+
+def clean(workspace: Path | None, toolchain: str | None, everything: bool) -> int:
+    """Remove the chosen targets' trees and outputs; returns the bytes freed."""
+    root = resolve_workspace(workspace)
+    if not root.is_dir():
+        raise ConfigError(f"--workspace {root}: no such folder", "pass the workspace to clean with -w DIR")
+    ws = Workspace(root.resolve())
+    freed = 0
+    for key in _chosen(ws, toolchain, everything):
+        tree, output = ws.target_dir(key), ws.default_output(key)
+        owned = outputs.owned_entries(output) if outputs.is_uros_output(output) else None
+        if output.exists() and owned is None:
+            console.warn(f"kept {output}: no uros marker in it, so not a uros output")
+        # the marker last: an interrupted clean leaves an output uros still recognises
+        names = sorted(set(owned or ()) - {outputs.MARKER}) + ([outputs.MARKER] if owned is not None else [])
+        paths = [tree] + [output / name for name in names if (output / name).exists()]
+        # measured before the lock, whose owner file (the pid of this process) is uros's own bookkeeping
+        sizes = [tree_bytes(path) if path.exists() else 0 for path in paths]
+        with locked(tree, key):  # never under a running build of the same target
+            for path, size in zip(paths, sizes, strict=True):
+                why = outputs.remove_tree(path)
+                if why is not None:
+                    console.warn(f"could not remove all of {path}: {why}")
+                    continue
+                freed += size
+                if path != tree or size:
+                    console.info(f"removed {path} ({human(size)})")
+        # locked() made the tree's folder to hold its lock file when there was none
+        shutil.rmtree(tree, ignore_errors=True)
+        if owned is not None:
+            kept = sorted(p.name for p in output.iterdir())
+            if kept:
+                console.warn(f"kept {output}: it holds files uros did not write ({', '.join(kept)})")
+            else:
+                output.rmdir()
+    console.step(f"freed {human(freed)} ({freed:,} bytes) in {ws.root}")
+    return freed

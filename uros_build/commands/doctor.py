@@ -1,0 +1,340 @@
+"""`uros doctor`: is this host ready to build, and what state is the workspace in?
+
+One line per check, each with the fix. The checks are pure functions of what the probes found
+(unit-tested); the probes run tools through the runner. A FAIL line is something that would make a
+build fail; the command then exits 5 (a verification failed), like `uros check`, so scripts and CI
+can gate on it. WARN lines (a sourced ROS 2, stale outputs, clones off their locked commit) do not
+change the exit code.
+"""
+
+from __future__ import annotations
+
+import importlib.metadata
+import json
+import os
+import shutil
+import sys
+import tempfile
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+from uros_build import colcon, hosttools, outputs
+from uros_build.buildinfo import BUILD_INFO
+from uros_build.errors import MissingToolError, StepFailed, UrosError, VerifyError
+from uros_build.plan import BuildArgs, expand_targets, resolve_target, resolve_workspace
+from uros_build.proc import Runner, new_run_log, user_log_dir
+from uros_build.profiles import TargetProfile
+from uros_build.workspace import CONFIG, Lock, Workspace, load_config, read_lock
+
+OK, WARN, FAIL, SKIP = "ok", "warn", "FAIL", "skip"
+
+GIT_CONFIG_ENV = (2, 31)  # GIT_CONFIG_COUNT: how mirror rules reach the clones CMake makes
+EMPY_BELOW = 4  # empy 4 breaks the rosidl generators (see pyproject.toml)
+CMAKE_POLICY_MAJOR = 4  # from CMake 4 on, uros passes CMAKE_POLICY_VERSION_MINIMUM=3.5
+DISK_FAIL = 1 << 30  # 1 GiB: colcon's build trees of one real target do not fit
+DISK_WARN = 4 << 30
+
+
+@dataclass(frozen=True)
+class Check:
+    name: str
+    status: str  # OK, WARN, FAIL or SKIP
+    detail: str
+    fix: str = ""
+
+
+def version_tuple(version: str) -> tuple[int, ...]:
+    """'2.39.5' -> (2, 39, 5); stops at the first part that is not a number ('3.3.4rc1' -> (3, 3))."""
+    out = []
+    for part in version.split("."):
+        if not part.isdigit():
+            break
+        out.append(int(part))
+    return tuple(out)
+
+
+# -- the checks (pure) -------------------------------------------------------------------------
+
+
+def eval_cmake(version: str | None) -> Check:
+    if version is None:
+        return Check("cmake", FAIL, "not found", "apt-get install cmake (or pip install cmake)")
+    if version_tuple(version)[:1] >= (CMAKE_POLICY_MAJOR,):
+        note = "; CMake 4: uros passes CMAKE_POLICY_VERSION_MINIMUM=3.5 (vendored libyaml/uncrustify need it)"
+        return Check("cmake", OK, f"{version}{note}")
+    return Check("cmake", OK, version)
+
+
+def eval_ninja(path: str | None) -> Check:
+    if path is None:
+        return Check("ninja", WARN, "not found: builds use Makefiles (slower)", "pip install ninja")
+    return Check("ninja", OK, path)
+
+
+def eval_git(version: str | None, mirrors: bool) -> Check:
+    if version is None:
+        return Check("git", FAIL, "not found (create-firmware clones with it)", "apt-get install git")
+    if version_tuple(version) < GIT_CONFIG_ENV:
+        why = "mirror rules cannot reach the clones CMake makes during the build (needs git >= 2.31)"
+        return Check("git", FAIL if mirrors else WARN, f"{version}: {why}", "install git 2.31 or newer")
+    return Check("git", OK, version)
+
+
+def eval_colcon(path: str | None) -> Check:
+    if path is None:
+        return Check("colcon", FAIL, "not found", "pip install colcon-common-extensions (a uros dependency)")
+    return Check("colcon", OK, path)
+
+
+def eval_empy(version: str | None, python: str) -> Check:
+    fix = f"{python} -m pip install 'empy>=3.3.4,<4'"
+    if version is None:
+        return Check("empy", FAIL, f"not importable in {python} (the rosidl generators need it)", fix)
+    if version_tuple(version)[:1] >= (EMPY_BELOW,):
+        return Check("empy", FAIL, f"{version}: empy 4 breaks the rosidl generators", fix)
+    return Check("empy", OK, f"{version} in {python}")
+
+
+def eval_ros_env(env: Mapping[str, str]) -> Check:
+    found = [v for v in colcon.SCRUBBED_VARIABLES if env.get(v)]
+    if not found:
+        return Check("ROS environment", OK, "none sourced")
+    return Check(
+        "ROS environment",
+        WARN,
+        f"set: {', '.join(found)}; uros ignores them for its builds",
+        "nothing to do; open a shell without ROS 2 sourced to silence the notice",
+    )
+
+
+def eval_disk(free: int, where: Path) -> Check:
+    detail = f"{free / (1 << 30):.1f} GiB free in {where}"
+    if free < DISK_FAIL:
+        return Check("disk", FAIL, detail, "free some space (`uros clean --all` removes uros's build trees)")
+    if free < DISK_WARN:
+        return Check(
+            "disk", WARN, detail, "a real micro-ROS build may fill it: `uros clean --all` frees uros's trees"
+        )
+    return Check("disk", OK, detail)
+
+
+def eval_target(profile: TargetProfile, compiler: str | None, problem: str | None) -> list[Check]:
+    """The compiler check and, with it found, libc and C++ headers (``problem``: which is missing)."""
+    hint = profile.install_hint or f"install {profile.tool('gcc')}"
+    name = f"{profile.name} compiler"
+    if compiler is None:
+        return [Check(name, FAIL, problem or f"{profile.tool('gcc')} not found", hint)]
+    checks = [Check(name, OK, compiler)]
+    libc_missing = problem is not None and "libc" in problem
+    checks.append(
+        Check(f"{profile.name} C library", FAIL, problem or "", hint)
+        if libc_missing
+        else Check(f"{profile.name} C library", OK, "libc.a found")
+    )
+    if libc_missing:
+        checks.append(Check(f"{profile.name} C++ headers", SKIP, "not probed without a C library"))
+    elif problem is not None:
+        checks.append(Check(f"{profile.name} C++ headers", FAIL, problem, hint))
+    else:
+        checks.append(Check(f"{profile.name} C++ headers", OK, "<cstdint> compiles"))
+    return checks
+
+
+def eval_lock(lock: Lock, heads: Mapping[str, str | None]) -> Check:
+    """``heads``: workspace path -> HEAD commit of its clone (None: no clone there)."""
+    missing = sorted(p for p in lock.repositories if heads.get(p) is None)
+    moved = sorted(
+        p for p, r in lock.repositories.items() if heads.get(p) is not None and heads[p] != r.commit
+    )
+    fix = "uros create-firmware --locked --force re-clones the locked commits"
+    if missing:
+        more = f" (and {len(missing) - 3} more)" if len(missing) > 3 else ""
+        return Check("checkouts", FAIL, f"no clone at {', '.join(missing[:3])}{more}", fix)
+    if moved:
+        more = f" (and {len(moved) - 3} more)" if len(moved) > 3 else ""
+        return Check("checkouts", WARN, f"not at the locked commit: {', '.join(moved[:3])}{more}", fix)
+    return Check("checkouts", OK, f"{len(lock.repositories)} repositories at their locked commits")
+
+
+def eval_dev_ws(built: bool, same_lock: bool, has_dev: bool) -> Check:
+    if not has_dev:
+        return Check("dev_ws", SKIP, "no dev_ws in this workspace (a plain colcon workspace)")
+    if not built:
+        return Check("dev_ws", WARN, "not built yet", "the next `uros build` builds it once (a few minutes)")
+    if not same_lock:
+        return Check("dev_ws", WARN, "built from another uros.lock", "delete dev_ws/install to rebuild it")
+    return Check("dev_ws", OK, "built")
+
+
+def eval_output(key: str, output_time: float | None, newest_input: float) -> Check:
+    name = f"target {key}"
+    if output_time is None:
+        return Check(
+            name,
+            WARN,
+            "trees but no output (a build failed or was interrupted)",
+            f"uros build --toolchain {key}",
+        )
+    if newest_input > output_time:
+        return Check(
+            name, WARN, "stale: inputs changed since the last build", f"uros build --toolchain {key}"
+        )
+    return Check(name, OK, "built and up to date")
+
+
+def failed(checks: Iterable[Check]) -> list[Check]:
+    return [c for c in checks if c.status == FAIL]
+
+
+def render(checks: Sequence[Check]) -> str:
+    width = max(len(c.name) for c in checks)
+    lines = []
+    for c in checks:
+        fix = f"  -> {c.fix}" if c.fix and c.status in (FAIL, WARN) else ""
+        lines.append(f"{c.status:<4}  {c.name:<{width}}  {c.detail}{fix}".rstrip())
+    return "\n".join(lines) + "\n"
+
+
+# -- the probes --------------------------------------------------------------------------------
+
+
+def _which(runner: Runner, program: str, path: str | None = None) -> str | None:
+    try:
+        return runner.which(program, path=path)
+    except MissingToolError:
+        return None
+
+
+def _version(runner: Runner, program: str) -> str | None:
+    found = _which(runner, program)
+    if found is None:
+        return None
+    try:
+        return hosttools.first_version(runner.query([found, "--version"], step=f"{program} --version"))
+    except StepFailed:
+        return None
+
+
+def _empy_version() -> str | None:
+    # uros's own Python runs the generators (colcon.host_python): ask this interpreter
+    try:
+        return importlib.metadata.version("empy")
+    except importlib.metadata.PackageNotFoundError:
+        return None
+
+
+def probe_target(runner: Runner, profile: TargetProfile) -> list[Check]:
+    try:
+        tools, _tool_dir = hosttools.probe_target_tools(runner, profile)
+    except MissingToolError as exc:
+        return eval_target(profile, None, exc.message)
+    problem = None
+    with tempfile.TemporaryDirectory(prefix="uros-doctor-") as scratch:
+        try:
+            hosttools.check_target_prerequisites(runner, profile, tools, Path(scratch))
+        except (MissingToolError, StepFailed) as exc:
+            problem = exc.message
+    return eval_target(profile, tools["gcc"], problem)
+
+
+def _head(runner: Runner, clone: Path) -> str | None:
+    if not (clone / ".git").exists():
+        return None
+    try:
+        return runner.query(["git", "-C", str(clone), "rev-parse", "HEAD"], step="git rev-parse").strip()
+    except (StepFailed, MissingToolError):
+        return None
+
+
+def _newest(paths: Iterable[Path], tree: Path) -> float:
+    """The newest modification time among ``paths`` and the files under ``tree`` (not .git)."""
+    newest = max((p.stat().st_mtime for p in paths if p.is_file()), default=0.0)
+    for dirpath, dirnames, filenames in os.walk(tree):
+        dirnames[:] = [d for d in dirnames if not d.startswith(".")]
+        for name in filenames:
+            newest = max(newest, os.lstat(os.path.join(dirpath, name)).st_mtime)
+    return newest
+
+
+def probe_workspace(runner: Runner, ws: Workspace) -> list[Check]:
+    checks = []
+    lock_path = ws.lock_path
+    lock = read_lock(lock_path, "uros.lock") if lock_path.is_file() else None
+    if lock is not None:
+        heads = {p: _head(runner, ws.root / p) for p in lock.repositories}
+        checks.append(eval_lock(lock, heads))
+        same = ws.dev_built() and (ws.dev_install / ".uros-dev-built").read_text(encoding="utf-8") == (
+            lock_path.read_text(encoding="utf-8")
+        )
+        checks.append(eval_dev_ws(ws.dev_built(), same, ws.dev_dir.is_dir()))
+    inputs = [ws.root / CONFIG, ws.user_meta]
+    newest = _newest(inputs, ws.source_dir) if outputs.target_keys(ws) else 0.0
+    for key in outputs.target_keys(ws):
+        info = ws.default_output(key) / BUILD_INFO
+        checks.append(eval_output(key, info.stat().st_mtime if info.is_file() else None, newest))
+    if not outputs.target_keys(ws):
+        checks.append(Check("targets", OK, "none built yet"))
+    return checks
+
+
+def _profiles(toolchain: str | None, ws_root: Path | None) -> list[TargetProfile]:
+    """The target named, else the workspace uros.yaml's target(s); shipped or own profiles only."""
+    if toolchain is not None:
+        names = [toolchain]
+    elif ws_root is not None:
+        names = [str(a.toolchain) for a in expand_targets(BuildArgs(workspace=ws_root)) if a.toolchain]
+    else:
+        names = []
+    out = []
+    for name in names:
+        target = resolve_target(name, None)
+        if hasattr(target, "profile"):
+            out.append(target.profile)
+    return out
+
+
+def doctor(workspace: Path | None, toolchain: str | None, as_json: bool) -> list[Check]:
+    root = resolve_workspace(workspace)
+    ws = Workspace(root.resolve()) if root.is_dir() else None
+    runner = Runner(new_run_log(ws.log_dir if ws else user_log_dir(), "doctor"))
+    cfg = load_config(ws.root) if ws else None
+    # colcon runs with uros's Python's bin/ first on PATH: pip's ninja is there
+    build_path = os.pathsep.join([str(Path(colcon.host_python()).parent), os.environ.get("PATH", "")])
+    checks = [
+        eval_cmake(_version(runner, "cmake")),
+        eval_ninja(_which(runner, "ninja", build_path)),
+        eval_git(_version(runner, "git"), bool(cfg and cfg.mirror.rules)),
+        eval_colcon(_which(runner, hosttools.colcon_program())),
+        eval_empy(_empy_version(), colcon.host_python()),
+        eval_ros_env(os.environ),
+    ]
+    where = ws.root if ws else Path.cwd()
+    checks.append(eval_disk(shutil.disk_usage(where).free, where))
+    try:
+        profiles = _profiles(toolchain, ws.root if ws else None)
+    except UrosError as exc:
+        checks.append(Check("target", FAIL, exc.message, exc.hint or ""))
+        profiles = []
+    if not profiles and toolchain is None:
+        checks.append(
+            Check("target", SKIP, "none named", f"pass --toolchain NAME, or set target: in {CONFIG}")
+        )
+    for profile in profiles:
+        checks += probe_target(runner, profile)
+    if ws is not None:
+        checks += probe_workspace(runner, ws)
+    else:
+        checks.append(Check("workspace", SKIP, f"no workspace at {root}", "pass -w DIR, or run inside one"))
+    if as_json:
+        data = {"ok": not failed(checks), "checks": [asdict(c) for c in checks]}
+        sys.stdout.write(json.dumps(data, indent=2, sort_keys=True) + "\n")
+    else:
+        sys.stdout.write(render(checks))
+    bad = failed(checks)
+    if bad:
+        raise VerifyError(
+            f"{len(bad)} check(s) failed ({', '.join(c.name for c in bad)}): a build would fail",
+            "fix the FAIL lines above",
+        )
+    return checks

@@ -1,0 +1,213 @@
+"""`uros size`: text/data/bss of libmicroros.a per package, and with a firmware's ELF and GNU ld
+map file, what each package really costs once linked (after --gc-sections)."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+from uros_build import loader, sizes
+from uros_build.buildinfo import BuildInfo, read_build_info
+from uros_build.errors import ConfigError
+from uros_build.outputs import is_uros_output
+from uros_build.plan import resolve_output
+from uros_build.proc import Runner, new_run_log, user_log_dir
+from uros_build.sizes import Sizes
+from uros_build.workspace import Workspace, workspace_of_output
+
+LIBRARY = "libmicroros.a"
+
+
+def size_tool(info: BuildInfo | None) -> str:
+    """The target's ``size`` beside the compiler that built the library (host ``size`` reads only
+    the host's object formats on most distributions), else the host's."""
+    if info is not None and info.compiler is not None and info.compiler.path.endswith("gcc"):
+        return info.compiler.path[: -len("gcc")] + "size"
+    return "size"
+
+
+def _library(
+    library: Path | None, workspace: Path | None, toolchain: str | None
+) -> tuple[Path, BuildInfo | None]:
+    if library is not None and library.is_file():
+        out = library.parent
+        return library, read_build_info(out, "LIBRARY") if is_uros_output(out) else None
+    out = resolve_output(library, workspace, toolchain)
+    info = read_build_info(out, "LIBRARY")
+    return out / info.library.file, info
+
+
+def _installed_by(ws: Workspace | None, key: str) -> dict[str, str]:
+    if ws is None:
+        return {}
+    manifests = {
+        path.parent.name: path.read_text(encoding="utf-8", errors="replace")
+        for path in sorted((ws.target_dir(key) / "build").glob("*/install_manifest.txt"))
+    }
+    return sizes.manifest_archives(manifests)
+
+
+def measure(
+    runner: Runner,
+    library: Path,
+    info: BuildInfo | None,
+    elf: Path | None,
+    map_file: Path | None,
+    objects: bool,
+) -> dict[str, Any]:
+    tool = size_tool(info)
+    members = sizes.parse_berkeley(runner.query([tool, str(library)], step=f"size {library.name}"))
+    archives = info.library.inputs if info else ()
+    packages = info.packages if info else ()
+    ws = workspace_of_output(library.parent, info.target) if info else None
+    installed_by = _installed_by(ws, info.target) if info else {}
+    in_library = sizes.by_package(members, archives, packages, installed_by)
+    linked_members: dict[str, Sizes] | None = None
+    rest = None
+    if map_file is not None:
+        entries = sizes.parse_map(loader.read_text(map_file, "--map"))
+        if not entries:
+            raise ConfigError(
+                f"--map {map_file}: no linker memory map in it",
+                "pass the file GNU ld wrote for -Wl,-Map=FILE",
+            )
+        linked_members, rest = sizes.linked_members(entries, library.name)
+    linked = (
+        sizes.by_package(linked_members, archives, packages, installed_by)
+        if linked_members is not None
+        else {}
+    )
+    rows: list[dict[str, Any]] = []
+    for name, (lib_sizes, count) in in_library.items():
+        got = linked.get(name)
+        rows.append(
+            {
+                "package": name,
+                "objects": count,
+                "library": lib_sizes.as_dict(),
+                "linked": got[0].as_dict()
+                if got
+                else (Sizes().as_dict() if linked_members is not None else None),
+                "linked_objects": got[1] if got else (0 if linked_members is not None else None),
+            }
+        )
+    key = "linked" if linked_members is not None else "library"
+    rows.sort(key=lambda r: (-sum(r[key].values()), r["package"]))
+    data: dict[str, Any] = {
+        "library": str(library),
+        "target": info.target if info else None,
+        "packages": rows,
+        "total": sum((Sizes(**r["library"]) for r in rows), Sizes()).as_dict(),
+        "linked_total": sum((Sizes(**r["linked"]) for r in rows), Sizes()).as_dict()
+        if linked_members is not None
+        else None,
+        "rest_of_firmware": rest.as_dict() if rest is not None else None,
+        "elf": None,
+    }
+    if elf is not None:
+        whole = sum(
+            sizes.parse_berkeley(runner.query([tool, str(elf)], step=f"size {elf.name}")).values(), Sizes()
+        )
+        data["elf"] = {"file": str(elf), **whole.as_dict()}
+    if objects:
+        data["objects"] = [
+            {
+                "member": m,
+                "library": s.as_dict(),
+                "linked": linked_members.get(m, Sizes()).as_dict() if linked_members is not None else None,
+            }
+            for m, s in sorted(members.items())
+        ]
+    return data
+
+
+def _cells(values: dict[str, int] | None) -> list[str]:
+    if values is None:
+        return []
+    return [f"{values[k]:,}" for k in sizes.KINDS] + [f"{sum(values.values()):,}"]
+
+
+def render(data: dict[str, Any]) -> str:
+    linked = data["linked_total"] is not None
+    head = ["PACKAGE", "OBJECTS", "TEXT", "DATA", "BSS", "TOTAL"]
+    if linked:
+        head += ["LINKED TEXT", "DATA", "BSS", "TOTAL"]
+    rows = [head]
+    for r in data["packages"]:
+        rows.append(
+            [r["package"], str(r["objects"]), *_cells(r["library"]), *(_cells(r["linked"]) if linked else [])]
+        )
+    rows.append(
+        [
+            "total",
+            str(sum(r["objects"] for r in data["packages"])),
+            *_cells(data["total"]),
+            *_cells(data["linked_total"]),
+        ]
+    )
+    if data.get("objects"):
+        rows.append([])
+        rows.append(
+            [
+                "OBJECT",
+                "",
+                "TEXT",
+                "DATA",
+                "BSS",
+                "TOTAL",
+                *(["LINKED TEXT", "DATA", "BSS", "TOTAL"] if linked else []),
+            ]
+        )
+        for o in data["objects"]:
+            rows.append([o["member"], "", *_cells(o["library"]), *(_cells(o["linked"]) if linked else [])])
+    widths = [max(len(r[i]) for r in rows if len(r) > i) for i in range(len(head))]
+    lines = [f"{data['library']} ({data['target'] or 'no build-info.json'}), bytes:"]
+    for r in rows:
+        cells = (
+            [r[0].ljust(widths[0])] + [c.rjust(w) for c, w in zip(r[1:], widths[1:], strict=False)]
+            if r
+            else []
+        )
+        lines.append("  ".join(cells).rstrip())
+    if data["rest_of_firmware"] is not None:
+        rest = data["rest_of_firmware"]
+        lines.append(
+            f"rest of the firmware: text {rest['text']:,}, data {rest['data']:,}, bss {rest['bss']:,}"
+        )
+    if data["elf"] is not None:
+        e, mine = data["elf"], data["linked_total"]
+        line = f"{e['file']}: text {e['text']:,}, data {e['data']:,}, bss {e['bss']:,}"
+        if mine is not None and e["text"] + e["data"]:
+            flash = 100 * (mine["text"] + mine["data"]) / (e["text"] + e["data"])
+            ram = 100 * (mine["data"] + mine["bss"]) / max(1, e["data"] + e["bss"])
+            line += (
+                f"; micro-ROS: {flash:.0f}% of its flash (text+data), {ram:.0f}% of its static RAM (data+bss)"
+            )
+        lines.append(line)
+    return "\n".join(lines) + "\n"
+
+
+def show_size(
+    library: Path | None,
+    workspace: Path | None,
+    toolchain: str | None,
+    elf: Path | None,
+    map_file: Path | None,
+    objects: bool,
+    as_json: bool,
+) -> None:
+    if elf is not None and map_file is None:
+        raise ConfigError("--elf without --map", "link with -Wl,-Map=app.map and pass --map app.map too")
+    for path, flag in ((elf, "--elf"), (map_file, "--map")):
+        if path is not None and not path.is_file():
+            raise ConfigError(f"{flag} {path}: no such file")
+    lib, info = _library(library, workspace, toolchain)
+    if not lib.is_file():
+        raise ConfigError(
+            f"{lib}: no such file", "pass libmicroros.a, a `uros build` output folder, or --toolchain NAME"
+        )
+    runner = Runner(new_run_log(user_log_dir(), "size"))
+    data = measure(runner, lib.resolve(), info, elf, map_file, objects)
+    sys.stdout.write(json.dumps(data, indent=2, sort_keys=True) + "\n" if as_json else render(data))

@@ -1,0 +1,109 @@
+"""The memory and entity options users look for (``meta/options.yaml``): known options per package,
+their upstream defaults and what they cost, loaded into frozen dataclasses; and the check of
+``--set``/uros.yaml ``set:`` entries against them (pure)."""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+
+from uros_build import loader, resources
+from uros_build.errors import ConfigError, did_you_mean
+
+TYPES = ("int", "bool", "string")
+_BOOLS = ("ON", "OFF", "TRUE", "FALSE", "1", "0", "YES", "NO")
+
+
+@dataclass(frozen=True)
+class KnownOption:
+    package: str
+    name: str
+    default: str
+    cost: str
+    type: str = "string"  # int, bool or string
+    choices: tuple[str, ...] = ()
+    power_of_two: bool = False
+
+    def problem(self, value: str) -> str | None:
+        """Why ``value`` cannot be right for this option, or None."""
+        if self.choices and value not in self.choices:
+            return f"must be one of {', '.join(self.choices)}"
+        if self.type == "int":
+            try:
+                number = int(value)
+            except ValueError:
+                return "must be a whole number"
+            if self.power_of_two and (number < 1 or number & (number - 1)):
+                return "must be a power of two (1, 2, 4, 8, ...)"
+        if self.type == "bool" and value.upper() not in _BOOLS:
+            return "must be ON or OFF"
+        return None
+
+
+def parse_options(data: object, source: str) -> tuple[KnownOption, ...]:
+    top = loader.mapping(data, source, {"packages"}, required=("packages",))
+    out = []
+    for package, options in loader.mapping(top["packages"], f"{source}: packages").items():
+        where = f"{source}: packages.{package}"
+        for name, entry in loader.mapping(options, where).items():
+            item_where = f"{where}.{name}"
+            item = loader.mapping(
+                entry, item_where, {"default", "cost", "type", "choices", "power_of_two"}, ("default", "cost")
+            )
+            default = item["default"]
+            if not isinstance(default, str):
+                raise ConfigError(f"{item_where}: default: must be a string (quote it), got {default!r}")
+            option = KnownOption(
+                package=str(package),
+                name=str(name),
+                default=default,
+                cost=loader.string(item, "cost", item_where),
+                type=loader.one_of(item, "type", item_where, TYPES, "string"),
+                choices=loader.string_list(item, "choices", item_where),
+                power_of_two=loader.boolean(item, "power_of_two", item_where),
+            )
+            if option.default and option.problem(option.default):
+                raise ConfigError(
+                    f"{item_where}: default {option.default!r} {option.problem(option.default)}"
+                )
+            out.append(option)
+    return tuple(out)
+
+
+@functools.lru_cache(maxsize=1)
+def known_options() -> tuple[KnownOption, ...]:
+    path = resources.meta_dir() / "options.yaml"
+    return parse_options(loader.load_yaml(path), str(path))
+
+
+def by_package(options: Iterable[KnownOption]) -> dict[str, dict[str, KnownOption]]:
+    out: dict[str, dict[str, KnownOption]] = {}
+    for option in options:
+        out.setdefault(option.package, {})[option.name] = option
+    return out
+
+
+def check_sets(sets: Iterable[str], known: Mapping[str, Mapping[str, KnownOption]]) -> list[str]:
+    """Warnings for PKG.OPTION=VALUE entries naming an option uros does not know for a package it
+    knows (a typo builds with the default, silently: CMake only lists unused variables); a value
+    that cannot be right (not a number, not a power of two, not one of the choices) is an error."""
+    warnings = []
+    for item in sets:
+        package, _dot, rest = item.partition(".")
+        name, _eq, value = rest.partition("=")
+        if package not in known:
+            continue
+        option = known[package].get(name)
+        if option is None:
+            near = did_you_mean(name, known[package])
+            warnings.append(
+                f"--set {item}: {package} has no option {name} that uros knows{near} (`uros meta options`)"
+            )
+            continue
+        problem = option.problem(value)
+        if problem is not None:
+            raise ConfigError(
+                f"--set {item}: {name} {problem}", f"`uros meta options` lists {package}'s options"
+            )
+    return warnings
