@@ -4,8 +4,10 @@ Inputs (skipped cleanly without any of them; CI has none):
 - UROS_MIRROR: a folder of upstream clones, <owner>+<repo>/repo (as test_real_sources.py);
 - IDF_PATH: an ESP-IDF tree, version 5 or later (its Python packages importable: kconfgen);
 - xtensa-esp32s3-elf-gcc (and its binutils) on PATH: ESP-IDF's own toolchain, or any compiler
-  that emits the ESP32-S3's windowed ABI (docs/esp32.md says how this was proven on a machine
-  without Espressif's compiler, and what that does not prove).
+  that emits the ESP32-S3's windowed ABI. Without Espressif's compiler, tests/esp32s3-compat-env.sh
+  builds all three from the mirror into a scratch folder (Debian's lx106 GCC with -mabi=windowed and
+  the ESP32-S3 core plugin for binutils, newlib 4.3 headers, ESP-IDF v5.3.1); docs/esp32.md says what
+  that proves and what it does not.
 
 What it does, as a user would: configures examples/esp32s3-idf with ESP-IDF's CMake (a copy in a
 tmp folder), creates a firmware workspace with the example's demo_interfaces/Hsb message, runs
@@ -48,7 +50,7 @@ def _missing() -> str | None:
         return "set IDF_PATH to an ESP-IDF tree"
     for tool in ("gcc", "ld", "nm"):
         if shutil.which(PREFIX + tool) is None:
-            return f"{PREFIX}{tool} is not on PATH"
+            return f"{PREFIX}{tool} is not on PATH (tests/esp32s3-compat-env.sh builds a stand-in)"
     if shutil.which("cmake") is None or shutil.which("ninja") is None:
         return "cmake and ninja are needed to configure an ESP-IDF project"
     return None
