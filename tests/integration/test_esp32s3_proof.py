@@ -15,8 +15,9 @@ tmp folder), creates a firmware workspace with the example's demo_interfaces/Hsb
 project, configures again and compiles the example's main.c with the compile command ESP-IDF wrote.
 It checks: every object of libmicroros.a has the windowed ABI (ABI=0, no call0 object), and
 `ld -r main.c.obj libmicroros.a` leaves only symbols ESP-IDF provides undefined (declared by its
-headers or its C library's, libgcc's, the __atomic_*_8 of its newlib) plus the 1/2/4-byte atomics
-uros's check reported (what the firmware must then define, docs/esp32.md).
+headers or its C library's; libgcc's, in the compiler's libgcc.a or the S3 ROM; the __atomic_*_8 of
+its newlib) plus the 1/2/4-byte atomics uros's check reported (what the firmware must then define,
+docs/esp32.md).
 """
 
 from __future__ import annotations
@@ -110,8 +111,14 @@ def _libc_include_dirs() -> list[str]:
 
 
 def _libgcc_symbols() -> set[str]:
+    """libgcc's routines: the compiler's libgcc.a, and the ones the ESP32-S3 ROM holds, which ESP-IDF
+    links by address (esp32s3.rom.libgcc.ld). Debian's lx106 libgcc.a leaves out __divsi3, __udivdi3,
+    __floatsisf and others (the ESP8266 ROM has them), so its archive alone would not do."""
     libgcc = _run([PREFIX + "gcc", "-print-libgcc-file-name"]).strip()
-    return set(_run([PREFIX + "nm", "--defined-only", "--format=just-symbols", libgcc]).split())
+    defined = set(_run([PREFIX + "nm", "--defined-only", "--format=just-symbols", libgcc]).split())
+    assert IDF_PATH
+    rom = Path(IDF_PATH) / "components" / "esp_rom" / "esp32s3" / "ld" / "esp32s3.rom.libgcc.ld"
+    return defined | set(re.findall(r"^\s*(\w+)\s*=\s*0x", rom.read_text(), re.MULTILINE))
 
 
 @pytest.mark.skipif(_missing() is not None, reason=str(_missing()))
