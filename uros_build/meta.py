@@ -173,6 +173,13 @@ def target_fragments(profile: TargetProfile | None, transport: str | None) -> li
         frags.append(load_shipped(f"transports/{chosen}.json"))
     if profile is not None and not profile.native_64bit_atomics:
         frags.append(load_shipped("fragments/no-64bit-atomics.json"))
+    if profile is not None and profile.idf_target:
+        # The XRCE-DDS client compiles as C99 unless told; ESP-IDF's headers need C11's
+        # static_assert (esp_macros.h: "expected declaration specifiers ... before numeric constant"
+        # under gnu99). A cache entry the client creates before project() reads the toolchain
+        # file, so it must come on the command line, as micro_ros_espidf_component passes it.
+        standard = f"-DUCLIENT_C_STANDARD={profile.c_standard}"
+        frags.append(Meta(names={"microxrcedds_client": {"cmake-args": (standard,)}}, source="(ESP-IDF)"))
     return frags
 
 

@@ -339,13 +339,15 @@ IDF_DEFINES_ATOMICS_8 = (5, 3)
 
 
 def idf_platform(target: Target, idf: IdfProject | None) -> Target:
-    """The target as the IDF project's version makes it: before ESP-IDF 5.3 the platform does not
-    define __atomic_*_8, so rcutils' own are built (and allowed by the ABI check)."""
-    if idf is None or not isinstance(target, ProfileTarget) or idf.version >= IDF_DEFINES_ATOMICS_8:
+    """The target as the IDF project's version makes it: C17 from ESP-IDF 5 on, C11 before; and
+    before 5.3 the platform does not define __atomic_*_8, so rcutils' own are built (and allowed by
+    the ABI check)."""
+    if idf is None or not isinstance(target, ProfileTarget):
         return target
-    if not target.profile.native_64bit_atomics:
-        return target
-    return ProfileTarget(target.key, replace(target.profile, native_64bit_atomics=False))
+    profile = replace(target.profile, c_standard=idf.c_standard)
+    if idf.version < IDF_DEFINES_ATOMICS_8:
+        profile = replace(profile, native_64bit_atomics=False)
+    return ProfileTarget(target.key, profile)
 
 
 def _select(

@@ -121,9 +121,8 @@ def render_toolchain(req: ToolchainRequest) -> str:
     c_flags = [*base, *p.c_flags, *extra, *idf_flags(idf, "c")]
     cxx_flags = [*base, *p.cxx_flags, *extra, *idf_flags(idf, "cxx")]
     transport = req.transport or p.transport
-    # micro_ros_espidf_component: C17 from ESP-IDF 5 on, C11 before; for the XRCE-DDS client too,
-    # which builds as C99 unless told (its UCLIENT_C_STANDARD), and IDF's esp_macros.h needs C11's
-    # static_assert ("expected declaration specifiers ... before numeric constant" under gnu99).
+    # micro_ros_espidf_component: C17 from ESP-IDF 5 on, C11 before (plan.idf_platform sets the
+    # profile's from the project; the XRCE-DDS client's UCLIENT_C_STANDARD: meta.target_fragments).
     c_standard = idf.c_standard if idf else p.c_standard
     compile_flags = [*c_flags, *cxx_flags, p.optimization]
     return templating.render(
@@ -146,5 +145,4 @@ def render_toolchain(req: ToolchainRequest) -> str:
         idf=idf,
         c_standard=c_standard,
         xrce_platform=p.micro_ros.xrce_platform if req.micro_ros and transport in _IP_TRANSPORTS else "",
-        uclient_c_standard=c_standard if req.micro_ros and p.idf_target else None,
     )

@@ -48,25 +48,27 @@ def _profile(tmp: Path) -> Path:
 
 
 def _workspace(root: Path) -> Path:
-    pkg = root / "mcu_ws" / "src" / "fx_idf"
+    # a stand-in for the XRCE-DDS client: its name gets the client's colcon.meta entries
+    pkg = root / "mcu_ws" / "src" / "microxrcedds_client"
     _write(
         pkg / "package.xml",
         """
         <?xml version="1.0"?>
         <package format="3">
-          <name>fx_idf</name><version>0.1.0</version><description>uros test</description>
+          <name>microxrcedds_client</name><version>0.1.0</version><description>uros test</description>
           <maintainer email="dev@example.com">uros tests</maintainer><license>Apache-2.0</license>
           <export><build_type>cmake</build_type></export>
         </package>
         """,
     )
-    # What the XRCE-DDS client reads from the toolchain file, checked where it reads it.
+    # What the XRCE-DDS client reads, where it reads it: its UCLIENT_C_STANDARD cache entry is
+    # created before project() reads the toolchain file; PLATFORM_NAME is read after it.
     _write(
         pkg / "CMakeLists.txt",
         """
         cmake_minimum_required(VERSION 3.16)
-        project(fx_idf C)
         set(UCLIENT_C_STANDARD 99 CACHE STRING "as the XRCE-DDS client declares it")
+        project(fx_idf C)
         if(NOT PLATFORM_NAME STREQUAL "LwIP" OR NOT UCLIENT_C_STANDARD EQUAL 17 OR NOT CMAKE_C_STANDARD EQUAL 17)
           message(FATAL_ERROR "PLATFORM_NAME=${PLATFORM_NAME} UCLIENT_C_STANDARD=${UCLIENT_C_STANDARD} C${CMAKE_C_STANDARD}")
         endif()

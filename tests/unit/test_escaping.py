@@ -177,7 +177,7 @@ def test_hostile_values_in_the_cmake_package_and_esp_idf_component(value: str) -
 def test_every_template_value_goes_through_an_escape() -> None:
     """A new {{ value }} in a template must pick an escape (or be one of uros's own constants)."""
     own = {"version", "purpose", "package_version", "profile.c_standard", "profile.cxx_standard", "opt"}
-    own |= {"c_standard", "uclient_c_standard"}  # whole numbers uros computes
+    own.add("c_standard")  # a whole number uros computes
     own.add('requires | join(" ")')  # a fixed list: lwip or nothing
     escapes = ("cmake_quote", "cmake_comment", "cmake_path", "cmake_flags", "cmake_link_flags")
     templates = Path(__file__).resolve().parents[2] / "templates"

@@ -230,6 +230,10 @@ def test_idf_before_5_3_gets_rcutils_own_64bit_atomics(
     rcutils = plan.meta.names.get("rcutils", {}).get("cmake-args", ())
     assert ("-DRCUTILS_NO_64_ATOMIC=ON" in rcutils) is own_atomics
     assert plan.profile is not None and plan.profile.native_64bit_atomics is not own_atomics
+    # micro_ros_espidf_component: C17 from ESP-IDF 5 on, C11 before, for the XRCE-DDS client too
+    standard = 11 if version < (5, 0, 0) else 17
+    assert plan.profile.c_standard == standard
+    assert f"-DUCLIENT_C_STANDARD={standard}" in plan.meta.names["microxrcedds_client"]["cmake-args"]
 
 
 # -- plan_sources / plan_create ----------------------------------------------------------------

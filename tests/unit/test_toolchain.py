@@ -105,14 +105,13 @@ def test_esp32s3_against_an_idf_project_golden() -> None:
     assert c_line.endswith('-I/esp/idf/components/soc/esp32s3/include")')
     assert "-fno-rtti-x" in cxx_line and "-fno-rtti-x" not in c_line
     assert 'set(PLATFORM_NAME "LwIP")' in text
-    assert 'set(UCLIENT_C_STANDARD 17 CACHE STRING "uros: the C standard of ESP-IDF\'s headers")' in text
     assert "set(CMAKE_C_STANDARD 17)" in text and f"sdkconfig.h sha256 {'a' * 64}" in text
 
 
 def test_idf_flags_never_reach_the_firmware_toolchain() -> None:
     text = render_toolchain(ToolchainRequest(find_profile("esp32s3"), micro_ros=False, idf=_idf()))
     assert "/esp/idf" not in text and "sdkconfig" not in text
-    assert "PLATFORM_NAME" not in text.replace("PLATFORM_NAME_FREERTOS", "") and "UCLIENT" not in text
+    assert "PLATFORM_NAME" not in text.replace("PLATFORM_NAME_FREERTOS", "")
 
 
 def test_a_changed_sdkconfig_changes_the_toolchain_file() -> None:
@@ -124,12 +123,12 @@ def test_a_changed_sdkconfig_changes_the_toolchain_file() -> None:
 
 def test_idf4_compiles_micro_ros_as_c11() -> None:
     text = render_toolchain(ToolchainRequest(find_profile("esp32s3"), micro_ros=True, idf=_idf((4, 4, 8))))
-    assert "set(CMAKE_C_STANDARD 11)" in text and "set(UCLIENT_C_STANDARD 11 CACHE" in text
+    assert "set(CMAKE_C_STANDARD 11)" in text
 
 
 def test_platform_name_only_with_an_ip_transport() -> None:
     profile = find_profile("esp32s3")
     custom = render_toolchain(ToolchainRequest(profile, micro_ros=True, transport="custom"))
-    assert "set(PLATFORM_NAME" not in custom and "set(UCLIENT_C_STANDARD 17 CACHE" in custom
+    assert "set(PLATFORM_NAME" not in custom
     arm = render_toolchain(ToolchainRequest(find_profile("cortex-m7"), micro_ros=True, transport="udp"))
-    assert "set(PLATFORM_NAME" not in arm and "UCLIENT_C_STANDARD" not in arm
+    assert "set(PLATFORM_NAME" not in arm

@@ -30,8 +30,6 @@ set(CMAKE_POSITION_INDEPENDENT_CODE OFF)
 # The XRCE-DDS client's transport platform: a Generic system with PLATFORM_NAME LwIP
 # compiles its UDP transport against lwIP's BSD sockets (micro_ros_espidf_component's toolchain).
 set(PLATFORM_NAME "LwIP")
-# The XRCE-DDS client builds as C99 unless this cache entry says otherwise (a -D of the user's wins).
-set(UCLIENT_C_STANDARD 17 CACHE STRING "uros: the C standard of ESP-IDF's headers")
 
 # The profile's optimisation level (-Os) must be the one that applies. CMake's GNU
 # module appends -O3 (Release), -O2 (RelWithDebInfo) or -Os (MinSizeRel) after CMAKE_<LANG>_FLAGS
