@@ -64,6 +64,12 @@ class ColconPlan:
     parallel_workers: int | None = None
     packages_up_to: tuple[str, ...] = ()
     ignore_regex: str | None = ".*_cpp"
+    # Leaving packages out is done by ignoring them, not by --packages-select/--packages-up-to:
+    # colcon's up-to also takes every selected package's *test* dependencies (get_packages' direct
+    # categories are all of them), and a selected package's build sources the package.sh of each
+    # such dependency, so --packages-select fails on the linters it did not build. An ignored
+    # package is gone from colcon's package set: a dependency on it is an external one.
+    # https://github.com/colcon/colcon-core/blob/master/colcon_core/verb/build.py (get_packages)
     packages_ignore: tuple[str, ...] = ()
 
 

@@ -295,7 +295,7 @@ def build_dev_workspace(
             verbose=verbose,
             parallel_workers=jobs,
             ignore_regex=None,
-            packages_up_to=tuple(sorted(needed)),
+            packages_ignore=tuple(sorted({p.name for p in dev} - needed)),
         )
         runner.run(
             colcon.colcon_argv(plan, runner.which(colcon_program())),

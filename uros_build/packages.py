@@ -119,6 +119,18 @@ def closure(packages: Iterable[PackageInfo], roots: Iterable[str]) -> set[str]:
     return found
 
 
+def left_out(packages: Iterable[PackageInfo], roots: Iterable[str]) -> set[str] | None:
+    """The packages a build of ``roots`` and what they need (no test dependency) leaves out, for
+    colcon's --packages-ignore; None when a root has no package.xml (a plain CMake package, whose
+    dependencies only colcon-cmake knows): then colcon's own --packages-up-to must choose."""
+    packages = list(packages)
+    roots = list(roots)
+    names = {p.name for p in packages}
+    if not set(roots) <= names:
+        return None
+    return names - closure(packages, roots)
+
+
 def tool_closure(mcu: Iterable[PackageInfo], dev: Iterable[PackageInfo]) -> set[str]:
     """The host tools workspace's packages an MCU build needs (pure): those the MCU packages
     depend on (every dependency but tests and docs: build tools, CMake modules they find,

@@ -223,7 +223,7 @@ def test_firmware_workspace_builds_end_to_end(upstream: Path, tmp_path: Path) ->
     (host / "host_tool").mkdir()
     (host / "host_tool/package.xml").write_text(
         "<package format='3'><name>host_tool</name><version>0.1.0</version><description>d</description>"
-        "<maintainer email='a@b.c'>m</maintainer><license>MIT</license>"
+        "<maintainer email='m@example.com'>m</maintainer><license>MIT</license>"
         "<export><build_type>cmake</build_type></export></package>\n"
     )
     (host / "host_tool/CMakeLists.txt").write_text(
@@ -239,6 +239,10 @@ def test_firmware_workspace_builds_end_to_end(upstream: Path, tmp_path: Path) ->
     (host / "linter_tool/CMakeLists.txt").write_text(
         'cmake_minimum_required(VERSION 3.16)\nproject(linter_tool NONE)\nmessage(FATAL_ERROR "not needed")\n'
     )
+    # ... even when a needed host tool names it as a test dependency (colcon's --packages-up-to
+    # would build it: it takes test dependencies too)
+    xml = host / "host_tool/package.xml"
+    xml.write_text(xml.read_text().replace("<export>", "<test_depend>linter_tool</test_depend><export>"))
     _commit(host, "host tool")
     # The MCU sources: the fixture packages inside the micro-ROS rclc repository.
     mcu = tmp_path / "up" / "ros2+rclc"
@@ -253,7 +257,7 @@ def test_firmware_workspace_builds_end_to_end(upstream: Path, tmp_path: Path) ->
     (extra / "src").mkdir(parents=True)
     (extra / "package.xml").write_text(
         "<package format='3'><name>fx_extra</name><version>0.1.0</version><description>d</description>"
-        "<maintainer email='a@b.c'>m</maintainer><license>MIT</license>"
+        "<maintainer email='m@example.com'>m</maintainer><license>MIT</license>"
         "<buildtool_depend>host_tool</buildtool_depend>"
         "<export><build_type>cmake</build_type></export></package>\n"
     )

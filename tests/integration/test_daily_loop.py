@@ -23,6 +23,19 @@ def _members(lib: Path) -> list[str]:
 def test_for_firmware_builds_what_its_sources_use(tmp_path: Path) -> None:
     need("arm-none-eabi-gcc", "cmake")
     ws = make_fixture_workspace(tmp_path / "ws")
+    # a test-only dependency of a chosen package is not built (colcon's --packages-up-to would)
+    lint = ws / "mcu_ws" / "src" / "fx_lint"
+    lint.mkdir()
+    (lint / "package.xml").write_text(
+        "<package format='3'><name>fx_lint</name><version>0.1.0</version><description>d</description>"
+        "<maintainer email='m@example.com'>m</maintainer><license>MIT</license>"
+        "<export><build_type>cmake</build_type></export></package>\n"
+    )
+    (lint / "CMakeLists.txt").write_text(
+        'cmake_minimum_required(VERSION 3.16)\nproject(fx_lint NONE)\nmessage(FATAL_ERROR "a test tool")\n'
+    )
+    xml = ws / "mcu_ws" / "src" / "fx_util" / "package.xml"
+    xml.write_text(xml.read_text().replace("<export>", "<test_depend>fx_lint</test_depend>\n  <export>"))
     app = tmp_path / "app"
     (app / "src").mkdir(parents=True)
     # the fixture packages stand in for interface packages: the scanner reads names, not files

@@ -23,7 +23,7 @@ def _package(folder: Path, name: str) -> Path:
     folder.mkdir(parents=True)
     (folder / "package.xml").write_text(
         f"<package format='3'><name>{name}</name><version>0.1.0</version><description>d</description>"
-        "<maintainer email='a@b.c'>m</maintainer><license>MIT</license></package>\n"
+        "<maintainer email='m@example.com'>m</maintainer><license>MIT</license></package>\n"
     )
     return folder
 

@@ -102,3 +102,12 @@ def test_nothing_needed_builds_nothing(tmp_path: Path) -> None:
 )
 def test_closure_within_a_workspace(tmp_path: Path, roots: tuple[str, ...], expected: set[str]) -> None:
     assert packages.closure(_mcu_ws(tmp_path), roots) == expected
+
+
+def test_left_out_is_everything_but_the_closure_and_none_for_unknown_roots(tmp_path: Path) -> None:
+    mcu = _mcu_ws(tmp_path)
+    names = {p.name for p in mcu}
+    out = packages.left_out(mcu, ["std_msgs"])
+    assert out == names - {"std_msgs", "rosidl_default_generators"} == {"rcutils", "rosidl_adapter"}
+    # a root without a package.xml (a plain CMake package): colcon's --packages-up-to chooses
+    assert packages.left_out(mcu, ["std_msgs", "plain_cmake_lib"]) is None

@@ -220,9 +220,12 @@ def _colcon_setup(plan: BuildPlan, facts: HostFacts, toolchain_file: Path, meta_
     # pipe: unbuffered, the live view sees each line when it is written.
     env = {**env, "PYTHONUNBUFFERED": "1"}
     skipped = tuple(packages_mod.host_only(list(plan.packages)))
+    # --packages/--for-firmware/uros.yaml packages: exactly their closure, without the test
+    # dependencies colcon's --packages-up-to would add (a user's --packages-up-to stays colcon's)
+    out = packages_mod.left_out(plan.packages, plan.packages_up_to) if plan.selection else None
     colcon_plan = colcon.ColconPlan(
         base_paths=(ws.source_dir,),
-        packages_ignore=skipped,
+        packages_ignore=skipped if out is None else tuple(sorted(out | set(skipped))),
         build_base=plan.target_dir / "build",
         install_base=plan.target_dir / "install",
         log_base=plan.target_dir / "log",
@@ -231,7 +234,7 @@ def _colcon_setup(plan: BuildPlan, facts: HostFacts, toolchain_file: Path, meta_
         python=colcon.host_python(),
         generator=colcon.generator(env),
         verbose=plan.verbose,
-        packages_up_to=plan.packages_up_to,
+        packages_up_to=plan.packages_up_to if out is None else (),
         parallel_workers=plan.jobs,
     )
     return ColconSetup(colcon_plan, tuple(colcon.colcon_argv(colcon_plan, facts.colcon)), env, skipped)
