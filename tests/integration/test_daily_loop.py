@@ -4,6 +4,7 @@ what the firmware needs."""
 from __future__ import annotations
 
 import json
+import re
 import subprocess
 from pathlib import Path
 
@@ -213,5 +214,6 @@ def test_progress_is_one_line_per_package_and_the_slowest_at_the_end(board_ws: P
     proc = run_uros(*_board_args(board_ws, "--rebuild"))
     lines = [line for line in proc.stderr.splitlines() if line.startswith("[")]
     assert len(lines) == 5 and all(" built fx_" in line for line in lines) and lines[-1].startswith("[5/5]")
+    assert all(re.match(r"\[\d/5\] ", line) for line in lines), lines  # the total known from the start
     assert "colcon built 5 packages in" in proc.stderr and "slowest: " in proc.stderr
     assert "+ " not in proc.stderr.split("==> colcon build")[1].split("colcon built")[0]  # no argv wall
