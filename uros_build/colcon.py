@@ -6,7 +6,7 @@ import os
 import re
 import shutil
 import sys
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -71,6 +71,16 @@ class ColconPlan:
     # package is gone from colcon's package set: a dependency on it is an external one.
     # https://github.com/colcon/colcon-core/blob/master/colcon_core/verb/build.py (get_packages)
     packages_ignore: tuple[str, ...] = ()
+
+
+def kept_by_ignores(plan: ColconPlan, names: Iterable[str]) -> set[str]:
+    """The ``names`` colcon still builds after the plan's --packages-ignore and
+    --packages-ignore-regex (pure). The regex is applied with re.match, a prefix match, so `.*_cpp`
+    also leaves out rosidl_typesupport_microxrcedds_cpp_tests.
+    https://github.com/colcon/colcon-package-selection/blob/master/colcon_package_selection/package_discovery/ignore.py"""
+    ignored = set(plan.packages_ignore)
+    pattern = re.compile(plan.ignore_regex) if plan.ignore_regex else None
+    return {n for n in names if n not in ignored and not (pattern and pattern.match(n))}
 
 
 def colcon_argv(plan: ColconPlan, colcon: str = "colcon") -> list[str]:

@@ -390,3 +390,11 @@ def test_a_cmake_package_without_package_xml_is_a_package(tmp_path: Path) -> Non
     )  # fmt: skip
     assert "warning:" not in proc.stderr
     assert "fx_plain" in json.loads((ws / "build/cortex-m7/build-info.json").read_text())["packages"]
+    # the whole workspace: the progress total counts it from the first line (colcon builds it too)
+    proc = run_uros(
+        "build", "--toolchain", "cortex-m7", "--workspace", str(ws), "--meta", str(ws / "fixture.meta"),
+        "--set", "fx_plain.FX_PLAIN_ON=ON",
+    )  # fmt: skip
+    lines = [line for line in proc.stderr.splitlines() if line.startswith("[")]
+    assert any(" built fx_plain " in line for line in lines)
+    assert all(line.startswith(f"[{i}/{len(lines)}] ") for i, line in enumerate(lines, 1)), lines

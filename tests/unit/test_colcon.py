@@ -4,7 +4,7 @@ from pathlib import Path
 
 from golden import check_golden
 
-from uros_build.colcon import ColconPlan, build_env, colcon_argv
+from uros_build.colcon import ColconPlan, build_env, colcon_argv, kept_by_ignores
 
 
 def _plan(**kw: object) -> ColconPlan:
@@ -167,3 +167,16 @@ def test_build_progress_tracks_running_finished_and_failed() -> None:
     p.feed("Starting >>> c", 6.0)
     p.feed("Finished <<< c [9.0s]", 15.0)
     assert p.slowest(2) == [("c", 9.0), ("a", 4.0)]
+
+
+def test_kept_by_ignores_matches_the_regex_as_a_prefix_as_colcon_does() -> None:
+    plan = _plan(packages_ignore=("fx_host_py",))
+    names = {
+        "rcl",
+        "rosidl_typesupport_cpp",
+        "rosidl_typesupport_microxrcedds_cpp_tests",
+        "fx_host_py",
+        "my_cpp_x",
+    }
+    assert kept_by_ignores(plan, names) == {"rcl"}
+    assert kept_by_ignores(_plan(ignore_regex=None), names) == names

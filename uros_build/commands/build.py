@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import dataclasses
 import importlib.metadata
-import re
 import shutil
 import sys
 import time
@@ -405,16 +404,11 @@ def _run_colcon(
 
 def _expected_packages(plan: BuildPlan, setup: ColconSetup) -> int:
     """How many packages colcon will build (for the progress view; colcon does not say)."""
-    ignored = set(setup.plan.packages_ignore)
-    pattern = re.compile(setup.plan.ignore_regex) if setup.plan.ignore_regex else None
     if setup.plan.packages_up_to:
         names = packages_mod.closure(plan.packages, setup.plan.packages_up_to)
     else:  # colcon also builds the CMake packages without a package.xml (Micro-CDR, the XRCE client)
         names = {p.name for p in plan.packages} | packages_mod.plain_cmake_packages(plan.workspace.source_dir)
-    # re.match, as colcon-package-selection's --packages-ignore-regex: a prefix match, so `.*_cpp`
-    # also leaves out rosidl_typesupport_microxrcedds_cpp_tests
-    # https://github.com/colcon/colcon-package-selection/blob/master/colcon_package_selection/package_discovery/ignore.py
-    return len([n for n in names if n not in ignored and not (pattern and pattern.match(n))])
+    return len(colcon.kept_by_ignores(setup.plan, names))
 
 
 def _check_built(
