@@ -38,7 +38,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
             "firmware_scan",
         ),
     ),
-    ("workspace model", ("workspace", "outputs")),
+    ("workspace model", ("workspace", "outputs", "clones")),
     ("plans and probes", ("plan", "hosttools")),
     ("commands", ("commands",)),
     ("cli", ("cli", "__main__")),

@@ -8,6 +8,8 @@ import sys
 from collections import Counter
 from pathlib import Path
 
+from uros_build import distros
+
 REPO = Path(__file__).resolve().parent.parent
 
 
@@ -74,3 +76,60 @@ def defined_globals(lib: Path) -> Counter[str]:
         env={**os.environ, "LC_ALL": "C"},
     ).stdout
     return Counter(line.split()[0] for line in out.splitlines() if line and not line.endswith(":"))
+
+
+def git_out(*args: str, cwd: Path) -> str:
+    """git's stdout, with a fixed identity and no user configuration."""
+    return subprocess.run(
+        ["git", *args],
+        cwd=cwd,
+        check=True,
+        capture_output=True,
+        text=True,
+        env={
+            "GIT_AUTHOR_NAME": "t",
+            "GIT_AUTHOR_EMAIL": "t@t",
+            "GIT_COMMITTER_NAME": "t",
+            "GIT_COMMITTER_EMAIL": "t@t",
+            "PATH": "/usr/bin:/bin",
+        },
+    ).stdout.strip()
+
+
+def git_commit(repo: Path, message: str) -> str:
+    """One more commit on the checked-out branch of ``repo`` (a line in HISTORY); its sha."""
+    history = repo / "HISTORY"
+    history.write_text((history.read_text() if history.exists() else "") + message + "\n")
+    git_out("add", "-A", cwd=repo)
+    git_out("commit", "-q", "-m", message, cwd=repo)
+    return git_out("rev-parse", "HEAD", cwd=repo)
+
+
+def fake_upstream(root: Path, distro_names: tuple[str, ...]) -> Path:
+    """<root>/<owner>+<repo>: a real git repository per repository of these distros' manifests,
+    with the branch each asks for (as west's tests serve repositories from file paths)."""
+    for name in distro_names:
+        d = distros.load_distro(name)
+        for repo in (*d.dev, *d.mcu):
+            key = distros.owner_repo(repo.url)
+            assert key
+            path = root / key.replace("/", "+")
+            if not path.exists():
+                path.mkdir()
+                git_out("init", "-q", "-b", repo.version, cwd=path)
+                (path / "README").write_text(f"fake {key}\n")
+                git_commit(path, "initial")
+            elif repo.version not in git_out("branch", "--format=%(refname:short)", cwd=path).split():
+                git_out("checkout", "-q", "-b", repo.version, cwd=path)
+                git_commit(path, f"{repo.version} starts")
+    return root
+
+
+def upstream_mirror(upstream: Path) -> list[str]:
+    """create-firmware's mirror flags that point every repository at ``fake_upstream``'s."""
+    return [
+        "--mirror",
+        f"https://github.com/{{owner}}/{{repo}}={upstream}/{{owner}}+{{repo}}",
+        "--mirror-override",
+        f"uros/tracetools={upstream}/ros_tracing+ros2_tracing",
+    ]

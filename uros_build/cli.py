@@ -32,8 +32,9 @@ from uros_build.commands import info as info_cmd
 from uros_build.commands import interface as interface_cmd
 from uros_build.commands import listings
 from uros_build.commands import size as size_cmd
+from uros_build.commands import update as update_cmd
 from uros_build.errors import DiskFull, Signalled, UrosError, did_you_mean, interrupted
-from uros_build.plan import BuildArgs, CreateArgs
+from uros_build.plan import BuildArgs, CreateArgs, UpdateArgs
 
 _PATH = click.Path(path_type=Path)
 _Decorator = Callable[[Callable[..., Any]], Callable[..., Any]]
@@ -492,6 +493,27 @@ def create_firmware(
     )
 
 
+@click.command("update")
+@_workspace_option("Firmware workspace.")
+@click.option(
+    "--distro",
+    default=None,
+    help="Move to this distro's branches (default: the workspace's own, from uros.yaml).",
+    shell_complete=_complete_distros,
+)
+@click.option("--dry-run", is_flag=True, help="Fetch and show what would move; change nothing.")
+@click.option(
+    "-j", "--jobs", type=int, default=defaults.CLONE_JOBS, show_default=True, help="Parallel fetches."
+)
+@_VERBOSE
+def update(workspace: Path | None, distro: str | None, dry_run: bool, jobs: int, verbose: bool) -> None:
+    """Move the workspace's clones to the newest commits of their branches (no re-clone), show what
+    moved and write uros.lock."""
+    update_cmd.update(
+        UpdateArgs(directory=workspace, distro=distro, dry_run=dry_run, jobs=jobs, verbose=verbose)
+    )
+
+
 @click.command("add-package")
 @click.argument("source")
 @_workspace_option("Firmware workspace.")
@@ -524,6 +546,7 @@ def interface_new(
 _REGISTRY: tuple[tuple[click.Group, click.Command], ...] = (
     (cli, build),
     (cli, create_firmware),
+    (cli, update),
     (cli, add_package),
     (cli, check),
     (cli, clean),

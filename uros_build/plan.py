@@ -526,13 +526,17 @@ def _mirror_from(args: CreateArgs, existing: WorkspaceConfig | None) -> Mirror:
     return distros_mod.combine(*parts)
 
 
-def _check_sources(sources: Mapping[str, Source]) -> None:
+def _check_sources(sources: Mapping[str, Source], where: str = "--mirror") -> None:
     for path, source in sources.items():
         if distros_mod.is_local(source.url) and not distros_mod.local_path(source.url).exists():
             raise ConfigError(
-                f"--mirror: {source.url} (for {path}, upstream {source.repo.url}) does not exist",
+                f"{where}: {source.url} (for {path}, upstream {source.repo.url}) does not exist",
                 "fix the mirror rule, or point this repository elsewhere: "
-                f"--mirror-override {source.repo.path}=URL",
+                + (
+                    f"--mirror-override {source.repo.path}=URL"
+                    if where == "--mirror"
+                    else f"an override '{source.repo.path}=URL' in that file's mirror: section"
+                ),
             )
 
 
@@ -570,6 +574,59 @@ def _check_destinations(root: Path, sources: Mapping[str, Source], previous: Loc
                 f"--workspace {root}: {path} exists and is not in {LOCK}, so uros did not clone it",
                 "move it away (uros never replaces what it did not write), or use a new folder",
             )
+
+
+# ---------------------------------------------------------------------------------------------
+# uros update
+
+
+@dataclass(frozen=True)
+class UpdateArgs:
+    directory: Path | None = None
+    distro: str | None = None  # None: the workspace's own (uros.yaml)
+    dry_run: bool = False
+    jobs: int = defaults.CLONE_JOBS
+    verbose: bool = False
+
+
+@dataclass(frozen=True)
+class UpdatePlan:
+    root: Path
+    config: WorkspaceConfig
+    lock: Lock  # what the workspace holds now
+    distro: Distro  # the distro to move to (the workspace's own, or --distro)
+    sources: Mapping[str, Source]  # workspace path -> the branch to move to (uros.yaml's mirror rules)
+    kept: tuple[str, ...]  # clones in the lock and in the distro: fetched and moved
+    added: tuple[str, ...]  # in the distro, not in the lock: cloned
+    removed: tuple[str, ...]  # in the lock, not in the distro: removed (uros cloned them)
+    args: UpdateArgs
+
+
+def plan_update(args: UpdateArgs) -> UpdatePlan:
+    """Every input of `uros update` checked before git runs: a firmware workspace with its lock, a
+    known distro, mirrors that exist, and new clones' folders free."""
+    if args.jobs < 1:
+        raise ConfigError(f"-j/--jobs {args.jobs}: must be 1 or more")
+    ws, cfg = Workspace.open_firmware(resolve_workspace(args.directory))
+    if not ws.lock_path.is_file():
+        raise ConfigError(
+            f"--workspace {ws.root}: no {LOCK}, so uros does not know which clones it made",
+            "re-create the workspace with `uros create-firmware --force`",
+        )
+    lock = read_lock(ws.lock_path, "--workspace")
+    distro = distros_mod.load_distro(args.distro if args.distro is not None else cfg.distro)
+    sources = plan_sources(distro, cfg.mirror, None)
+    _check_sources(sources, f"{ws.root / CONFIG}: mirror")
+    kept = tuple(sorted(set(sources) & set(lock.repositories)))
+    added = tuple(sorted(set(sources) - set(lock.repositories)))
+    removed = tuple(sorted(set(lock.repositories) - set(sources)))
+    for path in added:
+        if (ws.root / path).exists():
+            raise ConfigError(
+                f"--workspace {ws.root}: {path} exists and is not in {LOCK}, so uros did not clone it",
+                "move it away (uros never replaces what it did not write), then run `uros update` again",
+            )
+    return UpdatePlan(ws.root, cfg, lock, distro, sources, kept, added, removed, args)
 
 
 def plan_create(args: CreateArgs) -> CreatePlan:

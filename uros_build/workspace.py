@@ -149,6 +149,25 @@ def save_config(root: Path, cfg: WorkspaceConfig) -> None:
     write_if_changed(root / CONFIG, config_text(cfg))
 
 
+def with_distro(text: str, distro: str, source: str) -> str:
+    """uros.yaml's text with its top-level ``distro:`` line set to ``distro``, everything else (the
+    user's comments, order, other keys) as it was (pure). A file whose distro is not on one plain
+    line is refused rather than rewritten."""
+    pattern = re.compile(r"^distro:[ \t]*([^#\n]*?)[ \t]*(#.*)?$", re.MULTILINE)
+    found = list(pattern.finditer(text))
+    if len(found) != 1:
+        raise ConfigError(
+            f"{source}: no single top-level 'distro:' line to change",
+            f"set 'distro: {distro}' in the file yourself, then run `uros update` again",
+        )
+    match = found[0]
+    comment = f"  {match.group(2)}" if match.group(2) else ""
+    edited = text[: match.start()] + f"distro: {distro}{comment}" + text[match.end() :]
+    if parse_config(yaml.safe_load(edited), source).distro != distro:
+        raise ConfigError(f"{source}: could not set 'distro: {distro}'", "set it in the file yourself")
+    return edited
+
+
 def find_workspace(start: Path) -> Path | None:
     """The nearest folder from ``start`` upward that holds a uros.yaml (west's topdir search)."""
     start = start.resolve()
@@ -185,9 +204,9 @@ class Lock:
     def commits(self) -> dict[str, str]:
         return {path: r.commit for path, r in self.repositories.items()}
 
-    def to_json(self) -> str:
+    def to_json(self, command: str = "create-firmware") -> str:
         data = {
-            "generated_by": f"uros {__version__} create-firmware",
+            "generated_by": f"uros {__version__} {command}",
             "distro": self.distro,
             "repositories": {
                 path: {"url": r.url, "version": r.version, "source": r.source, "commit": r.commit}

@@ -9,64 +9,14 @@ from pathlib import Path
 
 import pytest
 import yaml
-from uros_helpers import run_uros
-
-from uros_build import distros
+from uros_helpers import fake_upstream, git_commit, git_out, run_uros, upstream_mirror
 
 pytestmark = pytest.mark.integration
 
 
-def _git(*args: str, cwd: Path) -> str:
-    return subprocess.run(
-        ["git", *args],
-        cwd=cwd,
-        check=True,
-        capture_output=True,
-        text=True,
-        env={
-            "GIT_AUTHOR_NAME": "t",
-            "GIT_AUTHOR_EMAIL": "t@t",
-            "GIT_COMMITTER_NAME": "t",
-            "GIT_COMMITTER_EMAIL": "t@t",
-            "PATH": "/usr/bin:/bin",
-        },
-    ).stdout.strip()
-
-
-def _commit(repo: Path, message: str) -> str:
-    (repo / "HISTORY").write_text(
-        (repo / "HISTORY").read_text() + message + "\n" if (repo / "HISTORY").exists() else message + "\n"
-    )
-    _git("add", "-A", cwd=repo)
-    _git("commit", "-q", "-m", message, cwd=repo)
-    return _git("rev-parse", "HEAD", cwd=repo)
-
-
 @pytest.fixture(scope="module")
 def upstream(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """<root>/<owner>+<repo>: a git repo with the branch the humble manifest asks for."""
-    root = tmp_path_factory.mktemp("upstream")
-    d = distros.load_distro("humble")
-    for repo in (*d.dev, *d.mcu):
-        key = distros.owner_repo(repo.url)
-        assert key
-        path = root / key.replace("/", "+")
-        if path.exists():
-            continue
-        path.mkdir()
-        _git("init", "-q", "-b", repo.version, cwd=path)
-        (path / "README").write_text(f"fake {key}\n")
-        _commit(path, "initial")
-    return root
-
-
-def _mirror(upstream: Path) -> list[str]:
-    return [
-        "--mirror",
-        f"https://github.com/{{owner}}/{{repo}}={upstream}/{{owner}}+{{repo}}",
-        "--mirror-override",
-        f"uros/tracetools={upstream}/ros_tracing+ros2_tracing",
-    ]
+    return fake_upstream(tmp_path_factory.mktemp("upstream"), ("humble",))
 
 
 def _interface_pkg(tmp_path: Path) -> Path:
@@ -92,7 +42,7 @@ def test_create_lock_force_and_locked(upstream: Path, tmp_path: Path) -> None:
         "--workspace",
         str(fw),
         "--no-dev-build",
-        *_mirror(upstream),
+        *upstream_mirror(upstream),
     ]
     run_uros(*base, "--extra-package", str(pkg))
 
@@ -113,7 +63,7 @@ def test_create_lock_force_and_locked(upstream: Path, tmp_path: Path) -> None:
     assert proc.returncode == 2 and "--force" in proc.stderr
 
     # upstream moves on; --force re-creates at the new commit and keeps the user's meta and extras
-    new_head = _commit(upstream / "micro-ROS+rcl", "moved on")
+    new_head = git_commit(upstream / "micro-ROS+rcl", "moved on")
     run_uros(*base, "--force")
     assert json.loads((fw / "uros.lock").read_text())["repositories"]["mcu_ws/uros/rcl"]["commit"] == new_head
     assert "-DMINE=1" in (fw / "colcon.meta").read_text()
@@ -123,13 +73,13 @@ def test_create_lock_force_and_locked(upstream: Path, tmp_path: Path) -> None:
     old_lock = tmp_path / "old.lock"
     old_lock.write_text(json.dumps(lock))
     run_uros(*base, "--force", "--lock-file", str(old_lock))
-    head = _git("rev-parse", "HEAD", cwd=fw / "mcu_ws/uros/rcl")
+    head = git_out("rev-parse", "HEAD", cwd=fw / "mcu_ws/uros/rcl")
     assert head == rcl["commit"] != new_head
 
 
 def test_missing_branch_names_repo_and_cleans_up(upstream: Path, tmp_path: Path) -> None:
     fw = tmp_path / "fw"
-    args = ["create-firmware", "--workspace", str(fw), "--no-dev-build", *_mirror(upstream)]
+    args = ["create-firmware", "--workspace", str(fw), "--no-dev-build", *upstream_mirror(upstream)]
     args += ["--mirror-override", "uros/rclc=@no-such-branch"]
     proc = run_uros(*args, check=False)
     assert proc.returncode == 4, proc.stderr
@@ -161,7 +111,7 @@ def test_bad_input(tmp_path: Path, args: list[str], expected: str) -> None:
 
 def test_add_package_keeps_in_sync(upstream: Path, tmp_path: Path) -> None:
     fw = tmp_path / "firmware"
-    run_uros("create-firmware", "--workspace", str(fw), "--no-dev-build", *_mirror(upstream))
+    run_uros("create-firmware", "--workspace", str(fw), "--no-dev-build", *upstream_mirror(upstream))
     pkg = _interface_pkg(tmp_path)
     run_uros("add-package", str(pkg), "--workspace", str(fw))
     copy = fw / "mcu_ws/extra_packages/eic_demo_interface"
@@ -188,7 +138,7 @@ def test_target_prerequisites_are_checked_before_cloning(upstream: Path, tmp_pat
         "--no-dev-build",
         "--toolchain",
         "esp32s3",
-        *_mirror(upstream),
+        *upstream_mirror(upstream),
         check=False,
         env=env,
     )
@@ -203,7 +153,7 @@ def test_target_prerequisites_are_checked_before_cloning(upstream: Path, tmp_pat
         "--no-dev-build",
         "--toolchain",
         "cortex-m7",
-        *_mirror(upstream),
+        *upstream_mirror(upstream),
     )
     assert (fw / "uros.lock").is_file()
 
@@ -243,7 +193,7 @@ def test_firmware_workspace_builds_end_to_end(upstream: Path, tmp_path: Path) ->
     # would build it: it takes test dependencies too)
     xml = host / "host_tool/package.xml"
     xml.write_text(xml.read_text().replace("<export>", "<test_depend>linter_tool</test_depend><export>"))
-    _commit(host, "host tool")
+    git_commit(host, "host tool")
     # The MCU sources: the fixture packages inside the micro-ROS rclc repository.
     mcu = tmp_path / "up" / "ros2+rclc"
     shutil.copytree(upstream / "ros2+rclc", mcu)
@@ -251,7 +201,7 @@ def test_firmware_workspace_builds_end_to_end(upstream: Path, tmp_path: Path) ->
     for pkg in (fixture / "mcu_ws" / "src").iterdir():
         if pkg.name != "fx_skip_cpp":
             shutil.copytree(pkg, mcu / pkg.name)
-    _commit(mcu, "fixture packages")
+    git_commit(mcu, "fixture packages")
     # An extra package that needs the host tool at configure time.
     extra = tmp_path / "fx_extra"
     (extra / "src").mkdir(parents=True)
@@ -276,7 +226,7 @@ def test_firmware_workspace_builds_end_to_end(upstream: Path, tmp_path: Path) ->
         "cortex-m7",
         "--extra-package",
         str(extra),
-        *_mirror(upstream),
+        *upstream_mirror(upstream),
         "--mirror-override",
         f"ament/ament_cmake={host}",
         "--mirror-override",
@@ -332,21 +282,21 @@ def test_firmware_workspace_builds_end_to_end(upstream: Path, tmp_path: Path) ->
 
 def test_add_package_from_a_git_url(upstream: Path, tmp_path: Path) -> None:
     fw = tmp_path / "firmware"
-    run_uros("create-firmware", "--workspace", str(fw), "--no-dev-build", *_mirror(upstream))
+    run_uros("create-firmware", "--workspace", str(fw), "--no-dev-build", *upstream_mirror(upstream))
     repo = tmp_path / "my_msgs_repo"
     pkg = _interface_pkg(tmp_path)
     import shutil
 
     shutil.copytree(pkg, repo / "eic_demo_interface")
-    _git("init", "-q", "-b", "main", cwd=repo)
-    _commit(repo, "interfaces")
+    git_out("init", "-q", "-b", "main", cwd=repo)
+    git_commit(repo, "interfaces")
     run_uros("add-package", f"file://{repo}", "--version", "main", "--workspace", str(fw))
     assert (fw / "mcu_ws/extra_packages/my_msgs_repo/eic_demo_interface/package.xml").is_file()
     # a repository without any package.xml is refused and not left behind
     empty = tmp_path / "empty_repo"
     empty.mkdir()
-    _git("init", "-q", "-b", "main", cwd=empty)
-    _commit(empty, "nothing")
+    git_out("init", "-q", "-b", "main", cwd=empty)
+    git_commit(empty, "nothing")
     proc = run_uros("add-package", f"file://{empty}", "--workspace", str(fw), check=False)
     assert proc.returncode == 2 and "holds no package.xml" in proc.stderr
     assert not (fw / "mcu_ws/extra_packages/empty_repo").exists()
@@ -371,7 +321,7 @@ def test_clone_error_is_in_english_in_a_spanish_locale(
     """git speaks Spanish there ("Rama remota ... no encontrada"); uros's error line quotes git, so
     the tools it runs print their messages in English (LC_MESSAGES=C)."""
     fw = tmp_path / "fw"
-    args = ["create-firmware", "--workspace", str(fw), "--no-dev-build", *_mirror(upstream)]
+    args = ["create-firmware", "--workspace", str(fw), "--no-dev-build", *upstream_mirror(upstream)]
     proc = run_uros(*args, "--mirror-override", "uros/rclc=@no-such-branch", check=False, env=spanish_env)
     assert proc.returncode == 4, proc.stderr
     line = next(x for x in proc.stderr.splitlines() if x.startswith("error:"))
@@ -393,7 +343,7 @@ def test_force_replaces_only_what_uros_cloned(upstream: Path, tmp_path: Path) ->
     """Issue 8 item 3: --force deleted the user's own mcu_ws packages. Only the repositories
     uros.lock lists are re-cloned; the user's packages, next to them or inside their folders, stay."""
     fw = tmp_path / "firmware"
-    base = ["create-firmware", "--workspace", str(fw), "--no-dev-build", *_mirror(upstream)]
+    base = ["create-firmware", "--workspace", str(fw), "--no-dev-build", *upstream_mirror(upstream)]
     run_uros(*base)
     mine = {
         "mcu_ws/my_board": "my_board",  # beside the clones
@@ -407,13 +357,13 @@ def test_force_replaces_only_what_uros_cloned(upstream: Path, tmp_path: Path) ->
     proc = run_uros(*base, "--force", check=False)
     assert proc.returncode == 2 and "mcu_ws/uros/rclc has 1 changed file(s)" in proc.stderr
     assert (fw / "mcu_ws/uros/rcl/README").is_file()  # refused before anything was removed
-    _git("checkout", "--", "HISTORY", cwd=fw / "mcu_ws/uros/rclc")
-    new_head = _commit(upstream / "micro-ROS+rcl", "moved on again")
+    git_out("checkout", "--", "HISTORY", cwd=fw / "mcu_ws/uros/rclc")
+    new_head = git_commit(upstream / "micro-ROS+rcl", "moved on again")
     run_uros(*base, "--force")
     for rel, name in mine.items():
         assert name in (fw / rel / "package.xml").read_text(), rel
     assert (fw / "mcu_ws/notes.txt").read_text() == "keep me\n"
-    assert _git("rev-parse", "HEAD", cwd=fw / "mcu_ws/uros/rcl") == new_head
+    assert git_out("rev-parse", "HEAD", cwd=fw / "mcu_ws/uros/rcl") == new_head
     assert json.loads((fw / "uros.lock").read_text())["repositories"]["mcu_ws/uros/rcl"]["commit"] == new_head
     # a --force that fails half-way removes what it cloned, and only that
     proc = run_uros(*base, "--force", "--mirror-override", "uros/rclc=@no-such-branch", check=False)
@@ -425,9 +375,9 @@ def test_force_replaces_only_what_uros_cloned(upstream: Path, tmp_path: Path) ->
 
 def test_force_keeps_a_clone_with_local_commits(upstream: Path, tmp_path: Path) -> None:
     fw = tmp_path / "firmware"
-    base = ["create-firmware", "--workspace", str(fw), "--no-dev-build", *_mirror(upstream)]
+    base = ["create-firmware", "--workspace", str(fw), "--no-dev-build", *upstream_mirror(upstream)]
     run_uros(*base)
-    mine = _commit(fw / "mcu_ws/uros/rclc", "my fix")
+    mine = git_commit(fw / "mcu_ws/uros/rclc", "my fix")
     before = _tree(fw)
     proc = run_uros(*base, "--force", check=False)
     assert proc.returncode == 2, proc.stderr
@@ -464,7 +414,7 @@ def test_force_refuses_folders_uros_did_not_make(
         str(fw),
         "--no-dev-build",
         "--force",
-        *_mirror(upstream),
+        *upstream_mirror(upstream),
         check=False,
     )
     assert proc.returncode == 2, proc.stderr

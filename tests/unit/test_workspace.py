@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from uros_build.commands.create_firmware import clone_argv
+from uros_build.clones import clone_argv
 from uros_build.distros import Repo, Source
 from uros_build.errors import ConfigError
 from uros_build.workspace import (

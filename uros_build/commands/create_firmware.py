@@ -11,10 +11,10 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import replace
 from pathlib import Path
 
-from uros_build import console, hosttools
+from uros_build import clones, console, hosttools
 from uros_build import meta as meta_mod
 from uros_build.distros import Source
-from uros_build.errors import ConfigError, StepFailed, UrosError
+from uros_build.errors import StepFailed, UrosError
 from uros_build.plan import CreateArgs, CreatePlan, plan_create
 from uros_build.proc import Runner, new_run_log
 from uros_build.workspace import (
@@ -25,21 +25,9 @@ from uros_build.workspace import (
     Lock,
     Workspace,
     WorkspaceConfig,
-    clone_state,
     save_config,
     sync_tree,
 )
-
-
-def clone_argv(git: str, source: Source, dest: Path) -> list[list[str]]:
-    """git commands that put ``source`` at ``dest`` (pure)."""
-    quiet = [git, "-c", "advice.detachedHead=false"]
-    if source.is_commit:
-        return [
-            [*quiet, "clone", "--quiet", "--no-checkout", source.url, str(dest)],
-            [*quiet, "-C", str(dest), "checkout", "--quiet", "--detach", source.version],
-        ]
-    return [[*quiet, "clone", "--quiet", "--branch", source.version, source.url, str(dest)]]
 
 
 def _clone_all(
@@ -50,7 +38,7 @@ def _clone_all(
         dest = root / path
         label = f"[{path}] "
         try:
-            for argv in clone_argv(git, source, dest):
+            for argv in clones.clone_argv(git, source, dest):
                 runner.run(argv, step=f"clone {path}", quiet=True, label=label)
         except StepFailed as exc:
             git_error = exc.message.split(": ", 1)[-1]
@@ -68,61 +56,14 @@ def _clone_all(
     return dict(results)
 
 
-def _ignore(root: Path, ws: str, paths: tuple[str, ...]) -> None:
-    for rel in paths:
-        folder = root / ws / rel
-        if folder.is_dir():
-            (folder / "COLCON_IGNORE").write_text("uros: ignored as micro_ros_setup does for this distro\n")
-        else:
-            console.warn(f"{ws}/{rel} is not in the workspace; nothing to ignore there")
-
-
-def _check_untouched(runner: Runner, git: str, root: Path, previous: Lock) -> None:
-    """--force re-clones what uros cloned; a clone with the user's edits or commits holds the
-    user's work, so it is refused before anything is removed."""
-    hint = "save your work elsewhere (or remove the folder yourself); --force re-clones it"
-    for path, repo in sorted(previous.repositories.items()):
-        folder = root / path
-        if not folder.exists():
-            continue
-        if not (folder / ".git").exists():
-            raise ConfigError(f"--workspace {root}: {path} is in {LOCK} but is no git clone any more", hint)
-        status = runner.query(
-            [git, "-C", str(folder), "status", "--porcelain=v2", "--branch", "--untracked-files=no"],
-            step=f"read {path}",
-        )
-        head, changed = clone_state(status)
-        if changed:
-            raise ConfigError(f"--workspace {root}: {path} has {changed} changed file(s) (git status)", hint)
-        if head != repo.commit:
-            raise ConfigError(
-                f"--workspace {root}: {path} is at {head[:12]}, not at its locked commit {repo.commit[:12]}",
-                hint,
-            )
-
-
-def _remove_clones(root: Path, paths: Iterable[str]) -> None:
-    """Remove these clones (and the folders they leave empty) and dev_ws's build trees: all of it
-    written by uros. Everything else in the workspace stays."""
-    stops = {root / "dev_ws", root / "mcu_ws", root}
-    for path in sorted(paths, reverse=True):
-        folder = root / path
-        shutil.rmtree(folder, ignore_errors=True)
-        parent = folder.parent
-        while parent not in stops and parent.is_dir() and not any(parent.iterdir()):
-            parent.rmdir()
-            parent = parent.parent
-    for tree in ("build", "install", "log"):
-        shutil.rmtree(root / "dev_ws" / tree, ignore_errors=True)
-
-
 def _remove_partial(root: Path, existed: bool, cloned: Iterable[str]) -> None:
     if not existed:
         shutil.rmtree(root, ignore_errors=True)
         console.info(f"removed the partial workspace {root} (keep it with --keep-partial)")
         return
     # Every folder cloned into was free or uros's own (plan._check_destinations).
-    _remove_clones(root, cloned)
+    clones.remove_clones(root, cloned)
+    clones.drop_dev_trees(root)
     console.info(f"removed the partial sources in {root} (keep them with --keep-partial)")
 
 
@@ -147,13 +88,16 @@ def create_firmware(args: CreateArgs) -> Path:
     try:
         git = _precheck(runner, plan)
         if plan.previous is not None:
-            _check_untouched(runner, git, root, plan.previous)
+            clones.check_untouched(
+                runner, git, root, plan.previous, plan.previous.repositories, "--force re-clones it"
+            )
     except UrosError:
         if not plan.existed:
             shutil.rmtree(root, ignore_errors=True)
         raise
     if plan.previous is not None:
-        _remove_clones(root, plan.previous.repositories)
+        clones.remove_clones(root, plan.previous.repositories)
+        clones.drop_dev_trees(root)
     if distro.status == "manifest-only":
         console.warn(
             f"the {distro.name} manifest was written from upstream facts and not built by uros's authors"
@@ -161,8 +105,9 @@ def create_firmware(args: CreateArgs) -> Path:
     try:
         commits = _clone_all(runner, git, root, plan.sources, args.jobs)
         (root / LOCK).write_text(Lock.from_clones(distro.name, plan.sources, commits).to_json(), "utf-8")
-        _ignore(root, "mcu_ws", distro.colcon_ignore)
-        _ignore(root, "dev_ws", distro.dev_colcon_ignore)
+        for ws, ignored in (("mcu_ws", distro.colcon_ignore), ("dev_ws", distro.dev_colcon_ignore)):
+            for missing in clones.mark_ignored(root, ws, ignored):
+                console.warn(f"{missing} is not in the workspace; nothing to ignore there")
         extras = list(plan.existing.extra_packages) if plan.existing else []
         for path, name in plan.extra_packages:
             if str(path.resolve()) not in extras:

@@ -1,0 +1,125 @@
+"""The git clones of a firmware workspace: how one is made, moved to another commit, checked for
+the user's work and removed. `create-firmware` and `update` share these; every git command goes
+through the one runner (proc.py), and argv is built by pure functions that unit tests check.
+"""
+
+from __future__ import annotations
+
+import shutil
+from collections.abc import Iterable
+from pathlib import Path
+
+from uros_build.distros import Source
+from uros_build.errors import ConfigError
+from uros_build.proc import Runner
+from uros_build.workspace import LOCK, Lock, clone_state
+
+# git's own advice ("You are in 'detached HEAD' state...") is noise for clones uros pins
+_QUIET = ("-c", "advice.detachedHead=false")
+# where `update` keeps what it fetched for a pinned commit: its own namespace, never the user's refs
+UPDATE_REFS = "refs/uros-update"
+
+
+def clone_argv(git: str, source: Source, dest: Path) -> list[list[str]]:
+    """git commands that put ``source`` at ``dest`` (pure)."""
+    quiet = [git, *_QUIET]
+    if source.is_commit:
+        return [
+            [*quiet, "clone", "--quiet", "--no-checkout", source.url, str(dest)],
+            [*quiet, "-C", str(dest), "checkout", "--quiet", "--detach", source.version],
+        ]
+    return [[*quiet, "clone", "--quiet", "--branch", source.version, source.url, str(dest)]]
+
+
+def fetch_argv(git: str, source: Source, dest: Path) -> list[str]:
+    """git command that brings ``source``'s branch or tag (or, for a pinned commit, every branch,
+    since a server need not serve an unadvertised commit) into the clone at ``dest`` without moving
+    anything the user sees: a branch or tag lands in FETCH_HEAD (pure)."""
+    base = [git, *_QUIET, "-C", str(dest), "fetch", "--quiet", "--no-tags", source.url]
+    if source.is_commit:
+        return [*base, f"+refs/heads/*:{UPDATE_REFS}/*"]
+    return [*base, source.version]
+
+
+def fetched_commit_argv(git: str, source: Source, dest: Path) -> list[str]:
+    """git command printing the commit the fetch of ``source`` found (pure): FETCH_HEAD's, or the
+    pinned commit itself (which fails when the fetch did not bring it)."""
+    rev = f"{source.version}^{{commit}}" if source.is_commit else "FETCH_HEAD^{commit}"
+    return [git, "-C", str(dest), "rev-parse", "--verify", "--quiet", rev]
+
+
+def checkout_argv(git: str, dest: Path, commit: str) -> list[str]:
+    return [git, *_QUIET, "-C", str(dest), "checkout", "--quiet", "--detach", commit]
+
+
+def check_untouched(
+    runner: Runner, git: str, root: Path, lock: Lock, paths: Iterable[str], action: str
+) -> None:
+    """uros may replace or move only the clones it made and the user did not change: a clone with
+    the user's edits or commits holds the user's work, so it is refused before anything changes."""
+    hint = f"save your work elsewhere (or remove the folder yourself); {action}"
+    for path in sorted(paths):
+        repo = lock.repositories[path]
+        folder = root / path
+        if not folder.exists():
+            continue
+        if not (folder / ".git").exists():
+            raise ConfigError(f"--workspace {root}: {path} is in {LOCK} but is no git clone any more", hint)
+        status = runner.query(
+            [git, "-C", str(folder), "status", "--porcelain=v2", "--branch", "--untracked-files=no"],
+            step=f"read {path}",
+        )
+        head, changed = clone_state(status)
+        if changed:
+            raise ConfigError(f"--workspace {root}: {path} has {changed} changed file(s) (git status)", hint)
+        if head != repo.commit:
+            raise ConfigError(
+                f"--workspace {root}: {path} is at {head[:12]}, not at its locked commit {repo.commit[:12]}",
+                hint,
+            )
+
+
+def remove_clones(root: Path, paths: Iterable[str]) -> None:
+    """Remove these clones (and the folders they leave empty): all of it written by uros.
+    Everything else in the workspace stays."""
+    stops = {root / "dev_ws", root / "mcu_ws", root}
+    for path in sorted(paths, reverse=True):
+        folder = root / path
+        shutil.rmtree(folder, ignore_errors=True)
+        parent = folder.parent
+        while parent not in stops and parent.is_dir() and not any(parent.iterdir()):
+            parent.rmdir()
+            parent = parent.parent
+
+
+IGNORE_NOTE = "uros: ignored as micro_ros_setup does for this distro\n"
+
+
+def mark_ignored(root: Path, ws: str, paths: Iterable[str]) -> list[str]:
+    """A COLCON_IGNORE (uros's) in each of these package folders of ``ws``; returns the folders
+    that are not there (the distro table names more than these clones hold)."""
+    missing = []
+    for rel in paths:
+        folder = root / ws / rel
+        if folder.is_dir():
+            (folder / "COLCON_IGNORE").write_text(IGNORE_NOTE, encoding="utf-8")
+        else:
+            missing.append(f"{ws}/{rel}")
+    return missing
+
+
+def unmark_ignored(root: Path, ws: str, paths: Iterable[str]) -> None:
+    """Remove the COLCON_IGNOREs uros wrote in these folders (one with other text is the user's)."""
+    for rel in paths:
+        marker = root / ws / rel / "COLCON_IGNORE"
+        try:
+            if marker.read_text(encoding="utf-8") == IGNORE_NOTE:
+                marker.unlink()
+        except (OSError, UnicodeDecodeError):
+            continue
+
+
+def drop_dev_trees(root: Path) -> None:
+    """dev_ws's colcon trees (uros's): the host tools are rebuilt from the clones at the next build."""
+    for tree in ("build", "install", "log"):
+        shutil.rmtree(root / "dev_ws" / tree, ignore_errors=True)
