@@ -108,6 +108,7 @@ def git_commit(repo: Path, message: str) -> str:
 def fake_upstream(root: Path, distro_names: tuple[str, ...]) -> Path:
     """<root>/<owner>+<repo>: a real git repository per repository of these distros' manifests,
     with the branch each asks for (as west's tests serve repositories from file paths)."""
+    root.mkdir(parents=True, exist_ok=True)
     for name in distro_names:
         d = distros.load_distro(name)
         for repo in (*d.dev, *d.mcu):

@@ -501,16 +501,25 @@ def create_firmware(
     help="Move to this distro's branches (default: the workspace's own, from uros.yaml).",
     shell_complete=_complete_distros,
 )
+@click.option(
+    "--before",
+    metavar="YYYY-MM-DD",
+    help="The newest commits before this day instead (a consistent snapshot of branches that move apart).",
+)
 @click.option("--dry-run", is_flag=True, help="Fetch and show what would move; change nothing.")
 @click.option(
     "-j", "--jobs", type=int, default=defaults.CLONE_JOBS, show_default=True, help="Parallel fetches."
 )
 @_VERBOSE
-def update(workspace: Path | None, distro: str | None, dry_run: bool, jobs: int, verbose: bool) -> None:
+def update(
+    workspace: Path | None, distro: str | None, before: str | None, dry_run: bool, jobs: int, verbose: bool
+) -> None:
     """Move the workspace's clones to the newest commits of their branches (no re-clone), show what
     moved and write uros.lock."""
     update_cmd.update(
-        UpdateArgs(directory=workspace, distro=distro, dry_run=dry_run, jobs=jobs, verbose=verbose)
+        UpdateArgs(
+            directory=workspace, distro=distro, before=before, dry_run=dry_run, jobs=jobs, verbose=verbose
+        )
     )
 
 

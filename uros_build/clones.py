@@ -48,6 +48,12 @@ def fetched_commit_argv(git: str, source: Source, dest: Path) -> list[str]:
     return [git, "-C", str(dest), "rev-parse", "--verify", "--quiet", rev]
 
 
+def before_argv(git: str, dest: Path, commit: str, before: str) -> list[str]:
+    """git command printing the newest commit of ``commit``'s first-parent history committed before
+    ``before`` (an ISO date), or nothing when there is none (pure)."""
+    return [git, "-C", str(dest), "rev-list", "-1", "--first-parent", f"--before={before}", commit]
+
+
 def checkout_argv(git: str, dest: Path, commit: str) -> list[str]:
     return [git, *_QUIET, "-C", str(dest), "checkout", "--quiet", "--detach", commit]
 
@@ -102,7 +108,11 @@ def mark_ignored(root: Path, ws: str, paths: Iterable[str]) -> list[str]:
     for rel in paths:
         folder = root / ws / rel
         if folder.is_dir():
-            (folder / "COLCON_IGNORE").write_text(IGNORE_NOTE, encoding="utf-8")
+            marker = folder / "COLCON_IGNORE"
+            # a COLCON_IGNORE the repository tracks (micro-ROS/rcl's rcl_yaml_param_parser) already
+            # ignores it: rewriting it would make the clone "changed" for --force and update
+            if not marker.exists():
+                marker.write_text(IGNORE_NOTE, encoding="utf-8")
         else:
             missing.append(f"{ws}/{rel}")
     return missing

@@ -7,6 +7,7 @@ that the commands execute; the mapping itself is unit-tested without running any
 
 from __future__ import annotations
 
+import datetime
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -584,6 +585,7 @@ def _check_destinations(root: Path, sources: Mapping[str, Source], previous: Loc
 class UpdateArgs:
     directory: Path | None = None
     distro: str | None = None  # None: the workspace's own (uros.yaml)
+    before: str | None = None  # YYYY-MM-DD: the newest commits before this day, not the newest
     dry_run: bool = False
     jobs: int = defaults.CLONE_JOBS
     verbose: bool = False
@@ -602,11 +604,28 @@ class UpdatePlan:
     args: UpdateArgs
 
 
+def check_day(text: str, flag: str) -> str:
+    """A calendar day as YYYY-MM-DD (git reads many date forms; uros takes one, so a lock says
+    plainly what it was moved to)."""
+    try:
+        if len(text) != 10:
+            raise ValueError(text)
+        day = datetime.date.fromisoformat(text)
+    except ValueError:
+        raise ConfigError(f"{flag} {text!r}: not a day", "write it as YYYY-MM-DD, e.g. 2024-06-30") from None
+    # git's date parser silently matches nothing from 2100 on (`git rev-list --before=2100-01-01`)
+    if not 1970 <= day.year <= 2099:
+        raise ConfigError(f"{flag} {text}: outside the years git reads (1970-2099)", "pick a day in them")
+    return text
+
+
 def plan_update(args: UpdateArgs) -> UpdatePlan:
     """Every input of `uros update` checked before git runs: a firmware workspace with its lock, a
     known distro, mirrors that exist, and new clones' folders free."""
     if args.jobs < 1:
         raise ConfigError(f"-j/--jobs {args.jobs}: must be 1 or more")
+    if args.before is not None:
+        check_day(args.before, "--before")
     ws, cfg = Workspace.open_firmware(resolve_workspace(args.directory))
     if not ws.lock_path.is_file():
         raise ConfigError(

@@ -129,3 +129,41 @@ def test_update_outside_a_workspace_is_one_line(tmp_path: Path) -> None:
     proc = run_uros("update", "-w", str(tmp_path), check=False)
     assert proc.returncode == 2
     assert f"--workspace {tmp_path}: not a firmware workspace (no uros.yaml)" in proc.stderr
+
+
+def test_a_colcon_ignore_the_repository_starts_tracking_is_no_obstacle(tmp_path: Path) -> None:
+    """micro-ROS/rcl tracks rcl_yaml_param_parser/COLCON_IGNORE on some branches, where humble's
+    table asks uros to ignore that folder: uros's own untracked marker must neither block the
+    checkout nor count as the user's change."""
+    upstream = fake_upstream(tmp_path / "upstream", ("humble",))
+    fw = _workspace(upstream, tmp_path / "fw")
+    rcl = upstream / "micro-ROS+rcl"
+    (rcl / "rcl_yaml_param_parser").mkdir()
+    (rcl / "rcl_yaml_param_parser/package.xml").write_text("<package/>\n")
+    git_commit(rcl, "the folder appears")
+    run_uros("update", "-w", str(fw))
+    marker = fw / "mcu_ws/uros/rcl/rcl_yaml_param_parser/COLCON_IGNORE"
+    assert marker.read_text().startswith("uros:")  # uros's marker, untracked
+    (rcl / "rcl_yaml_param_parser/COLCON_IGNORE").write_text("")
+    tracked = git_commit(rcl, "the repository ignores it itself")
+    run_uros("update", "-w", str(fw))
+    assert git_out("rev-parse", "HEAD", cwd=fw / "mcu_ws/uros/rcl") == tracked
+    assert marker.read_text() == ""  # the repository's file, not rewritten
+    git_commit(rcl, "and moves on")
+    run_uros("update", "-w", str(fw))  # not "1 changed file"
+    assert git_out("status", "--porcelain", cwd=fw / "mcu_ws/uros/rcl") == ""
+
+
+def test_before_a_day_with_no_commits_changes_nothing(upstream: Path, tmp_path: Path) -> None:
+    fw = _workspace(upstream, tmp_path / "fw")
+    before = (fw / "uros.lock").read_text()
+    proc = run_uros("update", "-w", str(fw), "--before", "2001-01-01", check=False)
+    assert proc.returncode == 2, proc.stderr
+    assert "has no commit before that day" in proc.stderr and "nothing was changed" in proc.stderr
+    assert (fw / "uros.lock").read_text() == before
+    bad = run_uros("update", "-w", str(fw), "--before", "2024-13-01", check=False)
+    assert bad.returncode == 2 and "--before '2024-13-01': not a day" in bad.stderr
+    late = run_uros("update", "-w", str(fw), "--before", "2100-01-01", check=False)
+    assert late.returncode == 2 and "outside the years git reads (1970-2099)" in late.stderr
+    # a day after every commit is the newest commits
+    assert "nothing changed" in run_uros("update", "-w", str(fw), "--before", "2099-12-31").stderr

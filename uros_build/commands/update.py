@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 from uros_build import clones, console, distros
 from uros_build.distros import Source
-from uros_build.errors import StepFailed, UrosError
+from uros_build.errors import ConfigError, StepFailed, UrosError
 from uros_build.plan import UpdateArgs, UpdatePlan, plan_update
 from uros_build.proc import Runner, new_run_log
 from uros_build.workspace import CONFIG, LOCK, Lock, LockedRepo, with_distro, write_if_changed
@@ -57,10 +57,20 @@ def _fetch_all(runner: Runner, git: str, plan: UpdatePlan) -> dict[str, str]:
         label = f"[{path}] "
         try:
             runner.run(clones.fetch_argv(git, source, dest), step=f"fetch {path}", quiet=True, label=label)
-            commit = runner.query(clones.fetched_commit_argv(git, source, dest), step=f"read {path}")
+            commit = runner.query(clones.fetched_commit_argv(git, source, dest), step=f"read {path}").strip()
         except StepFailed as exc:
             raise _fail(path, source, exc, runner.log_path) from exc
-        return path, commit.strip()
+        before = plan.args.before
+        if before is not None and not source.is_commit:
+            argv = clones.before_argv(git, dest, commit, before)
+            commit = runner.query(argv, step=f"read {path}").strip()
+            if not commit:
+                raise ConfigError(
+                    f"--before {before}: {path} ({source.url} at {source.version!r}) "
+                    "has no commit before that day",
+                    "pick a later day (nothing was changed)",
+                )
+        return path, commit
 
     console.step(f"fetching {len(plan.kept)} repositories ({plan.args.jobs} at a time)")
     with ThreadPoolExecutor(max_workers=plan.args.jobs) as pool:
@@ -92,7 +102,8 @@ def update(args: UpdateArgs) -> tuple[Move, ...]:
     runner = Runner(new_run_log(root / ".uros" / "log", "update"), verbose=args.verbose)
     switching = plan.distro.name != plan.config.distro
     target = f"micro-ROS {plan.distro.name}" + (f" (from {plan.config.distro})" if switching else "")
-    console.step(f"uros update: {root} to the newest commits of {target}")
+    when = f" committed before {args.before}" if args.before else ""
+    console.step(f"uros update: {root} to the newest commits{when} of {target}")
     console.info(f"log: {runner.log_path}")
     git = runner.which("git")
     clones.check_untouched(
@@ -123,13 +134,18 @@ def update(args: UpdateArgs) -> tuple[Move, ...]:
         clones.remove_clones(root, cloned)  # nothing else has changed yet
         raise
     # Every fetch and clone succeeded: now move the clones, then write what they hold.
-    _checkout_all(runner, git, plan, [m for m in moves if m.old is not None and m.new is not None])
+    # uros's COLCON_IGNORE markers are untracked files: a commit that tracks one (micro-ROS/rcl's
+    # rcl_yaml_param_parser/COLCON_IGNORE) cannot be checked out over it, so they go first
+    old_mcu, old_dev = _distro_ignores(plan.config.distro)
+    clones.unmark_ignored(root, "mcu_ws", old_mcu)
+    clones.unmark_ignored(root, "dev_ws", old_dev)
+    try:
+        _checkout_all(runner, git, plan, [m for m in moves if m.old is not None and m.new is not None])
+    except (UrosError, KeyboardInterrupt):
+        clones.mark_ignored(root, "mcu_ws", old_mcu)
+        clones.mark_ignored(root, "dev_ws", old_dev)
+        raise
     clones.remove_clones(root, plan.removed)
-    old_distro = plan.config.distro
-    if switching:
-        old = _distro_ignores(old_distro)
-        clones.unmark_ignored(root, "mcu_ws", old[0])
-        clones.unmark_ignored(root, "dev_ws", old[1])
     for ws, ignored in (("mcu_ws", plan.distro.colcon_ignore), ("dev_ws", plan.distro.dev_colcon_ignore)):
         for missing in clones.mark_ignored(root, ws, ignored):
             console.warn(f"{missing} is not in the workspace; nothing to ignore there")
