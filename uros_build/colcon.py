@@ -27,7 +27,24 @@ SCRUBBED_VARIABLES = (
     "CXXFLAGS",
     "CPPFLAGS",
     "LDFLAGS",
+    # GCC reads these behind the command line (https://gcc.gnu.org/onlinedocs/gcc/Environment-Variables.html):
+    # headers, libraries and programs that no flag, toolchain file or fingerprint would show
+    "CPATH",
+    "C_INCLUDE_PATH",
+    "CPLUS_INCLUDE_PATH",
+    "OBJC_INCLUDE_PATH",
+    "LIBRARY_PATH",
+    "GCC_EXEC_PREFIX",
+    "COMPILER_PATH",
+    "DEPENDENCIES_OUTPUT",
+    "SUNPRO_DEPENDENCIES",
+    "GCC_COMPARE_DEBUG",
 )
+# Variables that change what reaches the objects and are left to the user: part of the build's
+# fingerprint, so a change rebuilds (ccache's settings, e.g. CCACHE_BASEDIR rewriting __FILE__;
+# reproducible-build dates).
+FINGERPRINTED_PREFIXES = ("CCACHE_",)
+FINGERPRINTED_VARIABLES = ("SOURCE_DATE_EPOCH",)
 _ROS_ROOT = "/opt/ros/"
 _PATH_LISTS = ("PATH", "PYTHONPATH", "LD_LIBRARY_PATH")
 

@@ -9,8 +9,9 @@ wrote; when the next build's is equal and the output folder is still what was wr
 is up to date.
 
 The package sources are fingerprinted by a stat walk (``os.scandir``: ~10k files in well under a
-second); a file's content is hashed only when its size, mtime or inode differ from the last walk
-(kept in ``sources-cache.json``), so a ``touch`` costs one hash and changes nothing.
+second); a file's content is hashed only when its size, mtime, inode or ctime differ from the last
+walk (kept in ``sources-cache.json``), so a ``touch`` costs one hash and changes nothing. A file
+whose content changed is given a new mtime, so that the build tools, which go by mtimes, see it.
 
 Reads and writes files; starts no process.
 """
@@ -71,7 +72,9 @@ def stat_key(path: Path) -> str:
         st = os.stat(real)
     except OSError:
         return ""
-    return f"{real}:{st.st_size}:{st.st_mtime_ns}:{st.st_ino}"
+    # ctime too: a file written in place and given back its old mtime (`cp -p`, `touch -r`) keeps
+    # size, mtime and inode, but no one can set its ctime
+    return f"{real}:{st.st_size}:{st.st_mtime_ns}:{st.st_ino}:{st.st_ctime_ns}"
 
 
 # ---------------------------------------------------------------------------------------------
@@ -84,6 +87,7 @@ class FileRecord:
     mtime_ns: int
     inode: int
     sha256: str
+    ctime_ns: int = 0
 
 
 def _walk(root: Path, exclude: tuple[str, ...] = ()) -> Iterator[tuple[str, os.stat_result]]:
@@ -138,6 +142,7 @@ def scan_tree(
             and old.size == st.st_size
             and old.mtime_ns == st.st_mtime_ns
             and old.inode == st.st_ino
+            and old.ctime_ns == st.st_ctime_ns
         ):
             out[rel] = old
             continue
@@ -145,8 +150,32 @@ def scan_tree(
             sha = file_sha256(root / rel)
         except OSError:
             continue
-        out[rel] = FileRecord(st.st_size, st.st_mtime_ns, st.st_ino, sha)
+        out[rel] = FileRecord(st.st_size, st.st_mtime_ns, st.st_ino, sha, st.st_ctime_ns)
     return out
+
+
+def content_changed(previous: Mapping[str, FileRecord], now: Mapping[str, FileRecord]) -> list[str]:
+    """Files whose content is new since the ``previous`` walk (other bytes, or not there then).
+    Nothing on a first walk: everything is built then anyway."""
+    if not previous:
+        return []
+    return sorted(rel for rel, r in now.items() if rel not in previous or previous[rel].sha256 != r.sha256)
+
+
+def make_newer(root: Path, names: Iterable[str], records: dict[str, FileRecord]) -> None:
+    """Give these files the current time as their mtime (their content is untouched), and record
+    their new stat. The build tools decide by mtime: a file whose content changed but whose mtime
+    went back (`cp -p`, `rsync -a`, `tar x`, `git stash pop` of an old file) is older than the
+    objects made from its previous content, and ninja and make would never rebuild them."""
+    for rel in names:
+        path = root / rel
+        try:
+            os.utime(path)
+            st = path.stat()
+        except OSError:
+            continue
+        old = records[rel]
+        records[rel] = FileRecord(st.st_size, st.st_mtime_ns, st.st_ino, old.sha256, st.st_ctime_ns)
 
 
 def tree_digest(records: Mapping[str, FileRecord]) -> str:
@@ -157,13 +186,17 @@ def tree_digest(records: Mapping[str, FileRecord]) -> str:
 def load_sources_cache(path: Path) -> dict[str, FileRecord]:
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
-        return {rel: FileRecord(*entry) for rel, entry in data["files"].items()}
+        return {rel: FileRecord(*entry) for rel, entry in data["files"].items() if len(entry) == 5}
     except (OSError, ValueError, KeyError, TypeError):
         return {}
 
 
 def save_sources_cache(path: Path, records: Mapping[str, FileRecord]) -> None:
-    data = {"files": {rel: [r.size, r.mtime_ns, r.inode, r.sha256] for rel, r in sorted(records.items())}}
+    data = {
+        "files": {
+            rel: [r.size, r.mtime_ns, r.inode, r.sha256, r.ctime_ns] for rel, r in sorted(records.items())
+        }
+    }
     _write_atomic(path, json.dumps(data, separators=(",", ":")))
 
 

@@ -180,3 +180,16 @@ def test_kept_by_ignores_matches_the_regex_as_a_prefix_as_colcon_does() -> None:
     }
     assert kept_by_ignores(plan, names) == {"rcl"}
     assert kept_by_ignores(_plan(ignore_regex=None), names) == names
+
+
+def test_env_scrubs_what_gcc_reads_behind_the_command_line() -> None:
+    base = {
+        "PATH": "/usr/bin",
+        "CPATH": "/evil",
+        "C_INCLUDE_PATH": "/x",
+        "LIBRARY_PATH": "/y",
+        "GCC_EXEC_PREFIX": "/z",
+    }
+    env, scrubbed = build_env(base, python_bin_dir="/venv/bin")
+    assert not {"CPATH", "C_INCLUDE_PATH", "LIBRARY_PATH", "GCC_EXEC_PREFIX"} & set(env)
+    assert {"CPATH", "C_INCLUDE_PATH", "LIBRARY_PATH", "GCC_EXEC_PREFIX"} <= set(scrubbed)

@@ -143,3 +143,32 @@ def test_scan_tree_leaves_out_an_output_folder_and_its_staging(tmp_path: Path) -
         (tmp_path / folder / "f.h").write_text("")
     found = fp.scan_tree(tmp_path, {}, (str(tmp_path / "out"), str(tmp_path / ".out.")))
     assert sorted(found) == ["outside/f.h", "pkg/package.xml", "pkg/src/a.c"]
+
+
+def test_content_changed_and_made_newer(tmp_path: Path) -> None:
+    (tmp_path / "a.c").write_text("one\n")
+    (tmp_path / "b.c").write_text("same\n")
+    first = fp.scan_tree(tmp_path, {})
+    assert fp.content_changed({}, first) == []  # a first walk builds everything anyway
+    old = (tmp_path / "a.c").stat()
+    (tmp_path / "a.c").write_text("two\n")
+    os.utime(tmp_path / "a.c", ns=(old.st_atime_ns, old.st_mtime_ns - 10**9))  # `cp -p` of an older file
+    (tmp_path / "c.c").write_text("new\n")
+    second = fp.scan_tree(tmp_path, first)
+    changed = fp.content_changed(first, second)
+    assert changed == ["a.c", "c.c"]
+    fp.make_newer(tmp_path, changed, second)
+    assert (tmp_path / "a.c").stat().st_mtime_ns > old.st_mtime_ns
+    assert (tmp_path / "a.c").read_text() == "two\n"
+    assert second["a.c"].mtime_ns == (tmp_path / "a.c").stat().st_mtime_ns  # recorded: no rehash next time
+    assert fp.scan_tree(tmp_path, second) == second
+
+
+def test_a_file_written_in_place_with_its_old_stat_is_hashed_again(tmp_path: Path) -> None:
+    src = tmp_path / "a.c"
+    src.write_text("one\n")
+    first = fp.scan_tree(tmp_path, {})
+    st = src.stat()
+    src.write_text("two\n")  # same size, same inode
+    os.utime(src, ns=(st.st_atime_ns, st.st_mtime_ns))  # and the old mtime back: only ctime differs
+    assert fp.scan_tree(tmp_path, first)["a.c"].sha256 != first["a.c"].sha256

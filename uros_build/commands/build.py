@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import importlib.metadata
+import os
 import shutil
 import sys
 import time
@@ -92,6 +93,7 @@ def build(args: BuildArgs) -> Path:
     with locked(plan.target_dir, plan.target.key):
         repaired = _repair(plan)
         started = time.monotonic()
+        _redo_what_must_be_redone(plan, facts)
         toolchain_file = _prepare_toolchain(plan, facts)
         meta_path = plan.target_dir / "colcon.meta"
         meta_text = meta_mod.dump_meta(plan.meta, f"uros build --toolchain {plan.target.key}")
@@ -149,6 +151,40 @@ def build(args: BuildArgs) -> Path:
             stop, "interrupted", f"the new output was already in place: {plan.output}"
         ) from None
     return plan.output
+
+
+def compiler_identity(facts: HostFacts) -> str:
+    """The target compiler as content, not as a place: its path, version and the sha256 of the
+    driver program itself (a replaced or upgraded compiler at the same path is another compiler)."""
+    if not facts.gcc:
+        return fp.digest("")
+    real = Path(os.path.realpath(facts.gcc))
+    try:
+        content = fp.file_sha256(real)
+    except OSError:
+        content = ""
+    return fp.digest(facts.gcc, str(real), facts.gcc_version, content)
+
+
+def _redo_what_must_be_redone(plan: BuildPlan, facts: HostFacts) -> None:
+    """Objects the build tools would keep but that no longer match: with --rebuild, all of them;
+    after a compiler change, all of them too, since neither CMake nor ninja makes an object depend
+    on the compiler program (the command line is the same). Dropping the target's colcon trees
+    (uros's own) makes every package configure, compile and install afresh."""
+    trees = [plan.target_dir / "build", plan.target_dir / "install"]
+    identity = plan.target_dir / "compiler.sha256"
+    was = identity.read_text(encoding="utf-8").strip() if identity.is_file() else None
+    now = compiler_identity(facts)
+    why = None
+    if plan.rebuild:
+        why = "--rebuild"
+    elif was is not None and was != now:
+        why = f"the compiler changed ({facts.gcc} {facts.gcc_version})"
+    if why is not None and any(t.exists() for t in trees):
+        console.info(f"{why}: building every package afresh (dropping the target's colcon trees)")
+        for tree in trees:
+            outputs.remove_tree(tree)
+    write_if_changed(identity, now + "\n")
 
 
 def _repair(plan: BuildPlan) -> bool:
@@ -272,13 +308,22 @@ def _input_parts(
     # An --output inside a plain workspace (and its staging folders beside it) is not a source.
     out = plan.output
     sources = fp.scan_tree(ws.source_dir, cached, (str(out), str(out.parent / f".{out.name}.")))
+    newer = fp.content_changed(cached, sources)
+    if newer:
+        fp.make_newer(ws.source_dir, newer, sources)
     if sources != cached:
         fp.save_sources_cache(cache_path, sources)
     # The colcon command without what does not change its result (progress output, workers).
     stable = colcon.colcon_argv(
         dataclasses.replace(setup.plan, verbose=False, parallel_workers=None), facts.colcon
     )
-    env = {k: v for k, v in setup.env.items() if k in _ENV_THAT_MATTERS or k.startswith("GIT_CONFIG_")}
+    env = {
+        k: v
+        for k, v in setup.env.items()
+        if k in _ENV_THAT_MATTERS
+        or k in colcon.FINGERPRINTED_VARIABLES
+        or k.startswith(("GIT_CONFIG_", *colcon.FINGERPRINTED_PREFIXES))
+    }
     marker = ws.dev_install / DEV_MARKER
     ninja = shutil.which("ninja", path=setup.env.get("PATH"))
     return {
@@ -288,9 +333,7 @@ def _input_parts(
         "profile": fp.digest(repr(plan.profile)),
         # the ESP-IDF project's version, target, include folders, flags and sdkconfig.h hash
         "ESP-IDF project": fp.digest(repr(plan.idf)),
-        "compiler": fp.digest(
-            facts.gcc, facts.gcc_version, fp.stat_key(Path(facts.gcc)) if facts.gcc else ""
-        ),
+        "compiler": compiler_identity(facts),
         "tools": fp.digest(
             facts.cmake,
             facts.cmake_version,

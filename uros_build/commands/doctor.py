@@ -20,6 +20,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 from uros_build import colcon, hosttools, outputs
+from uros_build import fingerprint as fp
 from uros_build.buildinfo import BUILD_INFO
 from uros_build.errors import MissingToolError, StepFailed, UrosError, VerifyError
 from uros_build.plan import BuildArgs, expand_targets, resolve_target, resolve_workspace
@@ -167,7 +168,9 @@ def eval_dev_ws(built: bool, same_lock: bool, has_dev: bool) -> Check:
     return Check("dev_ws", OK, "built")
 
 
-def eval_output(key: str, output_time: float | None, newest_input: float) -> Check:
+def eval_output(key: str, output_time: float | None, newest_input: float, sources_same: bool = True) -> Check:
+    """``sources_same``: the workspace's sources hold the content the last build was made from
+    (compared by content: an edit restored with an old mtime is a change too)."""
     name = f"target {key}"
     if output_time is None:
         return Check(
@@ -176,11 +179,30 @@ def eval_output(key: str, output_time: float | None, newest_input: float) -> Che
             "trees but no output (a build failed or was interrupted)",
             f"uros build --toolchain {key}",
         )
+    if not sources_same:
+        return Check(
+            name,
+            WARN,
+            "stale: the sources' content changed since the last build",
+            f"uros build --toolchain {key}",
+        )
     if newest_input > output_time:
         return Check(
             name, WARN, "stale: inputs changed since the last build", f"uros build --toolchain {key}"
         )
     return Check(name, OK, "built and up to date")
+
+
+def sources_as_built(ws: Workspace, key: str) -> bool:
+    """The sources' content (names and sha256) equals what the target's last good build recorded.
+    Reads the build's stat cache to hash only what changed; writes nothing and touches no mtime."""
+    state = fp.read_state(ws.target_dir(key) / fp.STATE)
+    if state is None or "sources" not in state.parts:
+        return True  # no record to compare with: the output's own time decides
+    out = Path(state.output)
+    cached = fp.load_sources_cache(ws.target_dir(key) / fp.SOURCES_CACHE)
+    records = fp.scan_tree(ws.source_dir, cached, (str(out), str(out.parent / f".{out.name}.")))
+    return fp.tree_digest(records) == state.parts["sources"]
 
 
 def failed(checks: Iterable[Check]) -> list[Check]:
@@ -272,7 +294,8 @@ def probe_workspace(runner: Runner, ws: Workspace) -> list[Check]:
     newest = _newest(inputs, ws.source_dir) if outputs.target_keys(ws) else 0.0
     for key in outputs.target_keys(ws):
         info = ws.default_output(key) / BUILD_INFO
-        checks.append(eval_output(key, info.stat().st_mtime if info.is_file() else None, newest))
+        when = info.stat().st_mtime if info.is_file() else None
+        checks.append(eval_output(key, when, newest, sources_as_built(ws, key)))
     if not outputs.target_keys(ws):
         checks.append(Check("targets", OK, "none built yet"))
     return checks

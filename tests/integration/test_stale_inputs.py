@@ -1,0 +1,106 @@
+"""Never "up to date", never a green build, over objects that do not match their sources, flags or
+compiler (issue 16, items 1-5). Each test judges the library by its bytes (nm, strings), not by
+what uros says, and each failed on c34c85f. Real CLI, colcon, CMake and arm-none-eabi-gcc on the
+fixture workspace."""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+from conftest import need
+from fixture_ws import make_fixture_workspace
+from uros_helpers import defined_globals, run_uros
+
+pytestmark = pytest.mark.integration
+
+_CORE_V2 = '#include "fx_core/core.h"\nint fx_core_add(int a, int b) { return a + b; }\nint fx_core_v2(void) { return 2; }\n'
+
+
+def _build(ws: Path, *more: str, env: dict[str, str] | None = None) -> subprocess.CompletedProcess[str]:
+    args = ["build", "--toolchain", "cortex-m7", "--workspace", str(ws), "--meta", str(ws / "fixture.meta")]
+    return run_uros(*args, *more, env=env)
+
+
+def _strings(lib: Path) -> str:
+    return subprocess.run(["strings", "-a", str(lib)], capture_output=True, text=True, check=True).stdout
+
+
+def test_a_source_restored_with_its_old_mtime_is_rebuilt(tmp_path: Path) -> None:
+    """`cp -p`, `rsync -a`, `tar x`, `git stash pop`: the content goes back, and so does the mtime,
+    to before the objects were made."""
+    need("arm-none-eabi-gcc", "cmake")
+    ws = make_fixture_workspace(tmp_path / "ws")
+    core = ws / "mcu_ws/src/fx_core/src/core.c"
+    original, old = core.read_text(), core.stat()
+    lib = ws / "build/cortex-m7/libmicroros.a"
+    core.write_text(_CORE_V2)
+    _build(ws)
+    assert defined_globals(lib)["fx_core_v2"] == 1
+    # the user restores the old file as `cp -p` would: old content, old mtime
+    core.write_text(original)
+    os.utime(core, ns=(old.st_atime_ns, old.st_mtime_ns))
+    doctor = run_uros("doctor", "-w", str(ws), check=False)
+    _build(ws)
+    assert "fx_core_v2" not in defined_globals(lib)
+    assert "stale: the sources' content changed" in doctor.stdout + doctor.stderr
+    assert defined_globals(lib)["fx_core_add"] == 1
+    assert core.read_text() == original  # uros changed its mtime, never its content
+    doctor = run_uros("doctor", "-w", str(ws), check=False)
+    assert re.search(r"ok +target cortex-m7 +built and up to date", doctor.stdout), doctor.stdout
+
+
+def _shim(folder: Path, extra: str) -> None:
+    """arm-none-eabi-gcc replaced at the same path (an upgrade, another install): the real
+    compiler, with ``extra`` arguments that leave a mark in every object."""
+    folder.mkdir(exist_ok=True)
+    real = shutil.which("arm-none-eabi-gcc")
+    shim = folder / "arm-none-eabi-gcc"
+    shim.write_text(f'#!/bin/sh\nexec {real} {extra} "$@"\n')
+    shim.chmod(0o755)
+
+
+def test_a_replaced_compiler_rebuilds_every_object(tmp_path: Path) -> None:
+    need("arm-none-eabi-gcc", "cmake", "strings")
+    ws = make_fixture_workspace(tmp_path / "ws")
+    shims = tmp_path / "bin"
+    env = {**os.environ, "PATH": f"{shims}{os.pathsep}{os.environ['PATH']}"}
+    lib = ws / "build/cortex-m7/libmicroros.a"
+    _shim(shims, "-frecord-gcc-switches -fno-tree-vectorize")
+    _build(ws, env=env)
+    assert "-fno-tree-vectorize" in _strings(lib)
+    _shim(shims, "-frecord-gcc-switches -fno-tree-loop-distribute-patterns")
+    proc = _build(ws, env=env)
+    text = _strings(lib)
+    assert "-fno-tree-loop-distribute-patterns" in text and "-fno-tree-vectorize" not in text
+    assert "the compiler changed" in proc.stderr
+
+
+def test_rebuild_recompiles_objects_the_build_tools_think_current(tmp_path: Path) -> None:
+    need("arm-none-eabi-gcc", "cmake")
+    ws = make_fixture_workspace(tmp_path / "ws")
+    _build(ws)
+    lib = ws / "build/cortex-m7/libmicroros.a"
+    objects = list((ws / ".uros/targets/cortex-m7/build/fx_core").rglob("core.c.obj"))
+    assert len(objects) == 1
+    # an object not made from its source, with the very mtime the build tools recorded (a crash, a
+    # restored backup of the trees): nothing but a rebuild from scratch replaces it
+    made = objects[0].stat()
+    bad = tmp_path / "bad.c"
+    bad.write_text("int fx_core_add(int a, int b) { return a - b; }\nint fx_tampered(void) { return 0; }\n")
+    subprocess.run(
+        ["arm-none-eabi-gcc", "-mcpu=cortex-m7", "-mthumb", "-mfpu=fpv5-d16", "-mfloat-abi=hard", "-c", str(bad),
+         "-o", str(objects[0])],
+        check=True,
+    )  # fmt: skip
+    os.utime(objects[0], ns=(made.st_atime_ns, made.st_mtime_ns))
+    for archive in (ws / ".uros/targets/cortex-m7/build/fx_core").rglob("libfx_core.a"):
+        archive.unlink()  # archived again from the objects that are there
+    proc = _build(ws, "--rebuild")
+    assert "fx_tampered" not in defined_globals(lib)
+    assert defined_globals(lib)["fx_core_add"] == 1
+    assert "--rebuild: building every package afresh" in proc.stderr
