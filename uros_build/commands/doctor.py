@@ -183,7 +183,7 @@ def eval_output(key: str, output_time: float | None, newest_input: float, source
         return Check(
             name,
             WARN,
-            "stale: the sources' content changed since the last build",
+            "stale: inputs changed since the last build (the sources' content)",
             f"uros build --toolchain {key}",
         )
     if newest_input > output_time:
