@@ -90,6 +90,10 @@ class BuildInfo:
     idf: IdfInfo | None = None
     # how long colcon took over each package of this build (its own measure), in seconds
     package_seconds: Mapping[str, float] = field(default_factory=dict)
+    # the CMake options (-D) of each package's cmake-args in the colcon.meta this build used
+    cmake_options: Mapping[str, Mapping[str, str]] = field(default_factory=dict)
+    # package -> {"repository", "commit"}: the clone it was built from and that clone's HEAD then
+    sources: Mapping[str, Mapping[str, str]] = field(default_factory=dict)
 
     def to_json(self) -> str:
         data = asdict(self)
@@ -180,7 +184,17 @@ def parse_build_info(data: Any, source: str) -> BuildInfo:
         idf_target=_optional(top, "idf_target", source),
         idf=_idf(top.get("idf"), f"{source}: idf"),
         package_seconds=_seconds(top.get("package_seconds"), f"{source}: package_seconds"),
+        cmake_options=_nested_strings(top.get("cmake_options"), f"{source}: cmake_options"),
+        sources=_nested_strings(top.get("sources"), f"{source}: sources"),
     )
+
+
+def _nested_strings(data: Any, where: str) -> dict[str, dict[str, str]]:
+    """{name: {key: string}} (absent: empty, for a build-info written before the key existed)."""
+    if data is None:
+        return {}
+    top = loader.mapping(data, where)
+    return {str(k): dict(loader.string_map(top, k, where)) for k in top}
 
 
 def _idf(data: Any, where: str) -> IdfInfo | None:

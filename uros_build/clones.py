@@ -85,6 +85,51 @@ def check_untouched(
             )
 
 
+def head_commit(clone: Path) -> str | None:
+    """The commit a clone's HEAD is at, read from its files (no git process: a build reads this for
+    every repository): a detached sha, or the branch's ref in refs/ or packed-refs."""
+    git_dir = clone / ".git"
+    try:
+        if git_dir.is_file():  # a worktree or submodule: "gitdir: <path>"
+            git_dir = (clone / git_dir.read_text(encoding="utf-8").split(":", 1)[1].strip()).resolve()
+        head = (git_dir / "HEAD").read_text(encoding="utf-8").strip()
+        if not head.startswith("ref: "):
+            return head or None
+        ref = head[5:]
+        loose = git_dir / ref
+        if loose.is_file():
+            return loose.read_text(encoding="utf-8").strip() or None
+        packed = git_dir / "packed-refs"
+        for line in packed.read_text(encoding="utf-8").splitlines() if packed.is_file() else ():
+            parts = line.split()
+            if len(parts) == 2 and parts[1] == ref:
+                return parts[0]
+    except (OSError, IndexError):
+        return None
+    return None
+
+
+def built_from(
+    packages: Iterable[tuple[str, Path]], root: Path, clone_paths: Iterable[str]
+) -> dict[str, dict[str, str]]:
+    """package -> {"repository": its clone's workspace path, "commit": the clone's HEAD}, for the
+    packages that sit in one of the clones (extra packages and the user's own have none)."""
+    clones_by_depth = sorted(clone_paths, key=len, reverse=True)
+    heads: dict[str, str | None] = {}
+    out: dict[str, dict[str, str]] = {}
+    for name, where in packages:
+        rel = where.relative_to(root).as_posix() if where.is_relative_to(root) else ""
+        repo = next((c for c in clones_by_depth if rel == c or rel.startswith(c + "/")), None)
+        if repo is None:
+            continue
+        if repo not in heads:
+            heads[repo] = head_commit(root / repo)
+        commit = heads[repo]
+        if commit:
+            out[name] = {"repository": repo, "commit": commit}
+    return out
+
+
 def remove_clones(root: Path, paths: Iterable[str]) -> None:
     """Remove these clones (and the folders they leave empty): all of it written by uros.
     Everything else in the workspace stays."""

@@ -34,8 +34,33 @@ def test_info_on_the_fixture_build(m7_build: Path, tmp_path: Path) -> None:
     assert data["options"]["fx_time"] == {"FX_TIME_ENABLE": "ON"}
 
     text = run_uros("info", str(out)).stdout  # OUTPUT named directly, as text
-    assert "rmw_microxrcedds: RMW_UXRCE_MAX_NODES=1" in text and "  fx_msgs/msg/UInt8" in text
+    assert "rmw_microxrcedds: " in text and "RMW_UXRCE_MAX_NODES=1," in text and "  fx_msgs/msg/UInt8" in text
     assert "types (1):" in text and "packages (5):" in text
 
     none = run_uros("info", str(ws / "mcu_ws"), check=False)
     assert none.returncode == 2 and "not a uros build output" in none.stderr
+
+
+def test_info_says_what_the_output_was_built_with(tmp_path: Path) -> None:
+    """Issue 16, item 6: a build into another --output, or a failed one, with other options
+    leaves this output's info as it was built (it used to read the target's trees)."""
+    from conftest import need
+    from fixture_ws import make_fixture_workspace
+
+    need("arm-none-eabi-gcc", "cmake")
+    ws = make_fixture_workspace(tmp_path / "ws")
+    base = ["build", "--toolchain", "cortex-m7", "--workspace", str(ws)]
+    run_uros(*base, "--meta", str(ws / "fixture.meta"))
+    out = ws / "build" / "cortex-m7"
+    meta = ["--meta", str(ws / "fixture.meta")]
+    eight = [*meta, "--set", "rmw_microxrcedds.RMW_UXRCE_MAX_NODES=8"]
+    run_uros(*base, *eight, "--output", str(tmp_path / "other"))
+    (ws / "mcu_ws/src/fx_util/src/scale.c").write_text("double fx_util_scale(double x) { return x * ; }\n")
+    assert run_uros(*base, *eight, check=False).returncode == 4
+    data = json.loads(run_uros("info", "--json", str(out)).stdout)
+    assert data["options"]["rmw_microxrcedds"]["RMW_UXRCE_MAX_NODES"] == "1"
+    other = json.loads(run_uros("info", "--json", str(tmp_path / "other")).stdout)
+    assert other["options"]["rmw_microxrcedds"]["RMW_UXRCE_MAX_NODES"] == "8"
+    # the same, with the workspace gone: everything comes from the output itself
+    shutil.rmtree(ws / ".uros")
+    assert json.loads(run_uros("info", "--json", str(out)).stdout) == data

@@ -4,10 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from uros_build import contents
-from uros_build.commands.info import package_sources
+from uros_build import clones, contents
 from uros_build.meta import Meta
-from uros_build.workspace import Lock, LockedRepo
 
 
 def _header(include: Path, rel: str, text: str = "") -> None:
@@ -57,11 +55,22 @@ def test_options_in_force() -> None:
     assert contents.memory_options(options) == {"rmw_microxrcedds": options["rmw_microxrcedds"]}
 
 
-def test_package_sources_from_the_lock(tmp_path: Path) -> None:
-    lock = Lock("humble", {"mcu_ws/uros/rcl": LockedRepo("u", "humble", "s", "a" * 40)})
-    found = {"rcl": tmp_path / "mcu_ws/uros/rcl/rcl", "mine": tmp_path / "mcu_ws/extra_packages/mine"}
-    rows = package_sources(("mine", "rcl"), found, tmp_path, lock)
-    assert rows == [
-        {"name": "mine", "repository": None, "commit": None},
-        {"name": "rcl", "repository": "mcu_ws/uros/rcl", "commit": "a" * 40},
+def test_built_from_reads_each_clones_head_from_its_files(tmp_path: Path) -> None:
+    rcl = tmp_path / "mcu_ws/uros/rcl/.git"
+    rcl.mkdir(parents=True)
+    (rcl / "HEAD").write_text("a" * 40 + "\n")  # detached, as uros pins clones
+    rclc = tmp_path / "mcu_ws/uros/rclc/.git"
+    (rclc / "refs/heads").mkdir(parents=True)
+    (rclc / "HEAD").write_text("ref: refs/heads/humble\n")
+    (rclc / "packed-refs").write_text("# pack-refs with: peeled\n" + "b" * 40 + " refs/heads/humble\n")
+    found = [
+        ("rcl", tmp_path / "mcu_ws/uros/rcl/rcl"),
+        ("rclc", tmp_path / "mcu_ws/uros/rclc/rclc"),
+        ("mine", tmp_path / "mcu_ws/extra_packages/mine"),
     ]
+    assert clones.built_from(found, tmp_path, ["mcu_ws/uros/rcl", "mcu_ws/uros/rclc"]) == {
+        "rcl": {"repository": "mcu_ws/uros/rcl", "commit": "a" * 40},
+        "rclc": {"repository": "mcu_ws/uros/rclc", "commit": "b" * 40},
+    }
+    (rclc / "refs/heads/humble").write_text("c" * 40 + "\n")  # a loose ref wins over packed-refs
+    assert clones.head_commit(tmp_path / "mcu_ws/uros/rclc") == "c" * 40

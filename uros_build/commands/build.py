@@ -21,7 +21,19 @@ from pathlib import Path
 from typing import Any
 
 import uros_build
-from uros_build import __version__, abi, colcon, console, export, hosttools, includes, installtree, outputs
+from uros_build import (
+    __version__,
+    abi,
+    clones,
+    colcon,
+    console,
+    contents,
+    export,
+    hosttools,
+    includes,
+    installtree,
+    outputs,
+)
 from uros_build import fingerprint as fp
 from uros_build import meta as meta_mod
 from uros_build import packages as packages_mod
@@ -49,7 +61,14 @@ from uros_build.toolchain import (
     render_toolchain,
     tool_paths,
 )
-from uros_build.workspace import DEV_MARKER, damaged_archives, damaged_configures, locked, write_if_changed
+from uros_build.workspace import (
+    DEV_MARKER,
+    damaged_archives,
+    damaged_configures,
+    locked,
+    read_lock,
+    write_if_changed,
+)
 
 
 def build_all(args: BuildArgs) -> list[Path]:
@@ -654,9 +673,23 @@ def _stage_output(
         idf_target=profile.idf_target or None if profile else None,
         idf=_idf_info(plan),
         package_seconds={p: round(progress.finished[p], 2) for p in built if p in progress.finished},
+        cmake_options=contents.cmake_options(plan.meta),
+        sources=_sources(plan, built),
     )
     export.write_cmake_package(staging, info)
     return info, merge_key
+
+
+def _sources(plan: BuildPlan, built: tuple[str, ...]) -> dict[str, dict[str, str]]:
+    """The clone and commit each built package came from (uros info shows them from here, not from
+    a workspace that may have moved on since)."""
+    ws = plan.workspace
+    if not ws.lock_path.is_file():
+        return {}
+    clone_paths = read_lock(ws.lock_path, "uros.lock").repositories
+    wanted = set(built)
+    located = [(p.name, p.path.resolve()) for p in plan.packages if p.name in wanted]
+    return clones.built_from(located, ws.root, clone_paths)
 
 
 def _library_info(

@@ -1,6 +1,6 @@
-"""`uros info`: what a built library contains, from its output folder and the workspace it came
-from: the ROS 2 types it offers, its packages with their source commits (uros.lock), the CMake
-options in force (the target's colcon.meta), flags and sizes. micro_ros_stm32cubemx_utils ships a
+"""`uros info`: what a built library contains, from its output folder alone (its build-info.json
+and include tree): the ROS 2 types it offers, its packages with the clones and commits they were
+built from, the CMake options in force, flags and sizes. micro_ros_stm32cubemx_utils ships a
 hand-kept available_ros2_types file; this is the same, derived from what was built."""
 
 from __future__ import annotations
@@ -11,44 +11,23 @@ from pathlib import Path
 from typing import Any
 
 from uros_build import contents
-from uros_build import meta as meta_mod
-from uros_build import packages as packages_mod
 from uros_build.buildinfo import BuildInfo, read_build_info
 from uros_build.plan import resolve_output
-from uros_build.workspace import LOCK, Lock, read_lock, workspace_of_output
-
-
-def package_sources(
-    built: tuple[str, ...], locations: dict[str, Path], root: Path, lock: Lock | None
-) -> list[dict[str, str | None]]:
-    """Each built package with the locked repository it sits in and that repository's commit
-    (None for packages no lock lists: extra packages, a plain colcon workspace)."""
-    rows: list[dict[str, str | None]] = []
-    for name in built:
-        repo = commit = None
-        where = locations.get(name)
-        if where is not None and lock is not None:
-            rel = where.relative_to(root).as_posix() if where.is_relative_to(root) else ""
-            for path, locked in lock.repositories.items():
-                if rel == path or rel.startswith(path + "/"):
-                    repo, commit = path, locked.commit
-        rows.append({"name": name, "repository": repo, "commit": commit})
-    return rows
 
 
 def gather(out: Path) -> dict[str, Any]:
+    """Everything from the output's own build-info.json: a workspace that was built again, into
+    another output or with other options since, or whose clones moved, says nothing about this
+    library."""
     info: BuildInfo = read_build_info(out, "OUTPUT")
-    ws = workspace_of_output(out, info.target)
-    options: dict[str, dict[str, str]] = {}
-    rows = [{"name": p, "repository": None, "commit": None} for p in info.packages]
-    if ws is not None:
-        meta_path = ws.target_dir(info.target) / "colcon.meta"
-        if meta_path.is_file():
-            options = contents.cmake_options(meta_mod.load_meta_file(meta_path, "colcon.meta"))
-        lock = read_lock(ws.lock_path, LOCK) if ws.lock_path.is_file() else None
-        if lock is not None:
-            found = {p.name: p.path.resolve() for p in packages_mod.discover(ws.source_dir)}
-            rows = package_sources(info.packages, found, ws.root, lock)
+    rows = [
+        {
+            "name": p,
+            "repository": info.sources.get(p, {}).get("repository"),
+            "commit": info.sources.get(p, {}).get("commit"),
+        }
+        for p in info.packages
+    ]
     return {
         "output": str(out),
         "generated_by": info.generated_by,
@@ -71,7 +50,7 @@ def gather(out: Path) -> dict[str, Any]:
         },
         "include": {"dir": info.include.dir, "files": info.include.files},
         "transport": info.transport,
-        "options": options,
+        "options": {k: dict(v) for k, v in info.cmake_options.items()},
         "packages": rows,
         "types": list(contents.interface_types(out / info.include.dir)),
     }
