@@ -182,6 +182,28 @@ def _writable(folder: Path) -> bool:
     return os.access(folder, os.W_OK | os.X_OK)
 
 
+def output_target(out: Path) -> str | None:
+    """The target whose output ``out`` is, from its marker (None: no marker, or one that names none)."""
+    try:
+        target = json.loads((out / MARKER).read_text(encoding="utf-8")).get("target")
+    except (OSError, ValueError, AttributeError):
+        return None
+    return str(target) if target else None
+
+
+def check_output_owner(out: Path, target: str, force: bool, flag: str = "--output") -> None:
+    """An output belongs to one target: building another target into it would replace that
+    target's library without a word (issue 16). Checked when the build is planned and again, under
+    the output's lock, just before the swap (another build may have written it meanwhile)."""
+    owner = output_target(out) if out.is_dir() else None
+    if owner is not None and owner != target and not force:
+        raise ConfigError(
+            f"{flag} {out}: is the output of target {owner}, not {target}",
+            f"choose another folder (the default is <workspace>/build/{target}), or pass --force to "
+            f"replace {owner}'s output with {target}'s",
+        )
+
+
 def check_output_dir(out: Path, force: bool, flag: str = "--output", workspace: Path | None = None) -> None:
     """Refuse, before anything is built, an output folder uros could not write or would have to
     take from the user. ``out`` is resolved. Never, even with --force: the workspace, a folder

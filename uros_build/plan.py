@@ -20,7 +20,7 @@ from uros_build import packages as packages_mod
 from uros_build.distros import Distro, Mirror, Source
 from uros_build.errors import ConfigError, did_you_mean
 from uros_build.espidf import IdfProject
-from uros_build.outputs import check_output_dir, is_uros_output, target_keys
+from uros_build.outputs import check_output_dir, check_output_owner, is_uros_output, target_keys
 from uros_build.packages import PackageInfo
 from uros_build.profiles import (
     TargetProfile,
@@ -287,6 +287,8 @@ class BuildPlan:
     idf: IdfProject | None = None  # the ESP-IDF project micro-ROS is compiled against
     rebuild: bool = False
     selection: Selection | None = None  # --packages/--for-firmware/uros.yaml packages: (None: all)
+    force: bool = False  # --force: the output may be another target's, or hold the user's files
+    output_flag: str = "--output"  # how messages name the output ("the output folder" by default)
 
     @property
     def profile(self) -> TargetProfile | None:
@@ -444,6 +446,7 @@ def plan_build(args: BuildArgs) -> BuildPlan:
     flag = "--output" if args.output else "the output folder"
     check_folder_target(out, flag)
     check_output_dir(out, args.force, flag, ws.root)
+    check_output_owner(out, target.key, args.force, flag)
     return BuildPlan(
         workspace=ws,
         config=cfg,
@@ -460,6 +463,8 @@ def plan_build(args: BuildArgs) -> BuildPlan:
         idf=idf,
         rebuild=args.rebuild,
         selection=selection,
+        force=args.force,
+        output_flag=flag,
     )
 
 

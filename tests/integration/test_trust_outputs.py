@@ -284,3 +284,55 @@ def test_a_swap_killed_half_way_is_undone_by_the_next_run(tmp_path: Path, journa
     assert expected in proc.stderr, proc.stderr
     assert _sha(out / "libmicroros.a") == good
     assert sorted(p.name for p in build.iterdir()) == ["COLCON_IGNORE", "cortex-m7"]
+
+
+def _lib_sha(out: Path) -> str:
+    return hashlib.sha256((out / "libmicroros.a").read_bytes()).hexdigest()
+
+
+def test_an_output_belongs_to_one_target(tmp_path: Path) -> None:
+    """Issue 16, item 7: a cortex-m4 build into cortex-m7's output replaced it without a word."""
+    need("arm-none-eabi-gcc", "cmake")
+    ws = make_fixture_workspace(tmp_path / "ws")
+    base = ["build", "--workspace", str(ws), "--meta", str(ws / "fixture.meta")]
+    run_uros(*base, "--toolchain", "cortex-m7")
+    m7 = ws / "build" / "cortex-m7"
+    good = _lib_sha(m7)
+    proc = run_uros(*base, "--toolchain", "cortex-m4", "--output", str(m7), check=False)
+    assert proc.returncode == 2, proc.stderr
+    line = next(x for x in proc.stderr.splitlines() if x.startswith("error:"))
+    assert f"--output {m7}: is the output of target cortex-m7, not cortex-m4" in line
+    assert "--force" in proc.stderr
+    assert _lib_sha(m7) == good and json.loads((m7 / "build-info.json").read_text())["target"] == "cortex-m7"
+    run_uros(*base, "--toolchain", "cortex-m4", "--output", str(m7), "--force")
+    assert json.loads((m7 / "build-info.json").read_text())["target"] == "cortex-m4"
+
+
+def test_two_targets_building_into_one_output_never_both_win(tmp_path: Path) -> None:
+    need("arm-none-eabi-gcc", "cmake")
+    ws = make_fixture_workspace(tmp_path / "ws")
+    shared = tmp_path / "shared"
+    base = [
+        sys.executable,
+        "-m",
+        "uros_build",
+        "build",
+        "--workspace",
+        str(ws),
+        "--meta",
+        str(ws / "fixture.meta"),
+    ]
+    procs = {
+        target: subprocess.Popen(
+            [*base, "--toolchain", target, "--output", str(shared)], stderr=subprocess.PIPE, text=True
+        )
+        for target in ("cortex-m7", "cortex-m4")
+    }
+    codes = {
+        target: (p.wait(timeout=600), p.stderr.read() if p.stderr else "") for target, p in procs.items()
+    }
+    assert sorted(code for code, _ in codes.values()) == [0, 2], codes
+    winner = next(t for t, (code, _) in codes.items() if code == 0)
+    loser = next(t for t, (code, _) in codes.items() if code == 2)
+    assert f"is the output of target {winner}, not {loser}" in codes[loser][1]
+    assert json.loads((shared / "build-info.json").read_text())["target"] == winner

@@ -141,7 +141,13 @@ def build(args: BuildArgs) -> Path:
             info, merge_key = _stage_output(runner, plan, facts, staging, setup, built, progress, previous)
             (staging / BUILD_INFO).write_text(info.to_json(), encoding="utf-8")
             outputs.write_marker(staging, plan.target.key, [p.name for p in staging.iterdir()])
-            left = outputs.install_output(staging, plan.output)
+            # Two targets' builds into one --output: one writer at a time, and the second does not
+            # replace the first's output unless --force (checked again now that it is its turn).
+            # (the lock lives in the workspace's .uros/, not beside the output in the user's folder)
+            writers = plan.workspace.state_dir / "output-locks" / fp.digest(str(plan.output))[:16]
+            with locked(writers, f"the output {plan.output}"):
+                outputs.check_output_owner(plan.output, plan.target.key, plan.force, plan.output_flag)
+                left = outputs.install_output(staging, plan.output)
         except BaseException:
             outputs.remove_tree(staging)
             raise
