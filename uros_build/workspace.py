@@ -168,6 +168,45 @@ def with_distro(text: str, distro: str, source: str) -> str:
     return edited
 
 
+def with_extra_package(text: str, entry: str, source: str) -> str:
+    """uros.yaml's text with ``entry`` appended to its top-level ``extra_packages:`` list, every
+    other line (the user's comments, order, keys) as it was (pure). The value is written as a JSON
+    string, which YAML reads as the same string whatever it holds. A list uros cannot extend by a
+    line edit is refused rather than the file rewritten."""
+    value = json.dumps(entry)
+    before = parse_config(yaml.safe_load(text) or {}, source, partial=True).extra_packages
+    lines = text.splitlines(keepends=True)
+    key = next((i for i, line in enumerate(lines) if line.startswith("extra_packages:")), None)
+    if key is None:
+        sep = "" if not text or text.endswith("\n") else "\n"
+        edited = f"{text}{sep}extra_packages:\n- {value}\n"
+    else:
+        rest = lines[key][len("extra_packages:") :].rstrip("\n")
+        flow = re.fullmatch(r"\s*\[(.*)\]\s*(#.*)?", rest)
+        if flow is not None:
+            inner = flow.group(1).strip()
+            comment = f"  {flow.group(2)}" if flow.group(2) else ""
+            lines[key] = f"extra_packages: [{inner + ', ' if inner else ''}{value}]{comment}\n"
+        elif re.fullmatch(r"\s*(#.*)?", rest):
+            at, item = key + 1, "- "
+            while at < len(lines) and (found := re.match(r"\s*- ", lines[at])) is not None:
+                item, at = found.group(0), at + 1
+            lines.insert(at, f"{item}{value}\n")
+        else:
+            lines = []
+        edited = "".join(lines)
+    try:
+        after = parse_config(yaml.safe_load(edited), source, partial=True).extra_packages
+    except (ConfigError, yaml.YAMLError):
+        after = ()
+    if after != (*before, entry):
+        raise ConfigError(
+            f"{source}: extra_packages: uros cannot add {entry} to this list without rewriting the file",
+            f"add it yourself (a line '- {value}' under extra_packages:)",
+        )
+    return edited
+
+
 def find_workspace(start: Path) -> Path | None:
     """The nearest folder from ``start`` upward that holds a uros.yaml (west's topdir search)."""
     start = start.resolve()

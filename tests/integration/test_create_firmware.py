@@ -4,6 +4,7 @@ a fake upstream for every repository of the humble manifest, reached through --m
 from __future__ import annotations
 
 import json
+import shutil
 import subprocess
 from pathlib import Path
 
@@ -124,6 +125,45 @@ def test_add_package_keeps_in_sync(upstream: Path, tmp_path: Path) -> None:
     assert "lift" in (copy / "msg/CmdVel.msg").read_text()
     proc = run_uros("add-package", str(tmp_path), "--workspace", str(fw), check=False)
     assert proc.returncode == 2 and "no package.xml" in proc.stderr
+
+
+def test_add_package_keeps_comments_and_refuses_duplicates(upstream: Path, tmp_path: Path) -> None:
+    """Issue 16, item 8: add-package rewrote uros.yaml (the user's comments gone) and took a second
+    folder with a package name the workspace already had (colcon: duplicate package names)."""
+    fw = tmp_path / "firmware"
+    run_uros("create-firmware", "--workspace", str(fw), "--no-dev-build", *upstream_mirror(upstream))
+    config = fw / "uros.yaml"
+    config.write_text("# our board: keep this note\n" + config.read_text() + "target: cortex-m7  # the H7\n")
+    pkg = _interface_pkg(tmp_path)
+    run_uros("add-package", str(pkg), "--workspace", str(fw))
+    text = config.read_text()
+    assert text.startswith("# our board: keep this note\n") and "target: cortex-m7  # the H7" in text
+    assert yaml.safe_load(text)["extra_packages"] == [str(pkg)]
+    again = run_uros("add-package", str(pkg), "--workspace", str(fw))  # the same folder: a sync
+    assert "already in uros.yaml" in again.stderr and config.read_text() == text
+    twin = tmp_path / "elsewhere" / "eic_demo_interface"
+    shutil.copytree(pkg, twin)
+    proc = run_uros("add-package", str(twin), "--workspace", str(fw), check=False)
+    assert proc.returncode == 2, proc.stderr
+    assert "the workspace already has a package named eic_demo_interface" in proc.stderr
+    assert config.read_text() == text
+    # a package the distro's clones already hold
+    rclc = tmp_path / "my_rclc"
+    rclc.mkdir()
+    (rclc / "package.xml").write_text(_pkg_xml("rclc"))
+    (fw / "mcu_ws/uros/rclc/package.xml").write_text(_pkg_xml("rclc"))
+    proc = run_uros("add-package", str(rclc), "--workspace", str(fw), check=False)
+    assert proc.returncode == 2 and "already has a package named rclc (" in proc.stderr
+    assert config.read_text() == text and not (fw / "mcu_ws/extra_packages/rclc").exists()
+
+
+def _pkg_xml(name: str) -> str:
+    return (
+        f'<?xml version="1.0"?>\n<package format="3"><name>{name}</name><version>0.0.0</version>'
+        "<description>d</description><maintainer email='a@b.c'>a</maintainer><license>MIT</license>"
+        "<buildtool_depend>ament_cmake</buildtool_depend><export><build_type>ament_cmake</build_type></export>"
+        "</package>\n"
+    )
 
 
 def test_target_prerequisites_are_checked_before_cloning(upstream: Path, tmp_path: Path) -> None:

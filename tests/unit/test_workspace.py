@@ -178,3 +178,34 @@ def test_clean_counts_and_recognises_only_uros_outputs(tmp_path: Path) -> None:
     assert not is_uros_output(out)  # its library is not the one build-info.json names
     write_marker(out, "t", ["a.bin", "sub", "build-info.json"])
     assert is_uros_output(out)
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [
+        (
+            "# mine\ndistro: humble  # pinned\nextra_packages: []\n",
+            '# mine\ndistro: humble  # pinned\nextra_packages: ["/p q"]\n',
+        ),
+        (
+            "distro: humble\nextra_packages:\n  - /x  # first\n# note\n",
+            'distro: humble\nextra_packages:\n  - /x  # first\n  - "/p q"\n# note\n',
+        ),
+        (
+            "distro: humble\nextra_packages: [/x]  # c\n",
+            'distro: humble\nextra_packages: [/x, "/p q"]  # c\n',
+        ),
+        ("distro: humble", 'distro: humble\nextra_packages:\n- "/p q"\n'),
+    ],
+)
+def test_with_extra_package_is_a_line_edit(text: str, expected: str) -> None:
+    from uros_build.workspace import with_extra_package
+
+    assert with_extra_package(text, "/p q", "uros.yaml") == expected
+
+
+def test_with_extra_package_refuses_what_a_line_edit_cannot_extend() -> None:
+    from uros_build.workspace import with_extra_package
+
+    with pytest.raises(ConfigError, match="cannot add /p to this list"):
+        with_extra_package("distro: humble\nextra_packages: [\n  /x]\n", "/p", "uros.yaml")
