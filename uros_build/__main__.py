@@ -1,3 +1,23 @@
-from uros_build.cli import main
+"""The `uros` program: `python -m uros_build` and the console script both start here.
 
-main()
+Importing the CLI (click, rich, jinja2, every command) takes a noticeable fraction of a second; a
+Ctrl-C in that window raised KeyboardInterrupt before `cli.main` could catch anything and printed
+a traceback (issue 16). So this module imports nothing heavy until it stands guard.
+"""
+
+from __future__ import annotations
+
+import sys
+
+
+def run() -> None:
+    try:
+        from uros_build.cli import main
+    except KeyboardInterrupt:
+        sys.stderr.write("error: interrupted\n")
+        sys.exit(130)
+    main()
+
+
+if __name__ == "__main__":
+    run()

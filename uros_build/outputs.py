@@ -204,7 +204,9 @@ def check_output_owner(out: Path, target: str, force: bool, flag: str = "--outpu
         )
 
 
-def check_output_dir(out: Path, force: bool, flag: str = "--output", workspace: Path | None = None) -> None:
+def check_output_dir(
+    out: Path, force: bool, flag: str = "--output", workspace: Path | None = None, offers_force: bool = True
+) -> None:
     """Refuse, before anything is built, an output folder uros could not write or would have to
     take from the user. ``out`` is resolved. Never, even with --force: the workspace, a folder
     holding it, its sources or other targets' outputs. Without --force: a folder holding files uros
@@ -243,7 +245,9 @@ def check_output_dir(out: Path, force: bool, flag: str = "--output", workspace: 
                 raise ConfigError(
                     f"{flag} {out}: the folder holds files uros did not write ({shown})",
                     f"{fix}, or pass --force to write uros's files into it (libmicroros.a, include/, "
-                    "the CMake files, toolchain.cmake, build-info.json) and keep the others",
+                    "the CMake files, toolchain.cmake, build-info.json) and keep the others"
+                    if offers_force
+                    else "choose a new or empty folder",  # `uros export` has no --force to offer
                 )
         # Replaced with one rename where uros can write beside it; entry by entry where it cannot,
         # where it is a mount point, or where the user's files stay in it.

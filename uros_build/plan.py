@@ -32,6 +32,7 @@ from uros_build.profiles import (
 from uros_build.workspace import (
     CONFIG,
     LOCK,
+    PENDING,
     Lock,
     Workspace,
     WorkspaceConfig,
@@ -553,8 +554,13 @@ def _existing(root: Path, force: bool) -> tuple[bool, WorkspaceConfig | None, Lo
         return False, None, None
     if not root.is_dir():
         raise ConfigError(f"--workspace {root}: is a file", "pass a new or empty folder")
-    if not any(root.iterdir()):
-        return True, None, None
+    if not any(p.name != ".uros" for p in root.iterdir()) and not (root / PENDING).is_file():
+        return True, None, None  # empty, or only uros's own .uros/ (logs of a run that cloned nothing)
+    if not force and (root / PENDING).is_file() and not (root / CONFIG).is_file():
+        raise ConfigError(
+            f"--workspace {root}: a create-firmware that was stopped before it finished left this folder",
+            "pass --force to finish it (only the clones it was making are made again)",
+        )
     if not force:
         raise ConfigError(
             f"--workspace {root}: already exists",
@@ -563,6 +569,11 @@ def _existing(root: Path, force: bool) -> tuple[bool, WorkspaceConfig | None, Lo
         )
     cfg = load_config(root)
     lock = read_lock(root / LOCK, "--workspace") if (root / LOCK).is_file() else None
+    if cfg is None and lock is None and (root / PENDING).is_file():
+        # a create-firmware killed before it wrote uros.yaml and uros.lock: the record it wrote
+        # first names the clones it was making, all of them uros's
+        pending = read_lock(root / PENDING, "--workspace")
+        return True, None, pending
     if cfg is None and lock is None:
         raise ConfigError(
             f"--workspace {root}: not a workspace made by uros create-firmware (no {CONFIG}, no {LOCK})",
@@ -653,6 +664,26 @@ def plan_update(args: UpdateArgs) -> UpdatePlan:
     return UpdatePlan(ws.root, cfg, lock, distro, sources, kept, added, removed, args)
 
 
+def _check_lock_covers(lock: Lock, distro: Distro, where: str) -> None:
+    """A lock pins every repository of this distro, or it would be silently ignored for the ones
+    it lacks (they would be cloned at their branches' newest commits, from the network)."""
+    if lock.distro and lock.distro != distro.name:
+        raise ConfigError(
+            f"{where}: locks micro-ROS {lock.distro}, not {distro.name}",
+            f"pass --distro {lock.distro}, or a lock written for {distro.name}",
+        )
+    wanted = {
+        f"{ws}/{r.path}" for ws, repos in (("dev_ws", distro.dev), ("mcu_ws", distro.mcu)) for r in repos
+    }
+    missing = sorted(wanted - set(lock.repositories))
+    if missing:
+        raise ConfigError(
+            f"{where}: has no commit for {len(missing)} of the {len(wanted)} repositories of {distro.name} "
+            f"({', '.join(missing[:3])}{', ...' if len(missing) > 3 else ''})",
+            "pass the uros.lock that `uros create-firmware` wrote for this distro",
+        )
+
+
 def plan_create(args: CreateArgs) -> CreatePlan:
     if args.platform != defaults.PLATFORM:
         raise ConfigError(
@@ -667,7 +698,10 @@ def plan_create(args: CreateArgs) -> CreatePlan:
     locked: dict[str, str] | None = None
     if args.locked or args.lock_file:
         lock_path = args.lock_file or root / "uros.lock"
-        locked = read_lock(lock_path, "--lock-file" if args.lock_file else "--locked").commits()
+        lock_flag = "--lock-file" if args.lock_file else "--locked"
+        lock = read_lock(lock_path, lock_flag)
+        _check_lock_covers(lock, distro, f"{lock_flag} {lock_path}")
+        locked = lock.commits()
     existed, existing, previous = _existing(root, args.force)
     mirror = _mirror_from(args, existing)
     sources = plan_sources(distro, mirror, locked)

@@ -42,6 +42,9 @@ CONFIG = defaults.WORKSPACE_MARKER  # "uros.yaml"
 LOCK = "uros.lock"
 USER_META = "colcon.meta"
 EXTRA = "extra_packages"
+# written by create-firmware before it clones (a lock without commits), removed when it is done: a
+# folder a killed create-firmware left is recognised, and --force finishes it
+PENDING = ".uros/create-firmware.pending"
 DEV_MARKER = ".uros-dev-built"  # in dev_ws/install: the lock the dev workspace was built from
 _IGNORE_NOTE = "uros: colcon must not look for packages here\n"
 
@@ -579,6 +582,11 @@ def locked(folder: Path, target: str) -> Iterator[None]:
     OS releases when the process ends, however it ends. The holder writes its process id beside
     it (filelock truncates the lock file itself), so that a waiting build can say whom it waits for."""
     folder.mkdir(parents=True, exist_ok=True)
+    if (folder / ".lock").is_dir() and not (folder / ".lock").is_symlink():
+        raise ConfigError(
+            f"{folder / '.lock'}: is a folder, where uros keeps the lock file of {target}",
+            "move it away (uros does not remove what it did not write), then run the command again",
+        )
     lock = filelock.FileLock(str(folder / ".lock"))
     owner = folder / ".lock.owner"
     try:

@@ -16,11 +16,12 @@ from uros_build import meta as meta_mod
 from uros_build.distros import Source
 from uros_build.errors import StepFailed, UrosError
 from uros_build.plan import CreateArgs, CreatePlan, plan_create
-from uros_build.proc import Runner, new_run_log
+from uros_build.proc import Runner, new_run_log, user_log_dir
 from uros_build.workspace import (
     CONFIG,
     EXTRA,
     LOCK,
+    PENDING,
     USER_META,
     Lock,
     Workspace,
@@ -82,12 +83,15 @@ def create_firmware(args: CreateArgs) -> Path:
     plan = plan_create(args)
     root, distro = plan.root, plan.distro
     root.mkdir(parents=True, exist_ok=True)
-    runner = Runner(new_run_log(root / ".uros" / "log", "create-firmware"), verbose=args.verbose)
+    # A new folder is removed whole when a step fails, so its log must live elsewhere for the
+    # error's hint to name a file that exists.
+    logs = root / ".uros" / "log" if plan.existed else user_log_dir()
+    runner = Runner(new_run_log(logs, "create-firmware"), verbose=args.verbose)
     console.step(f"uros create-firmware {args.platform}: micro-ROS {distro.name} in {root}")
     console.info(f"log: {runner.log_path}")
     try:
         git = _precheck(runner, plan)
-        if plan.previous is not None:
+        if plan.previous is not None and not (root / PENDING).is_file():
             clones.check_untouched(
                 runner, git, root, plan.previous, plan.previous.repositories, "--force re-clones it"
             )
@@ -102,6 +106,10 @@ def create_firmware(args: CreateArgs) -> Path:
         console.warn(
             f"the {distro.name} manifest was written from upstream facts and not built by uros's authors"
         )
+    pending = root / PENDING
+    pending.parent.mkdir(parents=True, exist_ok=True)
+    unfinished = {p: "0" * 40 for p in plan.sources}
+    pending.write_text(Lock.from_clones(distro.name, plan.sources, unfinished).to_json(), "utf-8")
     try:
         commits = _clone_all(runner, git, root, plan.sources, args.jobs)
         (root / LOCK).write_text(Lock.from_clones(distro.name, plan.sources, commits).to_json(), "utf-8")
@@ -138,5 +146,6 @@ def create_firmware(args: CreateArgs) -> Path:
         if not args.keep_partial:
             _remove_partial(root, plan.existed, plan.sources)
         raise
+    pending.unlink(missing_ok=True)
     console.step(f"created {root} ({len(commits)} repositories, locked in {LOCK}; edit {CONFIG} freely)")
     return root

@@ -18,9 +18,19 @@ def _prepare(source: Path | None, output: Path) -> tuple[BuildInfo, Path]:
         for line in outputs.recover(folder):
             console.info(line)
     info = read_build_info(src, "--from" if source else "--output")
+    flag = "--from" if source else "--output"
+    for name, present in (
+        (info.library.file, (src / info.library.file).is_file()),
+        (info.include.dir + "/", (src / info.include.dir).is_dir()),
+    ):
+        if not present:
+            raise ConfigError(
+                f"{flag} {src}: its build-info.json names {name}, which is not there (an incomplete output)",
+                f"build it again: uros build --toolchain {info.target}",
+            )
     if src != out:
         check_folder_target(out, "--output")
-        outputs.check_output_dir(out, force=False)
+        outputs.check_output_dir(out, force=False, offers_force=False)
         outputs.write_marker(out, info.target, export.copy_build_output(src, out))
     return info, out
 
