@@ -36,6 +36,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
             "installtree",
             "fingerprint",
             "firmware_scan",
+            "depfiles",
         ),
     ),
     ("workspace model", ("workspace", "outputs", "clones")),

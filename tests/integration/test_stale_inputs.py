@@ -106,3 +106,33 @@ def test_rebuild_recompiles_objects_the_build_tools_think_current(tmp_path: Path
     assert "fx_tampered" not in defined_globals(lib)
     assert defined_globals(lib)["fx_core_add"] == 1
     assert "--rebuild: building every package afresh" in proc.stderr
+
+
+def test_a_header_outside_the_workspace_restored_with_an_old_mtime(tmp_path: Path) -> None:
+    """Issue 16, item 3: headers a profile's flags (or the C library, or ESP-IDF) bring in from
+    outside the workspace were not fingerprinted; their content is now compared, package by
+    package, from the compiler's own dependency output (ninja -t deps)."""
+    need("arm-none-eabi-gcc", "cmake", "strings")
+    import yaml
+    from uros_helpers import REPO
+
+    ws = make_fixture_workspace(tmp_path / "ws")
+    board = tmp_path / "board" / "board_config.h"
+    board.parent.mkdir()
+    board.write_text('__attribute__((used)) static const char fx_board_mark[] = "BOARD_CONFIG_ONE";\n')
+    data = yaml.safe_load((REPO / "toolchains" / "cortex-m7.yaml").read_text())
+    data.update(name="board", c_flags=[*data.get("c_flags", []), "-include", str(board)])
+    profile = tmp_path / "board.yaml"
+    profile.write_text(yaml.safe_dump(data))
+    args = ["build", "--profile", str(profile), "--workspace", str(ws), "--meta", str(ws / "fixture.meta")]
+    run_uros(*args)
+    lib = ws / "build/board/libmicroros.a"
+    assert "BOARD_CONFIG_ONE" in _strings(lib)
+    old = board.stat()
+    board.write_text('__attribute__((used)) static const char fx_board_mark[] = "BOARD_CONFIG_TWO";\n')
+    os.utime(board, ns=(old.st_atime_ns, old.st_mtime_ns - 10**9))  # older than every object
+    proc = run_uros(*args)
+    text = _strings(lib)
+    assert "BOARD_CONFIG_TWO" in text and "BOARD_CONFIG_ONE" not in text
+    assert "headers outside the workspace changed since the last build" in proc.stderr
+    assert "up to date" in run_uros(*args).stderr  # and then nothing to do

@@ -28,6 +28,7 @@ from uros_build import (
     colcon,
     console,
     contents,
+    depfiles,
     export,
     hosttools,
     includes,
@@ -118,7 +119,9 @@ def build(args: BuildArgs) -> Path:
         meta_text = meta_mod.dump_meta(plan.meta, f"uros build --toolchain {plan.target.key}")
         write_if_changed(meta_path, meta_text)
         setup = _colcon_setup(plan, facts, toolchain_file, meta_path)
+        outside_digest = _drop_readers_of_changed_headers(plan)
         parts = _input_parts(plan, facts, toolchain_file, meta_text, setup)
+        parts["headers outside the workspace"] = outside_digest
         state_path = plan.target_dir / fp.STATE
         previous = fp.read_state(state_path)
         fingerprint = fp.combine(parts)
@@ -136,6 +139,9 @@ def build(args: BuildArgs) -> Path:
         _drop_removed_packages(plan)
         progress = _run_colcon(plan, facts, runner, setup, parts)
         built = _check_built(plan, setup, progress, parts)
+        # what the compiler read outside the workspace this time: the state records its content
+        parts["headers outside the workspace"] = _record_outside_headers(plan, runner, setup)
+        fingerprint = fp.combine(parts)
         staging = outputs.staging_dir(plan.output)
         try:
             info, merge_key = _stage_output(runner, plan, facts, staging, setup, built, progress, previous)
@@ -210,6 +216,41 @@ def _redo_what_must_be_redone(plan: BuildPlan, facts: HostFacts) -> None:
         for tree in trees:
             outputs.remove_tree(tree)
     write_if_changed(identity, now + "\n")
+
+
+def _drop_readers_of_changed_headers(plan: BuildPlan) -> str:
+    """Packages that read a header outside the workspace whose content changed since their build
+    (a C library upgrade, a profile's -I folder, an edit restored with an old mtime) are built
+    afresh: ninja goes by mtimes, and such a header need not be newer than the objects. Returns
+    the digest of those headers' current content, for the fingerprint."""
+    record = depfiles.read_record(plan.target_dir / depfiles.RECORD)
+    changed, digest = depfiles.changed_packages(record)
+    existing = [p for p in changed if (plan.target_dir / "build" / p).is_dir()]
+    if existing:
+        names = ", ".join(existing)
+        console.info(f"headers outside the workspace changed since the last build: building {names} afresh")
+        for package in existing:
+            outputs.remove_tree(plan.target_dir / "build" / package)
+    return digest
+
+
+def _record_outside_headers(plan: BuildPlan, runner: Runner, setup: ColconSetup) -> str:
+    """Read, from ninja's record of the compiler's dependency output, every header each package's
+    objects included from outside the workspace, and keep their sha256 for the next build. With
+    another generator than Ninja there is no such record: those headers are not tracked."""
+    ninja = shutil.which("ninja", path=setup.env.get("PATH"))
+    if ninja is None:
+        return depfiles.changed_packages({})[1]
+    roots = (plan.workspace.root, plan.target_dir)
+    per_package: dict[str, list[str]] = {}
+    for folder in sorted(p for p in setup.build_base.iterdir() if (p / ".ninja_deps").is_file()):
+        text = runner.query(
+            [ninja, "-C", str(folder), "-t", "deps"], step=f"read {folder.name}'s dependencies"
+        )
+        per_package[folder.name] = depfiles.outside(depfiles.parse_ninja_deps(text), roots)
+    snap = depfiles.snapshot(per_package)
+    write_if_changed(plan.target_dir / depfiles.RECORD, depfiles.record_text(snap))
+    return depfiles.changed_packages(snap)[1]
 
 
 def _repair(plan: BuildPlan) -> bool:
