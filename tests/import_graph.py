@@ -37,6 +37,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
             "fingerprint",
             "firmware_scan",
             "depfiles",
+            "probe",
         ),
     ),
     ("workspace model", ("workspace", "outputs", "clones")),

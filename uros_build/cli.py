@@ -31,6 +31,7 @@ from uros_build.commands import export as export_cmd
 from uros_build.commands import info as info_cmd
 from uros_build.commands import interface as interface_cmd
 from uros_build.commands import listings
+from uros_build.commands import probe as probe_cmd
 from uros_build.commands import size as size_cmd
 from uros_build.commands import update as update_cmd
 from uros_build.errors import DiskFull, Signalled, UrosError, did_you_mean, interrupted
@@ -523,6 +524,29 @@ def update(
     )
 
 
+@click.command("probe")
+@click.argument("output", required=False, type=_PATH)
+@_workspace_option("Firmware workspace (its output of --toolchain, or its only one).")
+@_toolchain_option("The target whose output to probe.")
+@click.option("--agent", help="A MicroXRCEAgent program (default: $UROS_AGENT).")
+@click.option(
+    "--timeout", type=float, default=60.0, show_default=True, help="Seconds the firmware may take in QEMU."
+)
+@click.option("--json", "as_json", is_flag=True, help="The result as JSON on stdout.")
+@_VERBOSE
+def probe(
+    output: Path | None,
+    workspace: Path | None,
+    toolchain: str | None,
+    agent: str | None,
+    timeout: float,
+    as_json: bool,
+    verbose: bool,
+) -> None:
+    """Run a built library: boot a probe firmware in QEMU against a real Micro XRCE-DDS Agent."""
+    probe_cmd.probe(output, workspace, toolchain, agent, timeout, as_json, verbose)
+
+
 @click.command("add-package")
 @click.argument("source")
 @_workspace_option("Firmware workspace.")
@@ -562,6 +586,7 @@ _REGISTRY: tuple[tuple[click.Group, click.Command], ...] = (
     (cli, doctor),
     (cli, info),
     (cli, size),
+    (cli, probe),
     (cli, targets),
     (targets, targets_show),
     (cli, distros),

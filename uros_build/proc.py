@@ -33,7 +33,7 @@ import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import NoReturn
+from typing import IO, NoReturn
 
 from uros_build import console
 from uros_build.errors import DiskFull, MissingToolError, StepFailed, interrupted
@@ -297,8 +297,25 @@ class Runner:
             self._failed(step, proc.returncode, err.splitlines() or out.splitlines(), hint, cwd)
         return out
 
+    def start(self, argv: Sequence[str], *, step: str, output: Path, hint: str | None = None) -> Background:
+        """Start ``argv`` in the background, its output (stdout and stderr) into the file ``output``
+        (a program uros talks to while another runs: QEMU, the agent). Stopped like every tool:
+        with uros, or by :meth:`Background.stop`."""
+        env = self._marked(messages_in_c(os.environ))
+        argv = self._prepare(argv, hint, None, env, "")
+        self.log(f"(in the background; its output: {output})")
+        with output.open("w", encoding="utf-8") as sink:
+            proc = self._start(argv, step, None, env, subprocess.STDOUT, stdout=sink)
+        return Background(proc, self, step)
+
     def _start(
-        self, argv: list[str], step: str, cwd: Path | None, env: Mapping[str, str] | None, stderr: int
+        self,
+        argv: list[str],
+        step: str,
+        cwd: Path | None,
+        env: Mapping[str, str] | None,
+        stderr: int,
+        stdout: int | IO[str] = subprocess.PIPE,
     ) -> subprocess.Popen[str]:
         try:
             # A new session: Ctrl-C reaches uros first, which then stops the whole tool tree.
@@ -306,7 +323,7 @@ class Runner:
                 argv,
                 cwd=cwd,
                 env=dict(env) if env is not None else None,
-                stdout=subprocess.PIPE,
+                stdout=stdout,
                 stderr=stderr,
                 stdin=subprocess.DEVNULL,
                 text=True,
@@ -357,6 +374,33 @@ class Runner:
             hint or f"the full output is in {self.log_path}",
             output=tuple(lines),
         )
+
+
+@dataclass
+class Background:
+    """A program :meth:`Runner.start` runs beside uros."""
+
+    proc: subprocess.Popen[str]
+    runner: Runner
+    step: str
+
+    def wait(self, timeout: float) -> int | None:
+        """Its exit status, or None when it is still running after ``timeout`` seconds."""
+        try:
+            code = self.proc.wait(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            return None
+        except KeyboardInterrupt as exc:
+            self.stop()
+            raise interrupted(exc, f"{self.step} was interrupted", "nothing was changed") from None
+        self.runner.log(f"{self.step}: exit {code}")
+        return code
+
+    def stop(self) -> None:
+        if self.proc.poll() is None:
+            with signals_held():
+                _stop(self.proc)
+            self.runner.log(f"{self.step}: stopped")
 
 
 def _stop(proc: subprocess.Popen[str]) -> None:

@@ -73,6 +73,36 @@ def eval_ninja(path: str | None) -> Check:
     return Check("ninja", OK, path)
 
 
+def eval_probe_tools(qemu: str | None, agent: str | None, agent_given: bool) -> list[Check]:
+    """What `uros probe` needs; neither is needed to build, so a missing one is a note, not a failure."""
+    checks = [
+        Check("qemu", OK, qemu)
+        if qemu
+        else Check(
+            "qemu",
+            SKIP,
+            "qemu-system-arm not found: `uros probe` cannot run",
+            "apt-get install qemu-system-arm",
+        )
+    ]
+    if agent:
+        checks.append(Check("agent", OK, agent))
+    elif agent_given:
+        checks.append(
+            Check("agent", WARN, "UROS_AGENT names no program", "point UROS_AGENT at a MicroXRCEAgent")
+        )
+    else:
+        checks.append(
+            Check(
+                "agent",
+                SKIP,
+                "no Micro XRCE-DDS Agent (UROS_AGENT unset): `uros probe` needs one",
+                "docs/probe.md",
+            )
+        )
+    return checks
+
+
 def eval_git(version: str | None, mirrors: bool) -> Check:
     if version is None:
         return Check("git", FAIL, "not found (create-firmware clones with it)", "apt-get install git")
@@ -332,6 +362,10 @@ def doctor(workspace: Path | None, toolchain: str | None, as_json: bool) -> list
         eval_empy(_empy_version(), colcon.host_python()),
         eval_ros_env(os.environ),
     ]
+    agent = os.environ.get("UROS_AGENT")
+    checks += eval_probe_tools(
+        _which(runner, "qemu-system-arm"), _which(runner, agent) if agent else None, bool(agent)
+    )
     where = ws.root if ws else Path.cwd()
     checks.append(eval_disk(shutil.disk_usage(where).free, where))
     try:

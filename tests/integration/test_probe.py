@@ -1,0 +1,92 @@
+"""`uros probe` (issue 17): a uros-built library, booted in QEMU on the target's mps2 board, talks to
+a real Micro XRCE-DDS Agent over an emulated UART. Real Humble sources (UROS_MIRROR) and a built
+agent (UROS_AGENT) are needed for the runs; without them those tests skip, and CI runs only the
+checks that need neither."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+from pathlib import Path
+
+import pytest
+from test_real_sources import humble_mirror_args
+from uros_helpers import run_uros
+
+pytestmark = pytest.mark.integration
+
+MIRROR = os.environ.get("UROS_MIRROR")
+AGENT = os.environ.get("UROS_AGENT")
+_RUNS = pytest.mark.skipif(
+    not (MIRROR and AGENT and shutil.which("qemu-system-arm")),
+    reason="set UROS_MIRROR (upstream clones) and UROS_AGENT (a MicroXRCEAgent), and install qemu-system-arm",
+)
+
+
+@pytest.fixture(scope="module")
+def humble(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A real Humble workspace (std_msgs and the core only: what the probe firmware uses)."""
+    assert MIRROR
+    fw = tmp_path_factory.mktemp("probe") / "fw"
+    run_uros("create-firmware", "--distro", "humble", "-w", str(fw), *humble_mirror_args(MIRROR))
+    return fw
+
+
+def _probe(*args: str) -> tuple[int, str, dict[str, object] | None]:
+    proc = run_uros("probe", "--json", *args, check=False)
+    data = json.loads(proc.stdout) if proc.stdout.strip() else None
+    return proc.returncode, proc.stderr, data
+
+
+@_RUNS
+@pytest.mark.parametrize(
+    ("target", "machine"),
+    [("cortex-m7", "mps2-an500"), ("cortex-m4f", "mps2-an386"), ("cortex-m3", "mps2-an385")],
+)
+def test_the_library_runs_against_the_agent(humble: Path, target: str, machine: str) -> None:
+    run_uros("build", "--toolchain", target, "-w", str(humble), "--packages", "std_msgs")
+    code, err, data = _probe("--toolchain", target, "-w", str(humble))
+    assert code == 0, err
+    assert data is not None and data["status"] == 0 and data["machine"] == machine
+    assert float(data["seconds"]) < 10  # type: ignore[arg-type]
+    assert "probe passed" in err
+    assert "uros-probe: PASS" in Path(str(data["console_log"])).read_text()
+    agent_log = Path(str(data["agent_log"])).read_text()
+    assert ("session established" in agent_log and "create_datawriter" in agent_log.replace(" ", "_")) or (
+        "datawriter created" in agent_log
+    )
+
+
+@_RUNS
+def test_a_library_without_stream_framing_links_and_fails(humble: Path, tmp_path: Path) -> None:
+    """The negative control: it links, so a link check passes; at run time it never reaches the agent."""
+    out = tmp_path / "no-framing"
+    run_uros(
+        "build", "--toolchain", "cortex-m7", "-w", str(humble), "--packages", "std_msgs", "--output", str(out),
+        "--set", "microxrcedds_client.UCLIENT_PROFILE_STREAM_FRAMING=OFF",
+    )  # fmt: skip
+    code, err, data = _probe(str(out), "--timeout", "60")
+    assert code == 5, err
+    assert "uros probe cortex-m7 (mps2-an500): no agent answered" in err
+    assert data is not None and data["status"] == 2
+
+
+@_RUNS
+def test_no_agent_on_the_link_is_a_clear_error(humble: Path) -> None:
+    run_uros("build", "--toolchain", "cortex-m7", "-w", str(humble), "--packages", "std_msgs")
+    code, err, _ = _probe("--toolchain", "cortex-m7", "-w", str(humble), "--agent", "/bin/true")
+    assert code == 5 and "no agent answered" in err
+    code, err, _ = _probe(
+        "--toolchain", "cortex-m7", "-w", str(humble), "--agent", "/bin/true", "--timeout", "3"
+    )
+    assert code == 5 and "timeout: the firmware did not finish" in err
+
+
+def test_without_an_agent_or_qemu_the_probe_says_what_to_install(m7_build: Path) -> None:
+    env = {k: v for k, v in os.environ.items() if k != "UROS_AGENT"}
+    proc = run_uros("probe", str(m7_build / "build" / "cortex-m7"), env=env, check=False)
+    assert proc.returncode == 3, proc.stderr
+    errors = [x for x in proc.stderr.splitlines() if x.startswith("error:")]
+    assert len(errors) == 1 and ("qemu-system-arm" in errors[0] or "no Micro XRCE-DDS Agent" in errors[0])
+    assert "Traceback" not in proc.stderr

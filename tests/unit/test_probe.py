@@ -1,0 +1,96 @@
+"""uros probe's pure pieces: the machine table, QEMU's and the agent's command lines, QEMU's pty
+line, the verdicts of the firmware's exit statuses, and the shipped firmware sources."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from uros_build import probe
+from uros_build.commands import doctor
+from uros_build.errors import ConfigError
+
+
+def test_the_shipped_machine_table() -> None:
+    machines = probe.load_machines()
+    assert machines["cortex-m7"].machine == "mps2-an500"
+    assert machines["cortex-m4f"].machine == "mps2-an386"
+    assert machines["cortex-m3"].machine == "mps2-an385"
+    assert "esp32s3" not in machines
+
+
+def test_a_target_without_a_machine_says_so() -> None:
+    with pytest.raises(ConfigError, match="target esp32s3 has no QEMU machine here"):
+        probe.machine_for("esp32s3", probe.load_machines())
+
+
+@pytest.mark.parametrize(
+    ("data", "message"),
+    [
+        ({}, "machines"),
+        ({"machines": {"cortex-m7": {}}}, "machine"),
+        ({"machines": {"cortex-m7": {"machine": "mps2 an500; rm"}}}, "is not a QEMU machine name"),
+    ],
+)
+def test_bad_machine_tables(data: object, message: str) -> None:
+    with pytest.raises(ConfigError, match=message):
+        probe.parse_machines(data, "machines.yaml")
+
+
+def test_qemu_and_agent_argv() -> None:
+    argv = probe.qemu_argv(
+        probe.Machine("cortex-m7", "mps2-an500"), Path("/w/fw.elf"), Path("/w/console.log")
+    )
+    assert argv[:3] == ["qemu-system-arm", "-M", "mps2-an500"]
+    assert argv[argv.index("-semihosting-config") + 1] == "enable=on,target=native"
+    assert argv[8:14] == [
+        "-serial",
+        "file:/w/console.log",
+        "-chardev",
+        "pty,id=link",
+        "-serial",
+        "chardev:link",
+    ]
+    assert argv[-2:] == ["-kernel", "/w/fw.elf"]
+    assert probe.agent_argv("/a/MicroXRCEAgent", "/dev/pts/7") == [
+        "/a/MicroXRCEAgent", "serial", "--dev", "/dev/pts/7", "-b", "115200", "-v6",
+    ]  # fmt: skip
+
+
+def test_the_pty_qemu_announces() -> None:
+    text = "qemu-system-arm: -chardev pty,id=link: char device redirected to /dev/pts/12 (label link)\n"
+    assert probe.pty_of(text) == "/dev/pts/12"
+    assert probe.pty_of("nothing yet") is None
+
+
+def test_verdicts_and_resources() -> None:
+    assert probe.verdict(0) == "pass"
+    assert probe.verdict(2).startswith("no agent answered")
+    assert probe.verdict(None).startswith("timeout")
+    assert probe.verdict(99) == "the firmware exited with 99"
+    assert probe.resources_used("uros-probe: heap 2608 B, stack 2096 B\n") == (2608, 2096)
+    assert probe.resources_used("") is None
+
+
+def test_the_firmware_sources_ship_and_name_every_verdict() -> None:
+    src = probe.firmware_sources()
+    assert {p.name for p in src.iterdir()} >= {
+        "CMakeLists.txt",
+        "main.c",
+        "board.c",
+        "transport.c",
+        "mps2.ld",
+    }
+    main = (src / "main.c").read_text()
+    for status in probe.VERDICTS:
+        if status not in (0, 70):
+            assert f", {status}, " in main or f"return {status};" in main, status
+
+
+def test_doctor_reports_what_the_probe_needs() -> None:
+    checks = doctor.eval_probe_tools(None, None, False)
+    assert [c.status for c in checks] == [doctor.SKIP, doctor.SKIP]
+    checks = doctor.eval_probe_tools("/usr/bin/qemu-system-arm", "/a/MicroXRCEAgent", True)
+    assert [c.status for c in checks] == [doctor.OK, doctor.OK]
+    assert doctor.eval_probe_tools(None, None, True)[1].status == doctor.WARN

@@ -1,0 +1,161 @@
+"""`uros probe`: does a built libmicroros.a work at run time? Build the probe firmware against the
+output's CMake package, boot it in QEMU when the target has a machine there, connect it over an
+emulated UART to a real Micro XRCE-DDS Agent on the host, and report what the firmware saw.
+
+output → QEMU machine (meta/probe/machines.yaml) → qemu-system-arm and the agent found → firmware
+configured and built like a user's project → QEMU started (its link on a pseudo-terminal) → the
+agent on that terminal → QEMU's exit status (the firmware's main()) → one line, the logs kept.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import sys
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+from uros_build import console
+from uros_build import probe as probe_mod
+from uros_build.buildinfo import read_build_info
+from uros_build.errors import MissingToolError, StepFailed, VerifyError
+from uros_build.plan import resolve_output
+from uros_build.proc import Background, Runner, new_run_log, user_log_dir
+from uros_build.workspace import workspace_of_output
+
+AGENT_VARIABLE = "UROS_AGENT"
+_AGENT_HINT = (
+    "pass --agent PATH (or set UROS_AGENT) to a MicroXRCEAgent: eProsima Micro-XRCE-DDS-Agent v2.3.0 "
+    "builds against Debian 12's libfastcdr-dev and libspdlog-dev with -DUAGENT_SUPERBUILD=OFF "
+    "-DUAGENT_USE_SYSTEM_FASTCDR=ON -DUAGENT_USE_SYSTEM_LOGGER=ON -DUAGENT_P2P_PROFILE=OFF "
+    "-DCMAKE_CXX_FLAGS=-DFMT_DEPRECATED_OSTREAM=1 (docs/probe.md)"
+)
+
+
+@dataclass(frozen=True)
+class ProbeReport:
+    target: str
+    machine: str
+    status: int | None  # the firmware's exit status; None: it did not finish in time
+    verdict: str
+    seconds: float
+    heap_bytes: int | None
+    stack_bytes: int | None
+    console_log: str
+    agent_log: str
+    run_log: str
+
+
+def _agent(given: str | None, runner: Runner) -> str:
+    wanted = given or os.environ.get(AGENT_VARIABLE)
+    if not wanted:
+        raise MissingToolError("uros probe: no Micro XRCE-DDS Agent was given", _AGENT_HINT)
+    if os.sep in wanted and not (Path(wanted).is_file() and os.access(wanted, os.X_OK)):
+        raise MissingToolError(f"--agent {wanted}: no such program", _AGENT_HINT)
+    return runner.which(wanted, _AGENT_HINT)
+
+
+def _wait_for_pty(qemu_output: Path, qemu: Background, seconds: float) -> str | None:
+    end = time.monotonic() + seconds
+    while time.monotonic() < end:
+        text = qemu_output.read_text(encoding="utf-8", errors="replace") if qemu_output.is_file() else ""
+        pty = probe_mod.pty_of(text)
+        if pty is not None:
+            return pty
+        if qemu.wait(0.1) is not None:
+            return None
+    return None
+
+
+def probe(
+    output: Path | None,
+    workspace: Path | None,
+    toolchain: str | None,
+    agent: str | None,
+    timeout: float,
+    as_json: bool,
+    verbose: bool = False,
+) -> ProbeReport:
+    out = resolve_output(output, workspace, toolchain).resolve()
+    info = read_build_info(out, "OUTPUT")
+    machine = probe_mod.machine_for(info.target, probe_mod.load_machines())
+    ws = workspace_of_output(out, info.target)
+    work = (ws.state_dir if ws is not None else user_log_dir().parent) / "probe" / info.target
+    work.mkdir(parents=True, exist_ok=True)
+    runner = Runner(new_run_log(work / "log", "probe", info.target), verbose=verbose)
+    console.step(f"uros probe: {out} ({info.target}) in QEMU {machine.machine}")
+    console.info(f"log: {runner.log_path}")
+    qemu_program = runner.which(
+        "qemu-system-arm", "install qemu-system-arm (Debian: apt-get install qemu-system-arm)"
+    )
+    agent_program = _agent(agent, runner)
+    cmake = runner.which("cmake")
+
+    # the firmware, built as a user's project would be: the output's toolchain file and package
+    src, build = work / "src", work / "build"
+    shutil.rmtree(src, ignore_errors=True)
+    shutil.copytree(probe_mod.firmware_sources(), src)
+    runner.run(
+        [cmake, "-S", str(src), "-B", str(build), "-DCMAKE_BUILD_TYPE=Release",
+         f"-DCMAKE_TOOLCHAIN_FILE={out / 'toolchain.cmake'}", f"-DCMAKE_PREFIX_PATH={out}"],
+        step="configure the probe firmware", quiet=not verbose,
+    )  # fmt: skip
+    runner.run([cmake, "--build", str(build)], step="build the probe firmware", quiet=not verbose)
+    elf = next(iter(sorted(p for p in build.glob("uros_probe*") if p.suffix in ("", ".elf"))), None)
+    if elf is None or not elf.is_file():
+        raise StepFailed(
+            "build the probe firmware: no uros_probe ELF was made", f"the log is {runner.log_path}"
+        )
+
+    console_log, qemu_log, agent_log = work / "console.log", work / "qemu.log", work / "agent.log"
+    console_log.unlink(missing_ok=True)
+    argv = probe_mod.qemu_argv(machine, elf, console_log)
+    started = time.monotonic()
+    qemu = runner.start([qemu_program, *argv[1:]], step="QEMU", output=qemu_log)
+    agent_proc = None
+    try:
+        pty = _wait_for_pty(qemu_log, qemu, 10.0)
+        if pty is None:
+            raise StepFailed(
+                f"QEMU {machine.machine} did not open the firmware's link (no pseudo-terminal)",
+                f"its output is in {qemu_log}",
+            )
+        agent_proc = runner.start(
+            probe_mod.agent_argv(agent_program, pty), step="the agent", output=agent_log
+        )
+        status = qemu.wait(timeout)
+    finally:
+        qemu.stop()
+        if agent_proc is not None:
+            agent_proc.stop()
+    seconds = time.monotonic() - started
+    text = console_log.read_text(encoding="utf-8", errors="replace") if console_log.is_file() else ""
+    runner.log("firmware console:\n" + text)
+    used = probe_mod.resources_used(text)
+    report = ProbeReport(
+        target=info.target,
+        machine=machine.machine,
+        status=status,
+        verdict=probe_mod.verdict(status),
+        seconds=round(seconds, 2),
+        heap_bytes=used[0] if used else None,
+        stack_bytes=used[1] if used else None,
+        console_log=str(console_log),
+        agent_log=str(agent_log),
+        run_log=str(runner.log_path),
+    )
+    if as_json:
+        sys.stdout.write(json.dumps(asdict(report), indent=2, sort_keys=True) + "\n")
+    if status != 0:
+        raise VerifyError(
+            f"uros probe {info.target} ({machine.machine}): {report.verdict}",
+            f"the firmware's console: {console_log}; the agent's log: {agent_log}",
+        )
+    memory = f"; heap {used[0]:,} B, stack {used[1]:,} B" if used else ""
+    console.step(
+        f"probe passed: {info.target} in QEMU {machine.machine} talked to the agent: session, node, "
+        f"publisher, subscription, every sample back ({seconds:.1f} s{memory})"
+    )
+    return report
