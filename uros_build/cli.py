@@ -420,6 +420,32 @@ def export_esp_idf(output: Path, source: Path | None) -> None:
     export_cmd.export_esp_idf(source, output)
 
 
+@click.command("make")
+@_output_option(
+    "Folder of microros.mk (with the library and headers when --from is another folder).", required=True
+)
+@_FROM
+def export_make(output: Path, source: Path | None) -> None:
+    """Write microros.mk (MICROROS_CFLAGS, MICROROS_LIBS, MICROROS_CPU_FLAGS) for a Make firmware."""
+    export_cmd.export_make(source, output)
+
+
+@click.command("pkg-config")
+@_output_option("Folder of microros.pc.", required=True)
+@_FROM
+def export_pkg_config(output: Path, source: Path | None) -> None:
+    """Write microros.pc (relocatable) for pkg-config."""
+    export_cmd.export_pkg_config(source, output)
+
+
+@click.command("meson")
+@_output_option("Folder of microros-cross.ini and microros.pc.", required=True)
+@_FROM
+def export_meson(output: Path, source: Path | None) -> None:
+    """Write a Meson cross file (compiler, CPU flags) and microros.pc for dependency('microros')."""
+    export_cmd.export_meson(source, output)
+
+
 @click.command("create-firmware")
 @click.argument("platform", default=defaults.PLATFORM)
 @click.option(
@@ -598,6 +624,9 @@ _REGISTRY: tuple[tuple[click.Group, click.Command], ...] = (
     (cli, export),
     (export, export_cmake),
     (export, export_esp_idf),
+    (export, export_make),
+    (export, export_pkg_config),
+    (export, export_meson),
     (cli, interface),
     (interface, interface_new),
 )

@@ -111,6 +111,32 @@ def cmake_link_flags(flags: Iterable[str]) -> str:
     return cmake_quote(shell_words(flags))
 
 
+def make_flags(flags: Iterable[str]) -> str:
+    """Flags for a make variable, run by the shell: shell words (:func:`shell_words`), then ``$``
+    doubled (make's own variables) and ``#`` escaped (a comment otherwise)
+    (https://www.gnu.org/software/make/manual/html_node/Reference.html)."""
+    return shell_words(flags).replace("$", "$$").replace("#", "\\#")
+
+
+def pc_flags(flags: Iterable[str]) -> str:
+    """Flags for a pkg-config field: pkg-config splits them like a shell and expands ``${var}``, so
+    shell words with ``$`` doubled (pkgconf's and pkg-config's escape for a literal ``$``)."""
+    return shell_words(flags).replace("$", "$$")
+
+
+def meson_string(text: str) -> str:
+    """A Meson string literal holding exactly ``text`` (single-quoted; backslash and quote escaped)
+    (https://mesonbuild.com/Syntax.html#strings)."""
+    bad = _control(text)
+    if bad is not None:
+        raise ConfigError(f"{text!r}: holds the control character {bad!r}", "remove it from the flag or path")
+    return "'" + text.replace("\\", "\\\\").replace("'", "\\'") + "'"
+
+
+def meson_list(items: Iterable[str]) -> str:
+    return "[" + ", ".join(meson_string(i) for i in items) + "]"
+
+
 @cache
 def _env() -> jinja2.Environment:
     env = jinja2.Environment(
@@ -126,6 +152,10 @@ def _env() -> jinja2.Environment:
     env.filters["cmake_quote"] = cmake_quote
     env.filters["cmake_comment"] = cmake_comment
     env.filters["cmake_path"] = cmake_path
+    env.filters["make_flags"] = make_flags
+    env.filters["pc_flags"] = pc_flags
+    env.filters["meson_string"] = meson_string
+    env.filters["meson_list"] = meson_list
     return env
 
 

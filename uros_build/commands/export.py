@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 from uros_build import console, export, outputs
@@ -31,7 +32,8 @@ def _prepare(source: Path | None, output: Path) -> tuple[BuildInfo, Path]:
     if src != out:
         check_folder_target(out, "--output")
         outputs.check_output_dir(out, force=False, offers_force=False)
-        outputs.write_marker(out, info.target, export.copy_build_output(src, out))
+        earlier = outputs.owned_entries(out) or frozenset()  # an earlier export's files stay uros's
+        outputs.write_marker(out, info.target, {*earlier, *export.copy_build_output(src, out)})
     return info, out
 
 
@@ -64,3 +66,36 @@ def export_esp_idf(source: Path | None, output: Path) -> Path:
         f"project's components/ and add its folder name to PRIV_REQUIRES"
     )
     return out
+
+
+def _simple(
+    source: Path | None, output: Path, write: Callable[[Path, BuildInfo], list[Path]], use: str
+) -> Path:
+    info, out = _prepare(source, output)
+    written = write(out, info)
+    _record(out, written)
+    console.step(f"wrote {', '.join(p.name for p in written)} in {out}: {use}")
+    return out
+
+
+def export_make(source: Path | None, output: Path) -> Path:
+    return _simple(source, output, export.write_make_fragment, "include it from your Makefile (README: Make)")
+
+
+def export_pkg_config(source: Path | None, output: Path) -> Path:
+    return _simple(
+        source,
+        output,
+        export.write_pkg_config,
+        "PKG_CONFIG_PATH=<that folder> pkg-config --cflags --libs microros",
+    )
+
+
+def export_meson(source: Path | None, output: Path) -> Path:
+    src = (source or output).resolve()
+    if read_build_info(src, "--from" if source else "--output").compiler is None:
+        raise ConfigError(
+            f"{src}: built with your own toolchain file, so uros does not know the compiler to name",
+            "use `uros export pkg-config` with your own Meson cross file",
+        )
+    return _simple(source, output, export.write_meson_cross, "meson setup build --cross-file <that file>")

@@ -1,0 +1,110 @@
+"""`uros export make`, `pkg-config` and `meson` (issue 20, items 3 and 4), each consumed by the real
+tool: a Make firmware, pkg-config's answer fed to the cross compiler, and a Meson cross build with
+dependency('microros') -- every one links against the fixture library and calls into it."""
+
+from __future__ import annotations
+
+import os
+import shlex
+import subprocess
+from pathlib import Path
+
+import pytest
+from conftest import need
+from uros_helpers import run_uros
+
+pytestmark = pytest.mark.integration
+
+_MAIN = '#include "fx_core/core.h"\nint main(void) { return fx_core_add(1, 2) == 3 ? 0 : 1; }\n'
+
+
+def _calls_the_library(elf: Path) -> None:
+    nm = subprocess.run(["arm-none-eabi-nm", str(elf)], capture_output=True, text=True, check=True).stdout
+    assert " T fx_core_add" in nm, nm
+
+
+@pytest.fixture()
+def exported(m7_build: Path, tmp_path: Path) -> Path:
+    out = tmp_path / "micro ros"  # a space: the paths must survive make, pkg-config and meson
+    for kind in ("make", "pkg-config", "meson"):
+        run_uros("export", kind, "--from", str(m7_build / "build" / "cortex-m7"), "--output", str(out))
+    return out
+
+
+def test_a_make_firmware_links(exported: Path, tmp_path: Path) -> None:
+    need("make", "arm-none-eabi-gcc")
+    app = tmp_path / "app"
+    app.mkdir()
+    (app / "main.c").write_text(_MAIN)
+    # make cannot include a path with a space: the firmware links the export in, as users copy it
+    (app / "microros").symlink_to(exported)
+    (app / "Makefile").write_text(
+        "include microros/microros.mk\n"
+        "CC = arm-none-eabi-gcc\n"
+        "CFLAGS += $(MICROROS_CPU_FLAGS) $(MICROROS_CFLAGS)\n"
+        "LDFLAGS += $(MICROROS_CPU_FLAGS) --specs=nosys.specs\n"
+        "app.elf: main.o\n\t$(CC) $(LDFLAGS) -o $@ $^ $(MICROROS_LIBS)\n"
+    )
+    proc = subprocess.run(["make", "-C", str(app)], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    _calls_the_library(app / "app.elf")
+    text = (exported / "microros.mk").read_text()
+    assert "MICROROS_TARGET := cortex-m7\n" in text and "-mfloat-abi=hard" in text
+
+
+def test_pkg_config_answers_what_links(exported: Path, tmp_path: Path) -> None:
+    need("pkg-config", "arm-none-eabi-gcc")
+    env = {**os.environ, "PKG_CONFIG_PATH": str(exported)}
+
+    def ask(*args: str) -> list[str]:
+        out = subprocess.run(
+            ["pkg-config", *args, "microros"], capture_output=True, text=True, env=env, check=True
+        )
+        return shlex.split(out.stdout)
+
+    cflags, libs, cpu = ask("--cflags"), ask("--libs"), ask("--variable=cpu_flags")
+    assert cflags == [f"-I{exported}/include"] and libs == [f"{exported}/libmicroros.a"]
+    assert cpu == ["-mcpu=cortex-m7", "-mthumb", "-mfpu=fpv5-d16", "-mfloat-abi=hard"]
+    (tmp_path / "main.c").write_text(_MAIN)
+    elf = tmp_path / "app.elf"
+    subprocess.run(
+        [
+            "arm-none-eabi-gcc",
+            *cpu,
+            *cflags,
+            str(tmp_path / "main.c"),
+            *libs,
+            "--specs=nosys.specs",
+            "-o",
+            str(elf),
+        ],
+        check=True,
+    )
+    _calls_the_library(elf)
+
+
+def test_a_meson_cross_build_finds_the_dependency(exported: Path, tmp_path: Path) -> None:
+    need("meson", "ninja", "pkg-config", "arm-none-eabi-gcc")
+    app = tmp_path / "app"
+    app.mkdir()
+    (app / "main.c").write_text(_MAIN)
+    (app / "meson.build").write_text(
+        "project('app', 'c')\n"
+        "executable('app.elf', 'main.c', dependencies: dependency('microros'), link_args: ['--specs=nosys.specs'])\n"
+    )
+    build = tmp_path / "build"
+    env = {k: v for k, v in os.environ.items() if k != "PKG_CONFIG_PATH"}
+    setup = subprocess.run(
+        ["meson", "setup", str(build), str(app), "--cross-file", str(exported / "microros-cross.ini")],
+        capture_output=True, text=True, env=env,
+    )  # fmt: skip
+    assert setup.returncode == 0, setup.stdout + setup.stderr
+    assert "Run-time dependency microros found: YES" in setup.stdout
+    subprocess.run(["ninja", "-C", str(build)], check=True, capture_output=True, env=env)
+    _calls_the_library(build / "app.elf")
+
+
+def test_exports_name_their_files_in_the_output_marker(exported: Path) -> None:
+    marker = (exported / ".uros-output").read_text()
+    for name in ("microros.mk", "microros.pc", "microros-cross.ini"):
+        assert name in marker
