@@ -112,3 +112,22 @@ def resources_used(console: str) -> tuple[int, int] | None:
     """(heap, stack) bytes the firmware reported using."""
     found = _RESOURCES.search(console)
     return (int(found.group(1)), int(found.group(2))) if found else None
+
+
+_LIMIT = re.compile(r"uros-probe: limit (\w+) (-?\d+) (refused|unchecked)")
+
+
+def limits_held(console: str) -> dict[str, tuple[int, bool]]:
+    """kind -> (the library's RMW_UXRCE_MAX_* for it, whether one more was tried and refused): the
+    firmware created that many of each and one more failed cleanly."""
+    return {m.group(1): (int(m.group(2)), m.group(3) == "refused") for m in _LIMIT.finditer(console)}
+
+
+def describe_limits(limits: Mapping[str, tuple[int, bool]]) -> str:
+    if not limits:
+        return ""
+    parts = [
+        f"{kind} {limit}" + ("" if refused else " (more not tried)")
+        for kind, (limit, refused) in limits.items()
+    ]
+    return "limits held: " + ", ".join(parts) + " (one more of each refused)"

@@ -9,6 +9,7 @@
 #include <rclc/executor.h>
 #include <rclc/rclc.h>
 #include <rmw_microros/rmw_microros.h>
+#include <rmw_microxrcedds_c/config.h>
 #include <std_msgs/msg/int32.h>
 #include <stdio.h>
 #include <uxr/client/transport.h>
@@ -35,6 +36,72 @@ size_t probe_read(struct uxrCustomTransport *transport, uint8_t *data, size_t le
       return status;                                                                     \
     }                                                                                    \
   } while (0)
+
+/* The library's limits at run time: as many entities of each kind as its colcon.meta allows
+ * (RMW_UXRCE_MAX_*, compiled into rmw_microxrcedds_c/config.h), then one more, which must be
+ * refused with an error, not a crash. Capped at PROBE_MAX_EXTRA per kind (the pools are static). */
+#define PROBE_MAX_EXTRA 16
+enum probe_kind { KIND_NODE, KIND_PUBLISHER, KIND_SUBSCRIPTION };
+static const char *const kind_names[] = {"nodes", "publishers", "subscriptions"};
+static const int kind_limits[] = {RMW_UXRCE_MAX_NODES, RMW_UXRCE_MAX_PUBLISHERS, RMW_UXRCE_MAX_SUBSCRIPTIONS};
+static rcl_node_t extra_nodes[PROBE_MAX_EXTRA];
+static rcl_publisher_t extra_publishers[PROBE_MAX_EXTRA];
+static rcl_subscription_t extra_subscriptions[PROBE_MAX_EXTRA];
+
+static rcl_ret_t make_entity(enum probe_kind kind, int i, rcl_node_t *node, rclc_support_t *support,
+                             const rosidl_message_type_support_t *type) {
+  char name[32];
+  snprintf(name, sizeof name, "uros_probe_%s_%d", kind == KIND_NODE ? "n" : "t", i);
+  switch (kind) {
+    case KIND_NODE:
+      extra_nodes[i] = rcl_get_zero_initialized_node();
+      return rclc_node_init_default(&extra_nodes[i], name, "", support);
+    case KIND_PUBLISHER:
+      extra_publishers[i] = rcl_get_zero_initialized_publisher();
+      return rclc_publisher_init_default(&extra_publishers[i], node, type, name);
+    default:
+      extra_subscriptions[i] = rcl_get_zero_initialized_subscription();
+      return rclc_subscription_init_default(&extra_subscriptions[i], node, type, name);
+  }
+}
+
+static void drop_entity(enum probe_kind kind, int i, rcl_node_t *node) {
+  if (kind == KIND_NODE) (void)rcl_node_fini(&extra_nodes[i]);
+  if (kind == KIND_PUBLISHER) (void)rcl_publisher_fini(&extra_publishers[i], node);
+  if (kind == KIND_SUBSCRIPTION) (void)rcl_subscription_fini(&extra_subscriptions[i], node);
+}
+
+/* One of each kind exists already. 0, or 4 when the library allows other than it says. */
+static int probe_limit(enum probe_kind kind, rcl_node_t *node, rclc_support_t *support,
+                       const rosidl_message_type_support_t *type) {
+  int limit = kind_limits[kind];
+  int more = limit - 1, checked = 1;
+  if (more >= PROBE_MAX_EXTRA) {
+    more = PROBE_MAX_EXTRA - 1;
+    checked = 0; /* the pool is larger than the probe goes: no "one more" */
+  }
+  int made = 0, status = 0;
+  for (; made < more; made++) {
+    if (make_entity(kind, made, node, support, type) != RCL_RET_OK) {
+      printf("uros-probe: FAIL %s: number %d of the %d RMW_UXRCE_MAX_%s allows could not be created\n",
+             kind_names[kind], made + 2, limit, kind == KIND_NODE ? "NODES" : kind == KIND_PUBLISHER ? "PUBLISHERS" : "SUBSCRIPTIONS");
+      rcl_reset_error();
+      status = 4;
+      break;
+    }
+  }
+  if (status == 0 && checked) {
+    if (make_entity(kind, made, node, support, type) == RCL_RET_OK) {
+      printf("uros-probe: FAIL %s: one more than the %d allowed was created\n", kind_names[kind], limit);
+      drop_entity(kind, made, node);
+      status = 4;
+    }
+    rcl_reset_error();
+  }
+  if (status == 0) printf("uros-probe: limit %s %d %s\n", kind_names[kind], limit, checked ? "refused" : "unchecked");
+  while (made-- > 0) drop_entity(kind, made, node);
+  return status;
+}
 
 static int back;
 static void on_sample(const void *message) {
@@ -84,6 +151,10 @@ int main(void) {
     while (probe_millis() - t0 < 50u) rclc_executor_spin_some(&executor, RCL_MS_TO_NS(5));
   }
   printf("uros-probe: published %d, %d came back in %lu ms\n", sent, back, (unsigned long)(probe_millis() - begin));
+  for (int kind = KIND_NODE; kind <= KIND_SUBSCRIPTION; kind++) {
+    int status = probe_limit((enum probe_kind)kind, &node, &support, int32);
+    if (status != 0) return status;
+  }
   EXPECT(rclc_executor_fini(&executor), 6, "executor teardown");
   EXPECT(rcl_subscription_fini(&subscription, &node), 6, "subscription teardown");
   EXPECT(rcl_publisher_fini(&publisher, &node), 6, "publisher teardown");

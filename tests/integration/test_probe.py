@@ -49,6 +49,7 @@ def test_the_library_runs_against_the_agent(humble: Path, target: str, machine: 
     code, err, data = _probe("--toolchain", target, "-w", str(humble))
     assert code == 0, err
     assert data is not None and data["status"] == 0 and data["machine"] == machine
+    assert data["limits"] == {"nodes": 1, "publishers": 1, "subscriptions": 1}  # generate_lib's preset
     assert float(data["seconds"]) < 10  # type: ignore[arg-type]
     assert "probe passed" in err
     assert "uros-probe: PASS" in Path(str(data["console_log"])).read_text()
@@ -56,6 +57,20 @@ def test_the_library_runs_against_the_agent(humble: Path, target: str, machine: 
     assert ("session established" in agent_log and "create_datawriter" in agent_log.replace(" ", "_")) or (
         "datawriter created" in agent_log
     )
+
+
+@_RUNS
+def test_the_probe_creates_as_many_entities_as_the_meta_allows(humble: Path, tmp_path: Path) -> None:
+    """Issue 17, item 2: what a colcon.meta really permits, seen at run time (and one more refused)."""
+    out = tmp_path / "more"
+    run_uros(
+        "build", "--toolchain", "cortex-m7", "-w", str(humble), "--packages", "std_msgs", "--output", str(out),
+        "--set", "rmw_microxrcedds.RMW_UXRCE_MAX_PUBLISHERS=3", "--set", "rmw_microxrcedds.RMW_UXRCE_MAX_NODES=2",
+    )  # fmt: skip
+    code, err, data = _probe(str(out))
+    assert code == 0, err
+    assert data is not None and data["limits"] == {"nodes": 2, "publishers": 3, "subscriptions": 1}
+    assert "limits held: nodes 2, publishers 3, subscriptions 1 (one more of each refused)" in err
 
 
 @_RUNS

@@ -94,3 +94,12 @@ def test_doctor_reports_what_the_probe_needs() -> None:
     checks = doctor.eval_probe_tools("/usr/bin/qemu-system-arm", "/a/MicroXRCEAgent", True)
     assert [c.status for c in checks] == [doctor.OK, doctor.OK]
     assert doctor.eval_probe_tools(None, None, True)[1].status == doctor.WARN
+
+
+def test_limits_from_the_console() -> None:
+    text = "uros-probe: limit nodes 2 refused\nuros-probe: limit publishers 3 refused\nuros-probe: limit subscriptions 40 unchecked\n"
+    limits = probe.limits_held(text)
+    assert limits == {"nodes": (2, True), "publishers": (3, True), "subscriptions": (40, False)}
+    line = probe.describe_limits(limits)
+    assert line.startswith("limits held: nodes 2, publishers 3, subscriptions 40 (more not tried)")
+    assert probe.describe_limits({}) == ""

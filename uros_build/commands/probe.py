@@ -21,6 +21,7 @@ from uros_build import console
 from uros_build import probe as probe_mod
 from uros_build.buildinfo import read_build_info
 from uros_build.errors import MissingToolError, StepFailed, VerifyError
+from uros_build.fingerprint import digest
 from uros_build.plan import resolve_output
 from uros_build.proc import Background, Runner, new_run_log, user_log_dir
 from uros_build.workspace import workspace_of_output
@@ -43,6 +44,7 @@ class ProbeReport:
     seconds: float
     heap_bytes: int | None
     stack_bytes: int | None
+    limits: dict[str, int]  # nodes/publishers/subscriptions: as many as RMW_UXRCE_MAX_* were created
     console_log: str
     agent_log: str
     run_log: str
@@ -82,7 +84,8 @@ def probe(
     info = read_build_info(out, "OUTPUT")
     machine = probe_mod.machine_for(info.target, probe_mod.load_machines())
     ws = workspace_of_output(out, info.target)
-    work = (ws.state_dir if ws is not None else user_log_dir().parent) / "probe" / info.target
+    base = ws.state_dir if ws is not None else user_log_dir().parent
+    work = base / "probe" / f"{info.target}-{digest(str(out))[:10]}"
     work.mkdir(parents=True, exist_ok=True)
     runner = Runner(new_run_log(work / "log", "probe", info.target), verbose=verbose)
     console.step(f"uros probe: {out} ({info.target}) in QEMU {machine.machine}")
@@ -95,7 +98,9 @@ def probe(
 
     # the firmware, built as a user's project would be: the output's toolchain file and package
     src, build = work / "src", work / "build"
+    # afresh every time (it takes a second): another output of the target has another toolchain file
     shutil.rmtree(src, ignore_errors=True)
+    shutil.rmtree(build, ignore_errors=True)
     shutil.copytree(probe_mod.firmware_sources(), src)
     runner.run(
         [cmake, "-S", str(src), "-B", str(build), "-DCMAKE_BUILD_TYPE=Release",
@@ -134,6 +139,7 @@ def probe(
     text = console_log.read_text(encoding="utf-8", errors="replace") if console_log.is_file() else ""
     runner.log("firmware console:\n" + text)
     used = probe_mod.resources_used(text)
+    limits = probe_mod.limits_held(text)
     report = ProbeReport(
         target=info.target,
         machine=machine.machine,
@@ -142,6 +148,7 @@ def probe(
         seconds=round(seconds, 2),
         heap_bytes=used[0] if used else None,
         stack_bytes=used[1] if used else None,
+        limits={kind: limit for kind, (limit, _) in limits.items()},
         console_log=str(console_log),
         agent_log=str(agent_log),
         run_log=str(runner.log_path),
@@ -158,4 +165,6 @@ def probe(
         f"probe passed: {info.target} in QEMU {machine.machine} talked to the agent: session, node, "
         f"publisher, subscription, every sample back ({seconds:.1f} s{memory})"
     )
+    if limits:
+        console.info(probe_mod.describe_limits(limits))
     return report
