@@ -107,8 +107,17 @@ def disk_full_line(lines: Sequence[str]) -> str | None:
 def disk_full_path(line: str) -> str | None:
     """The absolute path a disk-full message names ("... No space left on device [/a/b.log]",
     "... writing to /tmp/ccX.s: No space left ..."), or None (pure)."""
-    found = re.search(r"(/[^\s'\"\[\]:]+)", line)
-    return found.group(1) if found else None
+    # The file being written stands right before the reason ("ar: /o/lib.a: No space left ..."),
+    # or after it (Python: "[Errno 28] No space left on device: '/a/b'" or "... [/a/b]"); a tool's
+    # own path ("/usr/bin/arm-none-eabi-ar: /o/lib.a: ...") is not the disk that is full.
+    before = re.search(r"(/[^\s'\"\[\]:]+):\s*(?:No space left on device|Disk quota exceeded)", line)
+    if before:
+        return before.group(1)
+    after = re.search(r"(?:No space left on device|Disk quota exceeded)\W*(/[^\s'\"\[\]]+)", line)
+    if after:
+        return after.group(1)
+    found = re.findall(r"(/[^\s'\"\[\]:]+)", line)
+    return found[-1] if found else None
 
 
 def install_hint(program: str) -> str:

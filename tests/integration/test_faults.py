@@ -161,3 +161,43 @@ def test_a_full_disk_is_one_line_and_the_next_run_repairs_it(tmp_path: Path) -> 
     assert "hint: free some space" in err
     code, err = _result(logs / "again")
     assert code == 0, err
+
+
+def test_a_full_output_disk_names_the_output_disk(tmp_path: Path) -> None:
+    """Issue 16, item 9: the output on its own (full) disk -- a mount point, filled in place -- was
+    reported with the free space of the workspace's disk."""
+    need("arm-none-eabi-gcc", "cmake")
+    prefix = _mount_namespace(tmp_path)
+    ws = make_fixture_workspace(tmp_path / "ws")
+    out = tmp_path / "out"
+    out.mkdir()
+    logs = tmp_path / "logs"
+    logs.mkdir()
+    filler = out / "filler.bin"
+    args = f"--output {out} --force"
+    script = (
+        f"mount -t tmpfs -o size=2m tmpfs {out}\n"
+        + _uros_line(ws, logs / "first", *args.split())
+        + f"echo 'int fx_core_more(void) {{ return 7; }}' >> {ws}/mcu_ws/src/fx_core/src/core.c\n"
+        + f"head -c $(( $(df -B1 --output=avail {out} | tail -1) - 4096 )) /dev/zero > {filler} || true\n"
+        + _uros_line(ws, logs / "full", *args.split())
+        + f"cp {out}/libmicroros.a {tmp_path}/after-full.a 2>/dev/null || true\n"
+        + f"rm -f {filler}\n"
+        + _uros_line(ws, logs / "again", *args.split())
+        + f"cp {out}/libmicroros.a {tmp_path}/after-again.a\n"
+    )
+    done = _in_namespace(prefix, script)
+    assert done.returncode == 0, done.stderr
+    code, err = _result(logs / "first")
+    assert code == 0, err
+    code, err = _result(logs / "full")
+    assert code == 4, err
+    (error,) = [line for line in err.splitlines() if line.startswith("error:")]
+    assert error.startswith("error: no space left on device: "), error
+    assert f"free on the disk of {out}" in error, error
+    code, err = _result(logs / "again")
+    assert code == 0, err
+    nm = subprocess.run(
+        ["arm-none-eabi-nm", str(tmp_path / "after-again.a")], capture_output=True, text=True, check=True
+    ).stdout
+    assert "fx_core_more" in nm

@@ -358,6 +358,14 @@ def test_disk_full_is_one_line_with_the_path_and_the_free_space() -> None:
     found = disk_full_line(["-- Configuring done", line, "more"])
     assert found == "Exception in event handler: [Errno 28] No space left on device [/w/log/x.log]"
     assert disk_full_path(found) == "/w/log/x.log"
+    # the file being written, not the tool that says so (issue 16, item 9)
+    ar = "/usr/bin/arm-none-eabi-ar: /o/.uros-staging-1/libmicroros.a: No space left on device"
+    assert disk_full_path(ar) == "/o/.uros-staging-1/libmicroros.a"
+    assert (
+        disk_full_path("cc1: fatal error: error writing to /tmp/ccA.s: No space left on device")
+        == "/tmp/ccA.s"
+    )
+    assert disk_full_path("OSError: [Errno 28] No space left on device: '/o/x.h'") == "/o/x.h"
     assert disk_full_line(["cc1: fatal error: error writing to /tmp/ccA.s: Disk quota exceeded"])
     assert disk_full_line(["error: expected ';'"]) is None
     text = disk_full_message("writing /w/.uros/log/x.log", "/w/.uros/log/x.log", 12 * 1024)

@@ -10,6 +10,7 @@ into place → record the state.
 from __future__ import annotations
 
 import dataclasses
+import errno
 import importlib.metadata
 import os
 import shutil
@@ -153,7 +154,16 @@ def build(args: BuildArgs) -> Path:
             writers = plan.workspace.state_dir / "output-locks" / fp.digest(str(plan.output))[:16]
             with locked(writers, f"the output {plan.output}"):
                 outputs.check_output_owner(plan.output, plan.target.key, plan.force, plan.output_flag)
-                left = outputs.install_output(staging, plan.output)
+                try:
+                    left = outputs.install_output(staging, plan.output)
+                except OSError as exc:
+                    # the output's disk, not the workspace's (where the log is): a mount point is
+                    # filled in place, so its own disk can be the full one
+                    if exc.errno not in (errno.ENOSPC, errno.EDQUOT):
+                        raise
+                    raise DiskFull.at(
+                        plan.output, f"writing the output {plan.output}: {exc.strerror}"
+                    ) from exc
         except BaseException:
             outputs.remove_tree(staging)
             raise
