@@ -8,6 +8,8 @@ import shutil
 from pathlib import Path
 
 import pytest
+from conftest import need
+from fixture_ws import make_fixture_workspace
 from uros_helpers import run_uros
 
 pytestmark = pytest.mark.integration
@@ -44,9 +46,6 @@ def test_info_on_the_fixture_build(m7_build: Path, tmp_path: Path) -> None:
 def test_info_says_what_the_output_was_built_with(tmp_path: Path) -> None:
     """Issue 16, item 6: a build into another --output, or a failed one, with other options
     leaves this output's info as it was built (it used to read the target's trees)."""
-    from conftest import need
-    from fixture_ws import make_fixture_workspace
-
     need("arm-none-eabi-gcc", "cmake")
     ws = make_fixture_workspace(tmp_path / "ws")
     base = ["build", "--toolchain", "cortex-m7", "--workspace", str(ws)]
