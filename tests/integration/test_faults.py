@@ -158,6 +158,8 @@ def test_a_full_disk_is_one_line_and_the_next_run_repairs_it(tmp_path: Path) -> 
     (error,) = [line for line in err.splitlines() if line.startswith("error:")]
     assert error.startswith("error: no space left on device: "), error
     assert " free on the disk of " in error
+    # the full disk is the trees', not the log's (it blamed the log file: issue 16, item 9)
+    assert f"free on the disk of {trees}" in error and ".uros/log/" not in error, error
     assert "hint: free some space" in err
     code, err = _result(logs / "again")
     assert code == 0, err
@@ -201,3 +203,25 @@ def test_a_full_output_disk_names_the_output_disk(tmp_path: Path) -> None:
         ["arm-none-eabi-nm", str(tmp_path / "after-again.a")], capture_output=True, text=True, check=True
     ).stdout
     assert "fx_core_more" in nm
+
+
+def test_a_config_file_a_full_disk_cut_short_is_written_again(tmp_path: Path) -> None:
+    """Issue 16, item 9: a <pkg>Config.cmake that configure wrote when the disk filled up stays cut
+    short (CMake writes it again only when it configures), and every later build fails in the
+    packages that find_package() it. A colcon build that ran out of disk leaves uros's mark (here
+    put in place as that build leaves it, with the file cut as the full disk cut it)."""
+    need("arm-none-eabi-gcc", "cmake")
+    ws = make_fixture_workspace(tmp_path / "ws")
+    run_uros(*_args(ws))
+    trees = ws / ".uros" / "targets" / "cortex-m7"
+    config = trees / "build" / "fx_core" / "fx_coreConfig.cmake"
+    whole = config.read_text()
+    config.write_text(whole[: len(whole) // 3])
+    (trees / "disk-full").write_text("a colcon build that may run out of disk\n")
+    (ws / "mcu_ws/src/fx_core/src/core.c").write_text(
+        '#include "fx_core/core.h"\nint fx_core_add(int a, int b) { return b + a; }\n'
+    )
+    proc = run_uros(*_args(ws))
+    assert "the last build ran out of disk space: configuring every package afresh" in proc.stderr
+    assert config.read_text() == whole
+    assert not (trees / "disk-full").exists()

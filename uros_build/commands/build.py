@@ -9,6 +9,7 @@ into place → record the state.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import errno
 import importlib.metadata
@@ -115,6 +116,7 @@ def build(args: BuildArgs) -> Path:
         repaired = _repair(plan)
         started = time.monotonic()
         _redo_what_must_be_redone(plan, facts)
+        _reconfigure_after_a_full_disk(plan)
         toolchain_file = _prepare_toolchain(plan, facts)
         meta_path = plan.target_dir / "colcon.meta"
         meta_text = meta_mod.dump_meta(plan.meta, f"uros build --toolchain {plan.target.key}")
@@ -145,7 +147,18 @@ def build(args: BuildArgs) -> Path:
         fingerprint = fp.combine(parts)
         staging = outputs.staging_dir(plan.output)
         try:
-            info, merge_key = _stage_output(runner, plan, facts, staging, setup, built, progress, previous)
+            try:
+                info, merge_key = _stage_output(
+                    runner, plan, facts, staging, setup, built, progress, previous
+                )
+            except OSError as exc:
+                # Python names no file for a failed write(): the disk of the step's folders with the
+                # least room is the full one (not the log's, which the catch-all would name)
+                if exc.errno not in (errno.ENOSPC, errno.EDQUOT) or exc.filename:
+                    raise
+                fullest = min((plan.target_dir, staging.parent), key=_free_bytes)
+                raise DiskFull.at(fullest, f"merging the library in {fullest}: {exc.strerror}") from exc
+            info, merge_key = staged
             (staging / BUILD_INFO).write_text(info.to_json(), encoding="utf-8")
             outputs.write_marker(staging, plan.target.key, [p.name for p in staging.iterdir()])
             # Two targets' builds into one --output: one writer at a time, and the second does not
@@ -226,6 +239,24 @@ def _redo_what_must_be_redone(plan: BuildPlan, facts: HostFacts) -> None:
         for tree in trees:
             outputs.remove_tree(tree)
     write_if_changed(identity, now + "\n")
+
+
+_DISK_FULL_MARK = "disk-full"
+
+
+def _free_bytes(folder: Path) -> int:
+    try:
+        return shutil.disk_usage(folder).free
+    except OSError:
+        return 1 << 62
+
+
+def _reconfigure_after_a_full_disk(plan: BuildPlan) -> None:
+    mark = plan.target_dir / _DISK_FULL_MARK
+    if mark.is_file():
+        console.info("the last build ran out of disk space: configuring every package afresh")
+        _forget_configured_flags(plan.target_dir / "build")
+        mark.unlink()
 
 
 def _drop_readers_of_changed_headers(plan: BuildPlan) -> str:
@@ -501,6 +532,13 @@ def _run_colcon(
             ended,
         )
 
+    # Files CMake generates when it configures (a package's <pkg>Config.cmake, its targets file)
+    # can be cut short by a full disk, and CMake writes them again only when it configures. A mark
+    # written now, while there is room, and removed unless the disk filled up, makes the next build
+    # configure every package afresh (the objects stay: ninja redoes only what differs).
+    mark = plan.target_dir / _DISK_FULL_MARK
+    with contextlib.suppress(OSError):
+        mark.write_text("a colcon build that may run out of disk\n", encoding="utf-8")
     try:
         runner.run(
             setup.argv,
@@ -512,9 +550,13 @@ def _run_colcon(
             quiet=not plan.verbose,  # the command is in the log; the progress says the rest
         )
     except StepFailed as exc:
-        raise _colcon_failure(exc, setup.plan.log_base, runner.log_path) from None
+        failure = _colcon_failure(exc, setup.plan.log_base, runner.log_path)
+        if not isinstance(failure, DiskFull):
+            mark.unlink(missing_ok=True)
+        raise failure from None
     finally:
         view.stop()
+    mark.unlink(missing_ok=True)
     elapsed = time.monotonic() - progress.started_at
     slowest = ", ".join(f"{name} {seconds:.1f} s" for name, seconds in progress.slowest(5))
     console.info(f"colcon built {len(progress.finished)} packages in {elapsed:.1f} s; slowest: {slowest}")
