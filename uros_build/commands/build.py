@@ -158,7 +158,6 @@ def build(args: BuildArgs) -> Path:
                     raise
                 fullest = min((plan.target_dir, staging.parent), key=_free_bytes)
                 raise DiskFull.at(fullest, f"merging the library in {fullest}: {exc.strerror}") from exc
-            info, merge_key = staged
             (staging / BUILD_INFO).write_text(info.to_json(), encoding="utf-8")
             outputs.write_marker(staging, plan.target.key, [p.name for p in staging.iterdir()])
             # Two targets' builds into one --output: one writer at a time, and the second does not
