@@ -446,6 +446,17 @@ def export_meson(output: Path, source: Path | None) -> None:
     export_cmd.export_meson(source, output)
 
 
+@click.command("arduino")
+@_output_option("Folder of the Arduino library.", required=True)
+@click.option(
+    "--from", "sources", type=_PATH, multiple=True, required=True,
+    help="A `uros build` output (repeat: one per board, e.g. cortex-m4f and cortex-m7).",
+)  # fmt: skip
+def export_arduino(output: Path, sources: tuple[Path, ...]) -> None:
+    """Write a precompiled Arduino library (library.properties, src/<mcu>/<fpu>-<abi>/libmicroros.a)."""
+    export_cmd.export_arduino(sources, output)
+
+
 @click.command("create-firmware")
 @click.argument("platform", default=defaults.PLATFORM)
 @click.option(
@@ -627,6 +638,7 @@ _REGISTRY: tuple[tuple[click.Group, click.Command], ...] = (
     (export, export_make),
     (export, export_pkg_config),
     (export, export_meson),
+    (export, export_arduino),
     (cli, interface),
     (interface, interface_new),
 )

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import os
 import shlex
+import shutil
 import subprocess
 from pathlib import Path
 
@@ -108,3 +109,45 @@ def test_exports_name_their_files_in_the_output_marker(exported: Path) -> None:
     marker = (exported / ".uros-output").read_text()
     for name in ("microros.mk", "microros.pc", "microros-cross.ini"):
         assert name in marker
+
+
+def test_one_arduino_library_for_two_boards(m7_build: Path, tmp_path: Path) -> None:
+    """Issue 20, item 2: the archive of each target where Arduino's builder looks for it
+    (src/{build.mcu}/{fpu}-{float-abi}), one include tree, library.properties precompiled=true."""
+    need("arm-none-eabi-gcc", "cmake")
+    ws = tmp_path / "ws"  # a copy: the shared fixture build keeps its one target
+    shutil.copytree(m7_build, ws, symlinks=True)
+    run_uros("build", "--toolchain", "cortex-m4f", "--workspace", str(ws), "--meta", str(ws / "fixture.meta"))
+    lib = tmp_path / "micro_ros_uros"
+    m7, m4f = ws / "build" / "cortex-m7", ws / "build" / "cortex-m4f"
+    run_uros("export", "arduino", "--from", str(m7), "--from", str(m4f), "--output", str(lib))
+    props = (lib / "library.properties").read_text()
+    assert "precompiled=true\n" in props and "ldflags=-lmicroros\n" in props
+    assert (lib / "src/cortex-m7/fpv5-d16-hard/libmicroros.a").read_bytes() == (
+        m7 / "libmicroros.a"
+    ).read_bytes()
+    assert (lib / "src/cortex-m4/fpv4-sp-d16-hard/libmicroros.a").read_bytes() == (
+        m4f / "libmicroros.a"
+    ).read_bytes()
+    assert (lib / "src/fx_core/core.h").is_file() and (lib / "src/micro_ros_uros.h").is_file()
+    # two include trees that differ cannot make one library
+    other = tmp_path / "other"
+    shutil.copytree(m4f, other)
+    (other / "include/fx_core/core.h").write_text("/* edited */\n")
+    proc = run_uros(
+        "export",
+        "arduino",
+        "--from",
+        str(m7),
+        "--from",
+        str(other),
+        "--output",
+        str(tmp_path / "x"),
+        check=False,
+    )
+    assert (
+        proc.returncode == 2
+        and "its headers differ" in proc.stderr
+        and "include/fx_core/core.h" in proc.stderr
+    )
+    assert not (tmp_path / "x").exists()

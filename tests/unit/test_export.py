@@ -1,5 +1,6 @@
 from __future__ import annotations
 
+import pytest
 from golden import check_golden
 
 from uros_build.export import esp_idf_component_files
@@ -44,3 +45,58 @@ def test_tool_prefix_and_meson_cpu_family() -> None:
     assert ex.meson_cpu_family("/x/xtensa-esp32s3-elf-") == "xtensa"
     assert ex.meson_cpu_family("riscv32-esp-elf-") == "riscv32"
     assert ex.meson_cpu_family("arm-none-eabi-") == "arm"
+
+
+@pytest.mark.parametrize(
+    ("flags", "folder"),
+    [
+        (("-mcpu=cortex-m7", "-mthumb", "-mfpu=fpv5-d16", "-mfloat-abi=hard"), "cortex-m7/fpv5-d16-hard"),
+        (
+            ("-mcpu=cortex-m4", "-mthumb", "-mfpu=fpv4-sp-d16", "-mfloat-abi=hard"),
+            "cortex-m4/fpv4-sp-d16-hard",
+        ),
+        (("-mcpu=cortex-m3", "-mthumb"), "cortex-m3"),
+        (("-mcpu=cortex-m4", "-mthumb", "-mfloat-abi=soft"), "cortex-m4/soft"),
+    ],
+)
+def test_arduino_folders_as_its_builder_looks_for_them(flags: tuple[str, ...], folder: str) -> None:
+    from uros_build import export as ex
+
+    assert ex.arduino_folder(flags) == folder
+
+
+def test_arduino_needs_an_mcu_and_declares_a_precompiled_library() -> None:
+    from uros_build import export as ex
+
+    with pytest.raises(ValueError):
+        ex.arduino_folder(("-march=rv32imc",))
+    props = ex.arduino_properties(["cortex-m7", "cortex-m4f"])
+    fields = dict(
+        line.split("=", 1) for line in props.splitlines() if "=" in line and not line.startswith("#")
+    )
+    assert fields["precompiled"] == "true" and fields["ldflags"] == "-lmicroros"
+    assert fields["includes"] == "micro_ros_uros.h" and fields["architectures"] == "*"
+    # every field the library specification requires
+    assert {"name", "version", "author", "maintainer", "sentence", "paragraph", "category", "url"} <= set(
+        fields
+    )
+
+
+def test_the_esp_idf_component_has_a_manifest_the_component_manager_reads() -> None:
+    import yaml
+
+    files = esp_idf_component_files("esp32s3", "esp32s3", "udp")
+    manifest = yaml.safe_load(files["idf_component.yml"])
+    # the manifest's documented top-level keys; the version is semver, the targets IDF's names
+    assert set(manifest) <= {
+        "version",
+        "description",
+        "url",
+        "targets",
+        "dependencies",
+        "files",
+        "tags",
+        "maintainers",
+    }
+    assert manifest["targets"] == ["esp32s3"] and manifest["dependencies"] == {"idf": ">=5.0"}
+    assert manifest["version"].count(".") == 2

@@ -1,7 +1,9 @@
-"""`uros export cmake` and `uros export esp-idf`: packages around a build output."""
+"""`uros export ...`: packages around build outputs, for each firmware build system."""
 
 from __future__ import annotations
 
+import hashlib
+import shutil
 from collections.abc import Callable
 from pathlib import Path
 
@@ -9,6 +11,19 @@ from uros_build import console, export, outputs
 from uros_build.buildinfo import BuildInfo, read_build_info
 from uros_build.errors import ConfigError
 from uros_build.workspace import check_folder_target
+
+
+def _check_complete(src: Path, info: BuildInfo, flag: str) -> None:
+    """The library and the include tree its build-info.json names are there."""
+    for name, present in (
+        (info.library.file, (src / info.library.file).is_file()),
+        (info.include.dir + "/", (src / info.include.dir).is_dir()),
+    ):
+        if not present:
+            raise ConfigError(
+                f"{flag} {src}: its build-info.json names {name}, which is not there (an incomplete output)",
+                f"build it again: uros build --toolchain {info.target}",
+            )
 
 
 def _prepare(source: Path | None, output: Path) -> tuple[BuildInfo, Path]:
@@ -19,16 +34,7 @@ def _prepare(source: Path | None, output: Path) -> tuple[BuildInfo, Path]:
         for line in outputs.recover(folder):
             console.info(line)
     info = read_build_info(src, "--from" if source else "--output")
-    flag = "--from" if source else "--output"
-    for name, present in (
-        (info.library.file, (src / info.library.file).is_file()),
-        (info.include.dir + "/", (src / info.include.dir).is_dir()),
-    ):
-        if not present:
-            raise ConfigError(
-                f"{flag} {src}: its build-info.json names {name}, which is not there (an incomplete output)",
-                f"build it again: uros build --toolchain {info.target}",
-            )
+    _check_complete(src, info, "--from" if source else "--output")
     if src != out:
         check_folder_target(out, "--output")
         outputs.check_output_dir(out, force=False, offers_force=False)
@@ -99,3 +105,68 @@ def export_meson(source: Path | None, output: Path) -> Path:
             "use `uros export pkg-config` with your own Meson cross file",
         )
     return _simple(source, output, export.write_meson_cross, "meson setup build --cross-file <that file>")
+
+
+def _tree_digest(folder: Path) -> dict[str, str]:
+    return {
+        p.relative_to(folder).as_posix(): hashlib.sha256(p.read_bytes()).hexdigest()
+        for p in sorted(folder.rglob("*"))
+        if p.is_file()
+    }
+
+
+def export_arduino(sources: tuple[Path, ...], output: Path) -> Path:
+    """One precompiled Arduino library from one or more outputs (one per target): each archive in
+    the folder Arduino's builder looks in for its board, one include tree (it must be the same)."""
+    if not sources:
+        raise ConfigError(
+            "export arduino: no --from", "name each `uros build` output: --from DIR [--from DIR ...]"
+        )
+    out = output.resolve()
+    placed: dict[str, Path] = {}
+    includes: tuple[Path, dict[str, str]] | None = None
+    targets = []
+    for given in sources:
+        src = given.resolve()
+        info = read_build_info(src, "--from")
+        _check_complete(src, info, "--from")
+        try:
+            folder = export.arduino_folder(info.flags.cpu)
+        except ValueError:
+            raise ConfigError(
+                f"--from {src}: built for {info.target}, which has no -mcpu: Arduino's precompiled "
+                "libraries are found by build.mcu (ARM boards)",
+                "export the ARM targets' outputs",
+            ) from None
+        if folder in placed:
+            raise ConfigError(
+                f"--from {src}: {placed[folder]} is for src/{folder} too", "one output per board"
+            )
+        tree = _tree_digest(src / info.include.dir)
+        if includes is None:
+            includes = (src, tree)
+        elif tree != includes[1]:
+            differs = sorted(k for k in set(tree) | set(includes[1]) if tree.get(k) != includes[1].get(k))
+            raise ConfigError(
+                f"--from {src}: its headers differ from {includes[0]}'s (first: include/{differs[0]})",
+                "one Arduino library has one include tree: build the targets with the same colcon.meta",
+            )
+        placed[folder] = src
+        targets.append(info.target)
+    assert includes is not None
+    check_folder_target(out, "--output")
+    outputs.check_output_dir(out, force=False, offers_force=False)
+    out.mkdir(parents=True, exist_ok=True)
+    shutil.rmtree(out / "src", ignore_errors=True)  # uros's (the guard above said so)
+    shutil.copytree(includes[0] / "include", out / "src")
+    for folder, src in sorted(placed.items()):
+        (out / "src" / folder).mkdir(parents=True, exist_ok=True)
+        shutil.copy2(src / "libmicroros.a", out / "src" / folder / "libmicroros.a")
+    (out / "src" / f"{export.ARDUINO_NAME}.h").write_text(export.arduino_header(), encoding="utf-8")
+    (out / "library.properties").write_text(export.arduino_properties(targets), encoding="utf-8")
+    outputs.write_marker(out, "arduino", ["library.properties", "src"])
+    console.step(
+        f"wrote the Arduino library {out} ({', '.join(f'src/{f}' for f in sorted(placed))}): put it in your "
+        f"sketchbook's libraries/ and #include <{export.ARDUINO_NAME}.h>"
+    )
+    return out
