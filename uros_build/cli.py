@@ -446,6 +446,22 @@ def export_meson(output: Path, source: Path | None) -> None:
     export_cmd.export_meson(source, output)
 
 
+@click.command("platformio")
+@_output_option("Folder of the PlatformIO library (library.json).", required=True)
+@_FROM
+def export_platformio(output: Path, source: Path | None) -> None:
+    """Write library.json: the output as a PlatformIO library for lib_deps = file://..."""
+    export_cmd.export_platformio(source, output)
+
+
+@click.command("zephyr")
+@_output_option("Folder of the Zephyr module.", required=True)
+@_FROM
+def export_zephyr(output: Path, source: Path | None) -> None:
+    """Write a Zephyr module (zephyr/module.yml, CMakeLists.txt, Kconfig) around the library."""
+    export_cmd.export_zephyr(source, output)
+
+
 @click.command("arduino")
 @_output_option("Folder of the Arduino library.", required=True)
 @click.option(
@@ -639,6 +655,8 @@ _REGISTRY: tuple[tuple[click.Group, click.Command], ...] = (
     (export, export_pkg_config),
     (export, export_meson),
     (export, export_arduino),
+    (export, export_platformio),
+    (export, export_zephyr),
     (cli, interface),
     (interface, interface_new),
 )

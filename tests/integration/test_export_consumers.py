@@ -4,10 +4,12 @@ dependency('microros') -- every one links against the fixture library and calls 
 
 from __future__ import annotations
 
+import json
 import os
 import shlex
 import shutil
 import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -151,3 +153,41 @@ def test_one_arduino_library_for_two_boards(m7_build: Path, tmp_path: Path) -> N
         and "include/fx_core/core.h" in proc.stderr
     )
     assert not (tmp_path / "x").exists()
+
+
+def test_platformio_reads_the_library_manifest(m7_build: Path, tmp_path: Path) -> None:
+    """Issue 20, item 1: library.json validated by PlatformIO's own manifest schema (platformio from
+    PyPI in a venv of the test's; its toolchains cannot be downloaded here, so no pio build)."""
+    out = tmp_path / "pio-lib"
+    run_uros("export", "platformio", "--from", str(m7_build / "build" / "cortex-m7"), "--output", str(out))
+    venv = tmp_path / "pio-venv"
+    made = subprocess.run([sys.executable, "-m", "venv", str(venv)], capture_output=True)
+    pip = subprocess.run(
+        [str(venv / "bin/pip"), "install", "-q", "platformio"], capture_output=True, text=True
+    )
+    if made.returncode != 0 or pip.returncode != 0:
+        pytest.skip(f"platformio could not be installed from PyPI: {pip.stderr[-300:]}")
+    check = (
+        "import json, sys\n"
+        "from platformio.package.manifest.parser import ManifestParserFactory\n"
+        "from platformio.package.manifest.schema import ManifestSchema\n"
+        "# the SPDX list is downloaded from GitHub, which this machine cannot reach: the one id we use\n"
+        "ManifestSchema.load_spdx_licenses = staticmethod(lambda: {'licenses': [{'licenseId': 'Apache-2.0'}]})\n"
+        "parser = ManifestParserFactory.new_from_dir(sys.argv[1])\n"
+        "ManifestSchema().load_manifest(parser.as_dict())  # raises on an invalid manifest\n"
+        "print(json.dumps(parser.as_dict(), sort_keys=True))\n"
+    )
+    done = subprocess.run([str(venv / "bin/python"), "-c", check, str(out)], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    data = json.loads(done.stdout)
+    assert data["name"] == "micro_ros_uros" and data["build"]["includeDir"] == "include"
+    assert data["build"]["flags"] == ["-L.", "-lmicroros"] and (out / "libmicroros.a").is_file()
+
+
+def test_the_zephyr_module_is_written_beside_the_library(m7_build: Path, tmp_path: Path) -> None:
+    out = tmp_path / "zephyr-module"
+    run_uros("export", "zephyr", "--from", str(m7_build / "build" / "cortex-m7"), "--output", str(out))
+    assert (out / "zephyr/module.yml").is_file() and (out / "Kconfig").is_file()
+    assert (out / "CMakeLists.txt").is_file() and (out / "libmicroros.a").is_file()
+    owned = json.loads((out / ".uros-output").read_text())["files"]
+    assert {"zephyr", "Kconfig", "CMakeLists.txt"} <= set(owned)

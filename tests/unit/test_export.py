@@ -100,3 +100,20 @@ def test_the_esp_idf_component_has_a_manifest_the_component_manager_reads() -> N
     }
     assert manifest["targets"] == ["esp32s3"] and manifest["dependencies"] == {"idf": ">=5.0"}
     assert manifest["version"].count(".") == 2
+
+
+def test_the_zephyr_module_follows_zephyrs_module_file_rules() -> None:
+    import yaml
+
+    from uros_build import export as ex
+
+    files = ex.zephyr_module_files("cortex-m7")
+    module = yaml.safe_load(files["zephyr/module.yml"])
+    # zephyr/module.yml's schema (scripts/zephyr_module.py): name, and build: cmake / kconfig relative
+    # to the module's root (https://docs.zephyrproject.org/latest/develop/modules.html)
+    assert module == {"name": "micro_ros_uros", "build": {"cmake": ".", "kconfig": "Kconfig"}}
+    assert (
+        "zephyr_library_import(microros ${CMAKE_CURRENT_LIST_DIR}/libmicroros.a)" in files["CMakeLists.txt"]
+    )
+    assert "if(CONFIG_MICRO_ROS_UROS)" in files["CMakeLists.txt"]
+    assert files["Kconfig"].splitlines()[1] == "config MICRO_ROS_UROS"

@@ -43,9 +43,9 @@ def _prepare(source: Path | None, output: Path) -> tuple[BuildInfo, Path]:
     return info, out
 
 
-def _record(out: Path, written: list[Path]) -> None:
+def _record(out: Path, written: list[Path] | list[str]) -> None:
     if outputs.owned_entries(out) is not None:
-        outputs.add_to_marker(out, [p.name for p in written])
+        outputs.add_to_marker(out, [p if isinstance(p, str) else p.name for p in written])
 
 
 def export_cmake(source: Path | None, output: Path) -> Path:
@@ -95,6 +95,21 @@ def export_pkg_config(source: Path | None, output: Path) -> Path:
         export.write_pkg_config,
         "PKG_CONFIG_PATH=<that folder> pkg-config --cflags --libs microros",
     )
+
+
+def export_platformio(source: Path | None, output: Path) -> Path:
+    use = "in platformio.ini: lib_deps = file://<that folder>"
+    return _simple(source, output, export.write_platformio, use)
+
+
+def export_zephyr(source: Path | None, output: Path) -> Path:
+    info, out = _prepare(source, output)
+    written = export.write_zephyr_module(out, info)
+    _record(out, ["zephyr", *(p.name for p in written if p.parent == out)])
+    console.step(
+        f"wrote the Zephyr module {out}: add it to ZEPHYR_EXTRA_MODULES and set CONFIG_MICRO_ROS_UROS=y"
+    )
+    return out
 
 
 def export_meson(source: Path | None, output: Path) -> Path:
