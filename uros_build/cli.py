@@ -404,62 +404,38 @@ def export() -> None:
     """Packages for firmware build systems."""
 
 
-@click.command("cmake")
-@_output_option("Folder of the CMake package.", required=True)
-@_FROM
-def export_cmake(output: Path, source: Path | None) -> None:
-    """Write microrosConfig.cmake (find_package) and microros.cmake (include) for a build output."""
-    export_cmd.export_cmake(source, output)
+def _export_command(
+    name: str, what: str, output_help: str, run: Callable[[Path | None, Path], Path]
+) -> click.Command:
+    """One `uros export KIND --output DIR [--from DIR]` command: every kind but arduino has this shape."""
+
+    @click.command(name, help=what)
+    @_output_option(output_help, required=True)
+    @_FROM
+    def command(output: Path, source: Path | None) -> None:
+        run(source, output)
+
+    return command
 
 
-@click.command("esp-idf")
-@_output_option("Folder of the ESP-IDF component.", required=True)
-@_FROM
-def export_esp_idf(output: Path, source: Path | None) -> None:
-    """Write an ESP-IDF component (CMakeLists.txt, libmicroros.a, include/) for an ESP32 build."""
-    export_cmd.export_esp_idf(source, output)
-
-
-@click.command("make")
-@_output_option(
-    "Folder of microros.mk (with the library and headers when --from is another folder).", required=True
-)
-@_FROM
-def export_make(output: Path, source: Path | None) -> None:
-    """Write microros.mk (MICROROS_CFLAGS, MICROROS_LIBS, MICROROS_CPU_FLAGS) for a Make firmware."""
-    export_cmd.export_make(source, output)
-
-
-@click.command("pkg-config")
-@_output_option("Folder of microros.pc.", required=True)
-@_FROM
-def export_pkg_config(output: Path, source: Path | None) -> None:
-    """Write microros.pc (relocatable) for pkg-config."""
-    export_cmd.export_pkg_config(source, output)
-
-
-@click.command("meson")
-@_output_option("Folder of microros-cross.ini and microros.pc.", required=True)
-@_FROM
-def export_meson(output: Path, source: Path | None) -> None:
-    """Write a Meson cross file (compiler, CPU flags) and microros.pc for dependency('microros')."""
-    export_cmd.export_meson(source, output)
-
-
-@click.command("platformio")
-@_output_option("Folder of the PlatformIO library (library.json).", required=True)
-@_FROM
-def export_platformio(output: Path, source: Path | None) -> None:
-    """Write library.json: the output as a PlatformIO library for lib_deps = file://..."""
-    export_cmd.export_platformio(source, output)
-
-
-@click.command("zephyr")
-@_output_option("Folder of the Zephyr module.", required=True)
-@_FROM
-def export_zephyr(output: Path, source: Path | None) -> None:
-    """Write a Zephyr module (zephyr/module.yml, CMakeLists.txt, Kconfig) around the library."""
-    export_cmd.export_zephyr(source, output)
+# kind, what it writes (its --help), where (--output's help), the command
+_EXPORTS = (
+    ("cmake", "Write microrosConfig.cmake (find_package) and microros.cmake (include) for a build output.",
+     "Folder of the CMake package.", export_cmd.export_cmake),
+    ("esp-idf", "Write an ESP-IDF component (CMakeLists.txt, idf_component.yml, the library) for ESP32.",
+     "Folder of the ESP-IDF component.", export_cmd.export_esp_idf),
+    ("make", "Write microros.mk (MICROROS_CFLAGS, MICROROS_LIBS, MICROROS_CPU_FLAGS) for a Make firmware.",
+     "Folder of microros.mk (and a copy of the output with --from).", export_cmd.export_make),
+    ("pkg-config", "Write microros.pc (relocatable) for pkg-config.", "Folder of microros.pc.",
+     export_cmd.export_pkg_config),
+    ("meson", "Write a Meson cross file (compiler, CPU flags) and microros.pc for dependency('microros').",
+     "Folder of microros-cross.ini and microros.pc.", export_cmd.export_meson),
+    ("platformio", "Write library.json: the output as a PlatformIO library for lib_deps = file://...",
+     "Folder of the PlatformIO library (library.json).", export_cmd.export_platformio),
+    ("zephyr", "Write a Zephyr module (zephyr/module.yml, CMakeLists.txt, Kconfig) around the library.",
+     "Folder of the Zephyr module.", export_cmd.export_zephyr),
+)  # fmt: skip
+_EXPORT_COMMANDS = tuple(_export_command(*row) for row in _EXPORTS)
 
 
 @click.command("arduino")
@@ -649,14 +625,8 @@ _REGISTRY: tuple[tuple[click.Group, click.Command], ...] = (
     (meta, meta_write),
     (meta, meta_options),
     (cli, export),
-    (export, export_cmake),
-    (export, export_esp_idf),
-    (export, export_make),
-    (export, export_pkg_config),
-    (export, export_meson),
+    *((export, command) for command in _EXPORT_COMMANDS),
     (export, export_arduino),
-    (export, export_platformio),
-    (export, export_zephyr),
     (cli, interface),
     (interface, interface_new),
 )
