@@ -182,6 +182,16 @@ def test_platformio_reads_the_library_manifest(m7_build: Path, tmp_path: Path) -
     data = json.loads(done.stdout)
     assert data["name"] == "micro_ros_uros" and data["build"]["includeDir"] == "include"
     assert data["build"]["flags"] == ["-L.", "-lmicroros"] and (out / "libmicroros.a").is_file()
+    # and a firmware links with those flags, as PlatformIO passes them from the library's folder
+    (tmp_path / "main.c").write_text(_MAIN)
+    elf = tmp_path / "app.elf"
+    subprocess.run(
+        ["arm-none-eabi-gcc", "-mcpu=cortex-m7", "-mthumb", "-mfpu=fpv5-d16", "-mfloat-abi=hard",
+         f"-I{out / data['build']['includeDir']}", str(tmp_path / "main.c"), *data["build"]["flags"],
+         "--specs=nosys.specs", "-o", str(elf)],
+        cwd=out, check=True,
+    )  # fmt: skip
+    _calls_the_library(elf)
 
 
 def test_the_zephyr_module_is_written_beside_the_library(m7_build: Path, tmp_path: Path) -> None:
