@@ -94,6 +94,9 @@ class BuildInfo:
     cmake_options: Mapping[str, Mapping[str, str]] = field(default_factory=dict)
     # package -> {"repository", "commit"}: the clone it was built from and that clone's HEAD then
     sources: Mapping[str, Mapping[str, str]] = field(default_factory=dict)
+    # the build's inputs by content alone (no paths, times or inodes): equal on every machine that
+    # builds the same sources, meta, profile and compiler with the same uros
+    build_key: str = ""
 
     def to_json(self) -> str:
         data = asdict(self)
@@ -186,6 +189,7 @@ def parse_build_info(data: Any, source: str) -> BuildInfo:
         package_seconds=_seconds(top.get("package_seconds"), f"{source}: package_seconds"),
         cmake_options=_nested_strings(top.get("cmake_options"), f"{source}: cmake_options"),
         sources=_nested_strings(top.get("sources"), f"{source}: sources"),
+        build_key=str(top.get("build_key", "")),
     )
 
 

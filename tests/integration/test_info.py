@@ -63,3 +63,22 @@ def test_info_says_what_the_output_was_built_with(tmp_path: Path) -> None:
     # the same, with the workspace gone: everything comes from the output itself
     shutil.rmtree(ws / ".uros")
     assert json.loads(run_uros("info", "--json", str(out)).stdout) == data
+
+
+def test_the_build_key_is_the_same_for_the_same_build_anywhere(m7_build: Path, tmp_path: Path) -> None:
+    """Issue 19, item 2: the key is made of content alone: a copy of the workspace elsewhere (another
+    path, other inodes and times) builds with the same key; another colcon.meta with another."""
+    here = json.loads((m7_build / "build" / "cortex-m7" / "build-info.json").read_text())["build_key"]
+    assert len(here) == 64
+    elsewhere = tmp_path / "somewhere else"
+    shutil.copytree(m7_build / "mcu_ws", elsewhere / "mcu_ws")
+    shutil.copy(m7_build / "fixture.meta", elsewhere / "fixture.meta")
+    base = ["build", "--toolchain", "cortex-m7", "--workspace", str(elsewhere)]
+    run_uros(*base, "--meta", str(elsewhere / "fixture.meta"))
+    out = elsewhere / "build" / "cortex-m7"
+    assert json.loads((out / "build-info.json").read_text())["build_key"] == here
+    assert f"build key  {here}" in run_uros("info", str(out)).stdout
+    run_uros(
+        *base, "--meta", str(elsewhere / "fixture.meta"), "--set", "rmw_microxrcedds.RMW_UXRCE_MAX_NODES=2"
+    )
+    assert json.loads((out / "build-info.json").read_text())["build_key"] != here

@@ -158,6 +158,7 @@ def build(args: BuildArgs) -> Path:
                     raise
                 fullest = min((plan.target_dir, staging.parent), key=_free_bytes)
                 raise DiskFull.at(fullest, f"merging the library in {fullest}: {exc.strerror}") from exc
+            info = dataclasses.replace(info, build_key=build_key(plan, facts, toolchain_file, parts))
             (staging / BUILD_INFO).write_text(info.to_json(), encoding="utf-8")
             outputs.write_marker(staging, plan.target.key, [p.name for p in staging.iterdir()])
             # Two targets' builds into one --output: one writer at a time, and the second does not
@@ -383,6 +384,39 @@ def _colcon_setup(plan: BuildPlan, facts: HostFacts, toolchain_file: Path, meta_
 
 # ---------------------------------------------------------------------------------------------
 # what the build is made of
+
+
+def build_key(plan: BuildPlan, facts: HostFacts, toolchain_file: Path, parts: Mapping[str, str]) -> str:
+    """The build's inputs by content alone, so that two machines (or two checkouts) that build the
+    same thing get the same key (issue 19): the sources' names and contents, the merged colcon.meta,
+    the toolchain text with the workspace's path taken out, the profile's file, the compiler's version
+    and program, the package selection, the headers read outside the workspace, uros's own code."""
+    if isinstance(plan.target, ProfileTarget):
+        # rendered again with a placeholder for the workspace, quoted as a plain path is
+        toolchain = render_toolchain(_toolchain_request(plan, facts, Path("/workspace")))
+    else:
+        toolchain = toolchain_file.read_text(encoding="utf-8", errors="replace")
+    profile = plan.profile
+    profile_text = (
+        Path(profile.source).read_bytes() if profile is not None and Path(profile.source).is_file() else b""
+    )
+    try:
+        driver = fp.file_sha256(Path(os.path.realpath(facts.gcc))) if facts.gcc else ""
+    except OSError:
+        driver = ""
+    code = Path(uros_build.__file__).parent
+    return fp.digest_json(
+        {
+            "sources": parts["sources"],
+            "colcon.meta": parts["colcon.meta"],
+            "toolchain": fp.digest(toolchain),
+            "profile": fp.digest(profile_text),
+            "compiler": fp.digest(facts.gcc_version, driver),
+            "packages": parts["packages"],
+            "headers outside the workspace": parts.get("headers outside the workspace", ""),
+            "uros": fp.digest(__version__, *(p.read_bytes() for p in sorted(code.rglob("*.py")))),
+        }
+    )
 
 
 def _uros_code() -> str:
@@ -636,21 +670,30 @@ def _prepare_toolchain(plan: BuildPlan, facts: HostFacts) -> Path:
     header = plan.target_dir / CLOCK_HEADER_NAME
     if profile.micro_ros.declare_clock_gettime:
         write_if_changed(header, CLOCK_HEADER_TEXT)
-    req = ToolchainRequest(
+    path = plan.target_dir / "toolchain.cmake"
+    if write_if_changed(path, render_toolchain(_toolchain_request(plan, facts, plan.workspace.root))):
+        _forget_configured_flags(plan.target_dir / "build")
+    return path
+
+
+def _toolchain_request(plan: BuildPlan, facts: HostFacts, root: Path) -> ToolchainRequest:
+    """The micro-ROS toolchain file's inputs, with ``root`` standing for the workspace (the real one,
+    or a placeholder for the portable build key)."""
+    target = plan.target
+    assert isinstance(target, ProfileTarget)
+    profile = target.profile
+    header = root / plan.target_dir.relative_to(plan.workspace.root) / CLOCK_HEADER_NAME
+    return ToolchainRequest(
         profile,
         micro_ros=True,
         gcc_major=facts.gcc_major,
         clock_header=str(header) if profile.micro_ros.declare_clock_gettime else None,
         tool_dir=facts.tool_dir,
         command=f"uros build --toolchain {profile.name}",
-        prefix_map=str(plan.workspace.root),
+        prefix_map=str(root),
         idf=plan.idf,
         transport=meta_transport(plan.meta),
     )
-    path = plan.target_dir / "toolchain.cmake"
-    if write_if_changed(path, render_toolchain(req)):
-        _forget_configured_flags(plan.target_dir / "build")
-    return path
 
 
 def _forget_configured_flags(build_base: Path) -> None:

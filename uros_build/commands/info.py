@@ -31,6 +31,7 @@ def gather(out: Path) -> dict[str, Any]:
     return {
         "output": str(out),
         "generated_by": info.generated_by,
+        "build_key": info.build_key or None,
         "target": info.target,
         "profile": info.profile,
         "toolchain_file": info.toolchain_file,
@@ -58,6 +59,8 @@ def gather(out: Path) -> dict[str, Any]:
 
 def render(data: dict[str, Any]) -> str:
     lines = [f"output     {data['output']} ({data['generated_by']})"]
+    if data["build_key"]:
+        lines.append(f"build key  {data['build_key']}")
     compiler = data["compiler"]
     made_by = f"{compiler['path']} {compiler['version']}" if compiler else data["toolchain_file"]
     lines.append(f"target     {data['target']} ({data['profile'] or 'own toolchain file'}), {made_by}")
