@@ -38,6 +38,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
             "firmware_scan",
             "depfiles",
             "probe",
+            "cache",
         ),
     ),
     ("workspace model", ("workspace", "outputs", "clones")),

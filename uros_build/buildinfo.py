@@ -97,12 +97,16 @@ class BuildInfo:
     # the build's inputs by content alone (no paths, times or inodes): equal on every machine that
     # builds the same sources, meta, profile and compiler with the same uros
     build_key: str = ""
+    # {"url", "key", "archive_sha256"} when this output was taken from a team cache, not built here
+    from_cache: Mapping[str, str] = field(default_factory=dict)
 
     def to_json(self) -> str:
         data = asdict(self)
         for key in ("idf_target", "idf"):
             if data[key] is None:
                 del data[key]
+        if not data["from_cache"]:
+            del data["from_cache"]
         if data["library"]["size"] is None:
             del data["library"]["size"]
         return json.dumps(_lists(data), indent=2, sort_keys=True) + "\n"
@@ -190,6 +194,7 @@ def parse_build_info(data: Any, source: str) -> BuildInfo:
         cmake_options=_nested_strings(top.get("cmake_options"), f"{source}: cmake_options"),
         sources=_nested_strings(top.get("sources"), f"{source}: sources"),
         build_key=str(top.get("build_key", "")),
+        from_cache=loader.string_map(top, "from_cache", source) if top.get("from_cache") else {},
     )
 
 

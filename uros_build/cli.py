@@ -276,8 +276,21 @@ def meta_write(
     help="An ESP-IDF project's build folder (after idf.py reconfigure): compile micro-ROS against "
     "its components, sdkconfig.h and C flags (default: uros.yaml's idf_build).",
 )  # fmt: skip
+@click.option(
+    "--cache", metavar="URL",
+    help="A team cache of outputs: file:///DIR or http(s)://HOST/PATH (GET/PUT: nginx WebDAV, "
+    "bazel-remote, Artifactory...). An output built elsewhere with the same build key is taken "
+    "from it, checked, instead of building (default: uros.yaml's cache:; none: no cache).",
+)  # fmt: skip
+@click.option(
+    "--cache-upload", is_flag=True,
+    help="Upload this build's output to the cache (CI); without it the cache is only read. "
+    "Credentials: $UROS_CACHE_TOKEN or ~/.netrc, never in the URL.",
+)  # fmt: skip
 @click.option("--force", is_flag=True, help="Write into an --output folder holding other files (kept).")
-@click.option("--rebuild", is_flag=True, help="Run every step even when no input changed.")
+@click.option(
+    "--rebuild", is_flag=True, help="Run every step even when no input changed (the cache is not read)."
+)
 @_VERBOSE
 def build(
     toolchain: str | None,
@@ -295,6 +308,8 @@ def build(
     compiler_prefix: str | None,
     cflags: tuple[str, ...],
     idf_build: Path | None,
+    cache: str | None,
+    cache_upload: bool,
     force: bool,
     rebuild: bool,
     verbose: bool,
@@ -321,6 +336,8 @@ def build(
             rebuild=rebuild,
             packages=packages,
             for_firmware=for_firmware,
+            cache=cache,
+            cache_upload=cache_upload,
         )
     )
 

@@ -12,11 +12,13 @@ from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
 
+from uros_build import cache as cache_mod
 from uros_build import defaults, espidf, firmware_scan, loader
 from uros_build import distros as distros_mod
 from uros_build import meta as meta_mod
 from uros_build import options as options_mod
 from uros_build import packages as packages_mod
+from uros_build.cache import CacheSettings
 from uros_build.distros import Distro, Mirror, Source
 from uros_build.errors import ConfigError, did_you_mean
 from uros_build.espidf import IdfProject
@@ -229,6 +231,8 @@ class BuildArgs:
     for_firmware: Path | None = None  # --for-firmware: read what it wants from its sources
     toolchain_from: str = "--toolchain"  # where toolchain came from (uros.yaml's target), for messages
     idf_build: Path | None = None  # an ESP-IDF project's build folder to compile micro-ROS against
+    cache: str | None = None  # --cache URL: a team cache of outputs (default: uros.yaml's cache:)
+    cache_upload: bool = False  # --cache-upload: write this build's output to the cache
 
     def names_a_target(self) -> bool:
         return bool(self.toolchain or self.profile or self.compiler_prefix or self.cflags)
@@ -290,6 +294,7 @@ class BuildPlan:
     selection: Selection | None = None  # --packages/--for-firmware/uros.yaml packages: (None: all)
     force: bool = False  # --force: the output may be another target's, or hold the user's files
     output_flag: str = "--output"  # how messages name the output ("the output folder" by default)
+    cache: CacheSettings | None = None  # the team cache of outputs (None: none)
 
     @property
     def profile(self) -> TargetProfile | None:
@@ -466,7 +471,27 @@ def plan_build(args: BuildArgs) -> BuildPlan:
         selection=selection,
         force=args.force,
         output_flag=flag,
+        cache=_cache_settings(args, cfg, ws.root / CONFIG),
     )
+
+
+def _cache_settings(args: BuildArgs, cfg: WorkspaceConfig | None, config_path: Path) -> CacheSettings | None:
+    """--cache, else uros.yaml's cache: (the command line wins); --cache-upload needs one of them."""
+    if args.cache is not None:
+        text, where = args.cache, "--cache"
+    elif cfg is not None and cfg.cache is not None:
+        text, where = cfg.cache, f"{config_path}: cache"
+    elif args.cache_upload:
+        raise ConfigError(
+            "--cache-upload without a cache", f"add --cache URL or a cache: line to {config_path}"
+        )
+    else:
+        return None
+    if text in ("", "none"):  # --cache none: this build without the workspace's cache
+        if args.cache_upload:
+            raise ConfigError("--cache-upload with --cache none", "give the cache's URL to upload to")
+        return None
+    return CacheSettings(cache_mod.parse_url(text, where), upload=args.cache_upload)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -68,6 +68,9 @@ class WorkspaceConfig:
     # An ESP-IDF project's build folder (after `idf.py reconfigure`), relative to the workspace
     # or absolute: micro-ROS is compiled against its components, sdkconfig.h and C flags.
     idf_build: str | None = None
+    # A team cache of outputs (file:///DIR or http(s)://...): `uros build` takes a matching output
+    # from it instead of building; only `uros build --cache-upload` writes to it.
+    cache: str | None = None
 
 
 _CONFIG_KEYS = {f.name for f in fields(WorkspaceConfig)}
@@ -109,6 +112,7 @@ def parse_config(data: Any, source: str, partial: bool = False) -> WorkspaceConf
         set=sets,
         packages=_package_names(loader.string_list(top, "packages", source), f"{source}: packages"),
         idf_build=loader.string(top, "idf_build", source) if top.get("idf_build") is not None else None,
+        cache=loader.string(top, "cache", source) if top.get("cache") is not None else None,
     )
 
 
@@ -140,7 +144,12 @@ def config_text(cfg: WorkspaceConfig) -> str:
         "extra_packages": list(cfg.extra_packages),
     }
     # the keys users add themselves, written back only when set (add-package rewrites the file)
-    optional = {"target": cfg.target, "transport": cfg.transport, "idf_build": cfg.idf_build}
+    optional = {
+        "target": cfg.target,
+        "transport": cfg.transport,
+        "idf_build": cfg.idf_build,
+        "cache": cfg.cache,
+    }
     data.update({k: v for k, v in optional.items() if v is not None})
     lists = {"targets": cfg.targets, "set": cfg.set, "packages": cfg.packages}
     data.update({k: list(v) for k, v in lists.items() if v})

@@ -2,9 +2,10 @@
 
 plan (validate every input) → probe the host → sync extra packages, dev_ws once → render the
 toolchain and colcon.meta → fingerprint the inputs: unchanged and the output intact → done →
+the team cache has this build key → its output, checked, is swapped in → done →
 drop packages the workspace lost → colcon (stamping each package it finishes) → merge this
 build's packages (or reuse the library when no archive changed), check, stage → swap the output
-into place → record the state.
+into place → record the state → upload to the team cache (--cache-upload).
 """
 
 from __future__ import annotations
@@ -12,6 +13,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import errno
+import hashlib
 import importlib.metadata
 import os
 import shutil
@@ -37,6 +39,7 @@ from uros_build import (
     installtree,
     outputs,
 )
+from uros_build import cache as cache_mod
 from uros_build import fingerprint as fp
 from uros_build import meta as meta_mod
 from uros_build import packages as packages_mod
@@ -51,6 +54,7 @@ from uros_build.buildinfo import (
     Library,
     read_build_info,
 )
+from uros_build.cache import CacheSettings, CacheUnusable
 from uros_build.errors import ConfigError, DiskFull, StepFailed, VerifyError, interrupted
 from uros_build.hosttools import HostFacts
 from uros_build.plan import BuildArgs, BuildPlan, ProfileTarget, expand_targets, meta_transport, plan_build
@@ -134,77 +138,218 @@ def build(args: BuildArgs) -> Path:
                 console.step(
                     f"up to date: {plan.output} (no input changed since its build; --rebuild forces one)"
                 )
+                if plan.cache is not None and plan.cache.upload:
+                    _upload(plan, build_key(plan, facts, toolchain_file, parts), _entries(plan.output))
                 return plan.output
             changed = fp.differing(previous.parts, parts) or ["the output folder"]
             console.info(f"changed since the last build: {', '.join(changed)}")
         # From here the trees change: until this build succeeds, no state vouches for the output.
         fp.forget_state(state_path)
+        key = build_key(plan, facts, toolchain_file, parts)
+        if plan.cache is not None and not plan.rebuild:
+            hit = _from_cache(runner, plan, plan.cache, key)
+            if hit is not None:
+                left = _deliver(plan, hit)
+                _record(plan, state_path, parts, hit, merge_key="")
+                origin = f"from the cache {plan.cache.url.shown} (entry {key[:16]})"
+                _say_done(plan, hit, left, started, origin)
+                return plan.output
         _drop_removed_packages(plan)
         progress = _run_colcon(plan, facts, runner, setup, parts)
         built = _check_built(plan, setup, progress, parts)
         # what the compiler read outside the workspace this time: the state records its content
         parts["headers outside the workspace"] = _record_outside_headers(plan, runner, setup)
-        fingerprint = fp.combine(parts)
         staging = outputs.staging_dir(plan.output)
         try:
-            try:
-                info, merge_key = _stage_output(
-                    runner, plan, facts, staging, setup, built, progress, previous
-                )
-            except OSError as exc:
-                # Python names no file for a failed write(): the disk of the step's folders with the
-                # least room is the full one (not the log's, which the catch-all would name)
-                if exc.errno not in (errno.ENOSPC, errno.EDQUOT) or exc.filename:
-                    raise
-                fullest = min((plan.target_dir, staging.parent), key=_free_bytes)
-                raise DiskFull.at(fullest, f"merging the library in {fullest}: {exc.strerror}") from exc
-            info = dataclasses.replace(info, build_key=build_key(plan, facts, toolchain_file, parts))
-            (staging / BUILD_INFO).write_text(info.to_json(), encoding="utf-8")
-            outputs.write_marker(staging, plan.target.key, [p.name for p in staging.iterdir()])
-            # Two targets' builds into one --output: one writer at a time, and the second does not
-            # replace the first's output unless --force (checked again now that it is its turn).
-            # (the lock lives in the workspace's .uros/, not beside the output in the user's folder)
-            writers = plan.workspace.state_dir / "output-locks" / fp.digest(str(plan.output))[:16]
-            with locked(writers, f"the output {plan.output}"):
-                outputs.check_output_owner(plan.output, plan.target.key, plan.force, plan.output_flag)
-                try:
-                    left = outputs.install_output(staging, plan.output)
-                except OSError as exc:
-                    # the output's disk, not the workspace's (where the log is): a mount point is
-                    # filled in place, so its own disk can be the full one
-                    if exc.errno not in (errno.ENOSPC, errno.EDQUOT):
-                        raise
-                    raise DiskFull.at(
-                        plan.output, f"writing the output {plan.output}: {exc.strerror}"
-                    ) from exc
+            info, merge_key = _stage_output(runner, plan, facts, staging, setup, built, progress, previous)
+        except OSError as exc:
+            outputs.remove_tree(staging)
+            # Python names no file for a failed write(): the disk of the step's folders with the
+            # least room is the full one (not the log's, which the catch-all would name)
+            if exc.errno not in (errno.ENOSPC, errno.EDQUOT) or exc.filename:
+                raise
+            fullest = min((plan.target_dir, staging.parent), key=_free_bytes)
+            raise DiskFull.at(fullest, f"merging the library in {fullest}: {exc.strerror}") from exc
         except BaseException:
             outputs.remove_tree(staging)
             raise
-        fp.write_state(
-            state_path,
-            fp.BuildState(
-                fingerprint=fingerprint,
-                parts=parts,
-                output=str(plan.output),
-                output_files=fp.stat_folder(plan.output),
-                library_sha256=info.library.sha256,
-                merge_key=merge_key,
-                packages=info.packages,
-            ),
-        )
+        staged = Staged(staging, dataclasses.replace(info, build_key=key))
+        entries = _entries(staging)
+        left = _deliver(plan, staged)
+        _record(plan, state_path, parts, staged, merge_key)
+    _say_done(plan, staged, left, started, "")
+    if plan.cache is not None and plan.cache.upload:
+        _upload(plan, key, entries)
+    return plan.output
+
+
+@dataclass(frozen=True)
+class Staged:
+    """An output ready to be swapped in: its folder beside the output, and its build-info."""
+
+    folder: Path
+    info: BuildInfo
+
+
+def _entries(folder: Path) -> list[str]:
+    """What uros writes into an output (build-info.json's folder), its marker left out."""
+    return sorted(p.name for p in folder.iterdir() if p.name != outputs.MARKER)
+
+
+def _deliver(plan: BuildPlan, staged: Staged) -> list[str]:
+    """build-info.json and the marker into the staged folder, then the swap: the staged folder
+    becomes the output (removed if anything fails first). Returns what of the previous output
+    could not be removed."""
+    staging = staged.folder
+    try:
+        (staging / BUILD_INFO).write_text(staged.info.to_json(), encoding="utf-8")
+        outputs.write_marker(staging, plan.target.key, [p.name for p in staging.iterdir()])
+        # Two targets' builds into one --output: one writer at a time, and the second does not
+        # replace the first's output unless --force (checked again now that it is its turn).
+        # (the lock lives in the workspace's .uros/, not beside the output in the user's folder)
+        writers = plan.workspace.state_dir / "output-locks" / fp.digest(str(plan.output))[:16]
+        with locked(writers, f"the output {plan.output}"):
+            outputs.check_output_owner(plan.output, plan.target.key, plan.force, plan.output_flag)
+            try:
+                return outputs.install_output(staging, plan.output)
+            except OSError as exc:
+                # the output's disk, not the workspace's (where the log is): a mount point is
+                # filled in place, so its own disk can be the full one
+                if exc.errno not in (errno.ENOSPC, errno.EDQUOT):
+                    raise
+                raise DiskFull.at(plan.output, f"writing the output {plan.output}: {exc.strerror}") from exc
+    except BaseException:
+        outputs.remove_tree(staging)
+        raise
+
+
+def _record(plan: BuildPlan, state_path: Path, parts: dict[str, str], staged: Staged, merge_key: str) -> None:
+    """The state that vouches for the output just swapped in (the next build compares with it)."""
+    fp.write_state(
+        state_path,
+        fp.BuildState(
+            fingerprint=fp.combine(parts),
+            parts=parts,
+            output=str(plan.output),
+            output_files=fp.stat_folder(plan.output),
+            library_sha256=staged.info.library.sha256,
+            merge_key=merge_key,
+            packages=staged.info.packages,
+        ),
+    )
+
+
+def _say_done(plan: BuildPlan, staged: Staged, left: list[str], started: float, origin: str) -> None:
     try:
         for why in left:  # the new output is in place: a warning, not a failure
             console.warn(f"could not remove the previous output {why}: remove it by hand")
         lib = plan.output / "libmicroros.a"
+        verb, origin = ("took", f" {origin}") if origin else ("built", "")
         console.step(
-            f"built {lib} ({lib.stat().st_size:,} bytes, {info.library.members} objects) and "
-            f"{info.include.files} headers in {plan.output / 'include'} ({time.monotonic() - started:.1f} s)"
+            f"{verb} {lib} ({lib.stat().st_size:,} bytes, {staged.info.library.members} objects) and "
+            f"{staged.info.include.files} headers in {plan.output / 'include'}{origin} "
+            f"({time.monotonic() - started:.1f} s)"
         )
     except KeyboardInterrupt as stop:
         raise interrupted(
             stop, "interrupted", f"the new output was already in place: {plan.output}"
         ) from None
-    return plan.output
+
+
+# ---------------------------------------------------------------------------------------------
+# the team cache (issue 19): cache.py knows the entries and stores; here they meet the build
+
+
+def _from_cache(runner: Runner, plan: BuildPlan, settings: CacheSettings, key: str) -> Staged | None:
+    """The output of the entry ``key``, unpacked beside the output and checked as a build's would
+    be (its build-info names this key and target, the library has the sha256 it names, every object
+    passes the ABI check); None, with a line saying why, when there is none or it cannot be used."""
+    shown = settings.url.shown
+    store = cache_mod.store(settings.url)
+    staging = outputs.staging_dir(plan.output)
+    try:
+        raw = store.get(cache_mod.manifest_name(key))
+        if raw is None:
+            console.info(f"cache: no entry {key[:16]} in {shown}: building")
+            return None
+        manifest = cache_mod.parse_manifest(raw, key)
+        differ = cache_mod.headers_differ(
+            manifest, {p: depfiles.content(p) for p in manifest.outside_headers}
+        )
+        if differ:
+            more = f" and {len(differ) - 1} more" if len(differ) > 1 else ""
+            console.info(
+                f"cache: entry {key[:16]} was built against other headers outside the workspace "
+                f"({differ[0]}{more}): building"
+            )
+            return None
+        data = store.get(cache_mod.archive_name(key))
+        if data is None:
+            raise CacheUnusable(f"the entry {key[:16]} has a manifest and no tarball")
+        outputs.remove_tree(staging)
+        console.step(f"cache: entry {key[:16]} found in {shown} ({len(data):,} bytes): checking it")
+        cache_mod.unpack(data, manifest, staging)
+        info = _check_cached(runner, plan, staging, key)
+        origin = {"url": shown, "key": key, "archive_sha256": manifest.archive_sha256}
+        return Staged(staging, dataclasses.replace(info, from_cache=origin))
+    except CacheUnusable as exc:
+        outputs.remove_tree(staging)
+        console.warn(f"cache {shown}: {exc}: building instead")
+        return None
+    except BaseException:
+        outputs.remove_tree(staging)
+        raise
+
+
+def _check_cached(runner: Runner, plan: BuildPlan, staging: Path, key: str) -> BuildInfo:
+    try:
+        info = read_build_info(staging, "the cache entry")
+    except ConfigError as exc:
+        raise CacheUnusable(str(exc)) from None
+    if info.build_key != key or info.target != plan.target.key:
+        raise CacheUnusable(f"the entry {key[:16]} holds the output of another build ({info.target})")
+    library = staging / info.library.file
+    if not library.is_file() or fp.file_sha256(library) != info.library.sha256:
+        raise CacheUnusable(f"the entry {key[:16]}'s library does not have its build-info's sha256")
+    if not (staging / info.include.dir).is_dir():
+        raise CacheUnusable(f"the entry {key[:16]} has no {info.include.dir}/ folder")
+    if plan.profile is not None:
+        try:
+            console.info(abi.describe(abi.check_library(runner, library, plan.profile)))
+        except VerifyError as exc:
+            raise CacheUnusable(f"the entry {key[:16]}'s library fails the ABI check: {exc}") from None
+    return info
+
+
+def _upload(plan: BuildPlan, key: str, entries: list[str]) -> None:
+    """The output as the cache entry ``key`` (tarball first, manifest last), unless the cache has
+    it already. A failure is a warning: the build itself succeeded."""
+    assert plan.cache is not None
+    shown = plan.cache.url.shown
+    store = cache_mod.store(plan.cache.url)
+    try:
+        if store.get(cache_mod.manifest_name(key)) is not None:
+            console.info(f"cache: {shown} already has entry {key[:16]}")
+            return
+        info = read_build_info(plan.output)
+        if info.from_cache:
+            return  # taken from a cache: not this machine's to upload
+        data = cache_mod.pack(plan.output, entries)
+        record = depfiles.read_record(plan.target_dir / depfiles.RECORD)
+        headers = {path: sha for per in record.values() for path, sha in per.items()}
+        manifest = cache_mod.Manifest(
+            key=key,
+            archive_sha256=hashlib.sha256(data).hexdigest(),
+            archive_bytes=len(data),
+            target=plan.target.key,
+            generated_by=info.generated_by,
+            outside_headers=headers,
+        )
+        store.put(cache_mod.archive_name(key), data)
+        store.put(cache_mod.manifest_name(key), manifest.to_json().encode("utf-8"))
+        console.step(f"cache: uploaded entry {key[:16]} to {shown} ({len(data):,} bytes)")
+    except (CacheUnusable, ConfigError) as exc:
+        console.warn(f"cache {shown}: not uploaded: {exc}")
 
 
 def compiler_identity(facts: HostFacts) -> str:
@@ -390,7 +535,9 @@ def build_key(plan: BuildPlan, facts: HostFacts, toolchain_file: Path, parts: Ma
     """The build's inputs by content alone, so that two machines (or two checkouts) that build the
     same thing get the same key (issue 19): the sources' names and contents, the merged colcon.meta,
     the toolchain text with the workspace's path taken out, the profile's file, the compiler's version
-    and program, the package selection, the headers read outside the workspace, uros's own code."""
+    and program, the package selection, uros's own code. Known before anything is built, so that a
+    cache can be asked for it: the headers read outside the workspace are known only after a build,
+    so they are not in the key; a cache entry lists them and is used only where they match."""
     if isinstance(plan.target, ProfileTarget):
         # rendered again with a placeholder for the workspace, quoted as a plain path is
         toolchain = render_toolchain(_toolchain_request(plan, facts, Path("/workspace")))
@@ -413,7 +560,6 @@ def build_key(plan: BuildPlan, facts: HostFacts, toolchain_file: Path, parts: Ma
             "profile": fp.digest(profile_text),
             "compiler": fp.digest(facts.gcc_version, driver),
             "packages": parts["packages"],
-            "headers outside the workspace": parts.get("headers outside the workspace", ""),
             "uros": fp.digest(__version__, *(p.read_bytes() for p in sorted(code.rglob("*.py")))),
         }
     )

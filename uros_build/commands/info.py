@@ -32,6 +32,7 @@ def gather(out: Path) -> dict[str, Any]:
         "output": str(out),
         "generated_by": info.generated_by,
         "build_key": info.build_key or None,
+        "from_cache": dict(info.from_cache) or None,
         "target": info.target,
         "profile": info.profile,
         "toolchain_file": info.toolchain_file,
@@ -61,6 +62,8 @@ def render(data: dict[str, Any]) -> str:
     lines = [f"output     {data['output']} ({data['generated_by']})"]
     if data["build_key"]:
         lines.append(f"build key  {data['build_key']}")
+    if data["from_cache"]:  # built elsewhere: say so before anything that reads like this machine's
+        lines.append(f"from the cache  {data['from_cache']['url']} (not built here)")
     compiler = data["compiler"]
     made_by = f"{compiler['path']} {compiler['version']}" if compiler else data["toolchain_file"]
     lines.append(f"target     {data['target']} ({data['profile'] or 'own toolchain file'}), {made_by}")

@@ -1,0 +1,246 @@
+"""The team cache (issue 19, items 3 and 5), through the real CLI, real builds and a real nginx
+(WebDAV PUT) on loopback: a fresh workspace elsewhere takes the library from the cache instead of
+building, byte for byte the one uploaded; another meta misses; an entry that is cut, corrupt, built
+against other headers or for other ELF facts is never used; credentials never reach a log."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import shutil
+import socket
+import subprocess
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+from conftest import need
+from uros_helpers import run_uros
+
+from uros_build import cache
+
+pytestmark = pytest.mark.integration
+
+M7 = ["build", "--toolchain", "cortex-m7"]
+
+
+def _fresh_copy(m7_build: Path, where: Path) -> Path:
+    """The fixture's sources and meta in a new workspace (no .uros, no output): another checkout."""
+    shutil.copytree(m7_build / "mcu_ws", where / "mcu_ws")
+    shutil.copy(m7_build / "fixture.meta", where / "fixture.meta")
+    return where
+
+
+def _build(ws: Path, *more: str, env: dict[str, str] | None = None) -> subprocess.CompletedProcess[str]:
+    return run_uros(*M7, "--workspace", str(ws), "--meta", str(ws / "fixture.meta"), *more, env=env)
+
+
+def _key(ws: Path) -> str:
+    key: str = json.loads((ws / "build" / "cortex-m7" / "build-info.json").read_text())["build_key"]
+    return key
+
+
+def _library(ws: Path) -> bytes:
+    return (ws / "build" / "cortex-m7" / "libmicroros.a").read_bytes()
+
+
+def _upload_from(m7_build: Path, url: str, env: dict[str, str] | None = None) -> str:
+    """The session's fixture build, already up to date, uploaded to ``url``."""
+    done = _build(m7_build, "--cache", url, "--cache-upload", env=env)
+    assert "up to date" in done.stderr, done.stderr
+    return done.stderr
+
+
+def test_a_fresh_workspace_takes_the_library_from_a_file_cache(m7_build: Path, tmp_path: Path) -> None:
+    store = tmp_path / "team cache"
+    said = _upload_from(m7_build, store.as_uri())
+    key = _key(m7_build)
+    assert f"uploaded entry {key[:16]}" in said
+    assert sorted(p.name for p in store.iterdir()) == [f"{key}.json", f"{key}.tar.gz"]
+    again = _upload_from(m7_build, store.as_uri())
+    assert f"already has entry {key[:16]}" in again
+
+    ws = _fresh_copy(m7_build, tmp_path / "another checkout")
+    took = _build(ws, "--cache", store.as_uri())
+    assert f"from the cache {store.as_uri()} (entry {key[:16]})" in took.stderr, took.stderr
+    assert not (ws / ".uros" / "targets" / "cortex-m7" / "build").exists()  # colcon never ran
+    assert _library(ws) == _library(m7_build)  # the bytes, not the message
+    info = json.loads((ws / "build" / "cortex-m7" / "build-info.json").read_text())
+    assert info["build_key"] == key and info["from_cache"]["key"] == key
+    assert (
+        f"from the cache  {store.as_uri()} (not built here)"
+        in run_uros("info", str(ws / "build" / "cortex-m7")).stdout
+    )
+    assert "up to date" in _build(ws, "--cache", store.as_uri()).stderr
+    # taken from the cache, not built here: never uploaded back from this workspace
+    assert "uploaded" not in _build(ws, "--cache", store.as_uri(), "--cache-upload").stderr
+
+    # another meta: another key, a miss, a real build (and its own entry once uploaded)
+    other = _build(
+        ws, "--cache", store.as_uri(), "--cache-upload", "--set", "rmw_microxrcedds.RMW_UXRCE_MAX_NODES=2"
+    )
+    assert "no entry" in other.stderr and "uploaded entry" in other.stderr
+    assert (ws / ".uros" / "targets" / "cortex-m7" / "build").is_dir()
+    assert _key(ws) != key and len(list(store.glob("*.json"))) == 2
+
+
+def _entry_from(
+    out: Path, key: str, work: Path, change: dict[str, bytes] | None = None
+) -> tuple[bytes, bytes]:
+    """(tarball, manifest) of an entry holding ``out`` with ``change``'s files replaced (their
+    sha256 updated in build-info.json as an attacker or a broken uploader would)."""
+    folder = work / "entry"
+    shutil.copytree(out, folder)
+    (folder / ".uros-output").unlink()
+    info = json.loads((folder / "build-info.json").read_text())
+    for name, data in (change or {}).items():
+        (folder / name).write_bytes(data)
+        if name == "libmicroros.a":
+            info["library"]["sha256"] = hashlib.sha256(data).hexdigest()
+    (folder / "build-info.json").write_text(json.dumps(info))
+    data = cache.pack(folder, sorted(p.name for p in folder.iterdir()))
+    shutil.rmtree(folder)
+    manifest = cache.Manifest(
+        key, hashlib.sha256(data).hexdigest(), len(data), "cortex-m7", info["generated_by"]
+    )
+    return data, manifest.to_json().encode()
+
+
+def test_an_unusable_entry_is_never_used(m7_build: Path, tmp_path: Path) -> None:
+    need("arm-none-eabi-gcc", "arm-none-eabi-ar")
+    key = _key(m7_build)
+    out = m7_build / "build" / "cortex-m7"
+    store = tmp_path / "c"
+    store.mkdir()
+    ws = _fresh_copy(m7_build, tmp_path / "ws")
+    good, manifest = _entry_from(out, key, tmp_path)
+
+    def attempt(tarball: bytes, manifest: bytes) -> str:
+        (store / f"{key}.tar.gz").write_bytes(tarball)
+        (store / f"{key}.json").write_bytes(manifest)
+        shutil.rmtree(ws / "build", ignore_errors=True)  # no output: the build asks the cache again
+        return _build(ws, "--cache", store.as_uri()).stderr
+
+    said = attempt(good[: len(good) // 2], manifest)  # cut short in transit
+    assert "cut short or replaced" in said and "building instead" in said
+    assert _library(ws) == _library(m7_build)  # built here, and right
+
+    flipped = bytearray(good)
+    flipped[len(flipped) // 2] ^= 0xFF
+    assert "(corrupt)" in attempt(bytes(flipped), manifest)
+
+    headers = json.loads(manifest)
+    headers["outside_headers"] = {"/usr/lib/arm-none-eabi/include/stdio.h": "0" * 64}
+    assert "other headers outside the workspace (/usr/lib/arm-none-eabi/include/stdio.h)" in attempt(
+        good, json.dumps(headers).encode()
+    )
+
+    # a library of Cortex-M0 objects in an entry that says cortex-m7, every checksum consistent
+    (tmp_path / "m0.c").write_text("int m0(int x) { return x + 1; }\n")
+    subprocess.run(["arm-none-eabi-gcc", "-mcpu=cortex-m0", "-mthumb", "-c", str(tmp_path / "m0.c"),
+                    "-o", str(tmp_path / "m0.o")], check=True)  # fmt: skip
+    subprocess.run(["arm-none-eabi-ar", "rcs", str(tmp_path / "m0.a"), str(tmp_path / "m0.o")], check=True)
+    wrong = _entry_from(out, key, tmp_path, {"libmicroros.a": (tmp_path / "m0.a").read_bytes()})
+    assert "fails the ABI check" in attempt(*wrong)
+    assert _library(ws) == _library(m7_build)
+
+    assert "from the cache" in attempt(good, manifest)  # and the good entry is taken
+    assert _library(ws) == _library(m7_build)
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port: int = s.getsockname()[1]
+        return port
+
+
+@pytest.fixture
+def nginx(tmp_path: Path) -> Iterator[tuple[str, Path]]:
+    """A real nginx on a free loopback port serving /uros/ with WebDAV PUT behind basic auth
+    (user ci, password s3cret-pass); yields the cache URL and its document root."""
+    need("nginx")
+    top = tmp_path / "nginx"
+    root = top / "root"
+    (root / "uros").mkdir(parents=True)
+    (top / "htpasswd").write_text("ci:{PLAIN}s3cret-pass\n")
+    port = _free_port()
+    user = "user root;" if os.geteuid() == 0 else ""  # as root, workers must still write the root
+    (top / "nginx.conf").write_text(f"""
+{user}
+daemon off;
+worker_processes 1;
+pid {top}/nginx.pid;
+events {{}}
+http {{
+  access_log {top}/access.log;
+  client_body_temp_path {top}/body;
+  proxy_temp_path {top}/proxy;
+  fastcgi_temp_path {top}/fastcgi;
+  uwsgi_temp_path {top}/uwsgi;
+  scgi_temp_path {top}/scgi;
+  client_max_body_size 0;
+  server {{
+    listen 127.0.0.1:{port};
+    location /uros/ {{
+      root {root};
+      auth_basic "uros cache";
+      auth_basic_user_file {top}/htpasswd;
+      dav_methods PUT;
+      create_full_put_path on;
+    }}
+  }}
+}}
+""")
+    server = subprocess.Popen(
+        ["nginx", "-p", str(top), "-c", str(top / "nginx.conf"), "-e", str(top / "error.log")],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    try:
+        for _ in range(100):
+            try:
+                socket.create_connection(("127.0.0.1", port), timeout=0.2).close()
+                break
+            except OSError:
+                if server.poll() is not None:
+                    pytest.fail(f"nginx did not start: {(top / 'error.log').read_text(errors='replace')}")
+                time.sleep(0.1)
+        yield f"http://127.0.0.1:{port}/uros/", root / "uros"
+    finally:
+        server.terminate()
+        server.wait(timeout=10)
+
+
+def test_a_team_cache_on_nginx_webdav(m7_build: Path, tmp_path: Path, nginx: tuple[str, Path]) -> None:
+    url, served = nginx
+    netrc = tmp_path / "netrc"
+    netrc.write_text("machine 127.0.0.1 login ci password s3cret-pass\n")
+    netrc.chmod(0o600)
+    with_netrc = {**os.environ, "NETRC": str(netrc)}
+    key = _key(m7_build)
+
+    refused = _upload_from(m7_build, url)  # no credentials: the server says no, the build stands
+    assert "not uploaded" in refused and "HTTP 401" in refused
+
+    said = _upload_from(m7_build, url, env=with_netrc)
+    assert f"uploaded entry {key[:16]}" in said
+    assert (served / f"{key}.tar.gz").is_file() and (served / f"{key}.json").is_file()
+
+    ws = _fresh_copy(m7_build, tmp_path / "teammate")
+    took = _build(ws, "--cache", url, env=with_netrc)
+    assert f"from the cache {url} (entry {key[:16]})" in took.stderr, took.stderr
+    assert _library(ws) == _library(m7_build)
+    # the password is in no output and no log, the token neither
+    token_env = {**os.environ, "UROS_CACHE_TOKEN": "tok-123-secret"}
+    _build(ws, "--cache", url, "--cache-upload", env=token_env)
+    logs = "".join(
+        p.read_text(errors="replace")
+        for top in (ws, m7_build)
+        for p in (top / ".uros").rglob("*.log")
+        if p.is_file() and not p.is_symlink()
+    )
+    for secret in ("s3cret-pass", "tok-123-secret", "czNjcmV0"):
+        assert secret not in logs + said + took.stderr
