@@ -39,6 +39,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
             "depfiles",
             "probe",
             "cache",
+            "gencache",
         ),
     ),
     ("workspace model", ("workspace", "outputs", "clones")),

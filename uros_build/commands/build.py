@@ -34,6 +34,7 @@ from uros_build import (
     contents,
     depfiles,
     export,
+    gencache,
     hosttools,
     includes,
     installtree,
@@ -155,7 +156,9 @@ def build(args: BuildArgs) -> Path:
                 _say_done(plan, hit, left, started, origin)
                 return plan.output
         _drop_removed_packages(plan)
+        (plan.target_dir / gencache.RUNS).unlink(missing_ok=True)
         progress = _run_colcon(plan, facts, runner, setup, parts)
+        _say_generation(plan)
         built = _check_built(plan, setup, progress, parts)
         # what the compiler read outside the workspace this time: the state records its content
         parts["headers outside the workspace"] = _record_outside_headers(plan, runner, setup)
@@ -518,13 +521,41 @@ def _colcon_setup(plan: BuildPlan, facts: HostFacts, toolchain_file: Path, meta_
         log_base=plan.target_dir / "log",
         metas=(meta_path,),
         toolchain_file=toolchain_file,
-        python=colcon.host_python(),
+        python=str(_python_shim(plan)),
         generator=colcon.generator(env),
         verbose=plan.verbose,
         packages_up_to=plan.packages_up_to if out is None else (),
         parallel_workers=plan.jobs,
     )
     return ColconSetup(colcon_plan, tuple(colcon.colcon_argv(colcon_plan, facts.colcon)), env, skipped)
+
+
+def _say_generation(plan: BuildPlan) -> None:
+    try:
+        runs = gencache.count_runs((plan.target_dir / gencache.RUNS).read_text(encoding="utf-8"))
+    except OSError:
+        return  # no interface code generated in this build
+    bypass = f", {runs['bypass']} not cacheable" if runs["bypass"] else ""
+    console.info(
+        f"interface code: {sum(runs.values())} generator runs, {runs['hit']} taken from the "
+        f"workspace's generation cache, {runs['miss']} generated{bypass}"
+    )
+
+
+def _python_shim(plan: BuildPlan) -> Path:
+    """The Python of the target's CMake builds: the real one, with rosidl's generator runs going
+    through the workspace's generation cache (shared by every target: gencache.py)."""
+    shim = plan.target_dir / "uros-python"
+    text = gencache.shim_text(
+        colcon.host_python(),
+        plan.workspace.state_dir / "gen-cache",
+        plan.target_dir,
+        Path(uros_build.__file__).resolve().parent.parent,
+        f"uros {__version__} build",
+    )
+    write_if_changed(shim, text)
+    shim.chmod(0o755)
+    return shim
 
 
 # ---------------------------------------------------------------------------------------------

@@ -1,0 +1,114 @@
+"""The generation cache (issue 19, item 1) with a stand-in generator script: a generator run is
+the same function of its inputs for every target, so the second target's run is a hit that writes
+the same bytes; any input's content changes the key; a generator that writes its own folder into
+the code is never shared. (The generator runs in-process through runpy: no process is started.)"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from uros_build import gencache
+
+GENERATOR = """
+import argparse, json, os, pathlib
+parser = argparse.ArgumentParser()
+parser.add_argument("--generator-arguments-file", required=True)
+parser.add_argument("--typesupports", nargs="*", default=[])
+ns = parser.parse_args()
+args = json.loads(pathlib.Path(ns.generator_arguments_file).read_text())
+out = pathlib.Path(args["output_dir"])
+counter = pathlib.Path(os.environ["GEN_COUNTER"])
+counter.write_text(counter.read_text() + "x")
+for item in args["idl_tuples"]:
+    base, _, rel = item.rpartition(":")
+    idl = pathlib.Path(base, rel).read_text()
+    name = pathlib.Path(rel).stem.lower()
+    target = out / "msg" / f"{name}.h"
+    target.parent.mkdir(parents=True, exist_ok=True)
+    embed = str(out) if "EMBED" in idl else ""
+    target.write_text(f"/* from {rel} {' '.join(ns.typesupports)} */ {idl} {embed}\\n")
+"""
+
+
+def _target(root: Path, name: str, idl: str = "struct Bool { boolean data; };") -> tuple[list[str], Path]:
+    """A target folder laid out as colcon leaves it before a generator run; returns the argv the
+    shim receives and the target folder."""
+    target = root / ".uros" / "targets" / name
+    script = target / "install" / "lib" / "rosidl_generator_c" / "rosidl_generator_c"
+    script.parent.mkdir(parents=True)
+    script.write_text(GENERATOR)
+    site = target / "install" / "lib" / "python3.11" / "site-packages" / "rosidl_parser"
+    site.mkdir(parents=True)
+    (site / "__init__.py").write_text("# parser\n")
+    adapter = target / "build" / "std_msgs" / "rosidl_adapter"
+    (adapter / "msg").mkdir(parents=True)
+    (adapter / "msg" / "Bool.idl").write_text(idl)
+    arguments = {
+        "package_name": "std_msgs",
+        "output_dir": str(target / "build" / "std_msgs" / "rosidl_generator_c" / "std_msgs"),
+        "idl_tuples": [f"{adapter}:msg/Bool.idl"],
+        "target_dependencies": [str(script), str(adapter / "msg" / "Bool.idl")],
+    }
+    arguments_file = target / "build" / "std_msgs" / "rosidl_generator_c__arguments.json"
+    arguments_file.write_text(json.dumps(arguments))
+    return [str(script), gencache.ARGUMENTS_FLAG, str(arguments_file), "--typesupports", "a", "b"], target
+
+
+def _header(target: Path) -> Path:
+    return target / "build" / "std_msgs" / "rosidl_generator_c" / "std_msgs" / "msg" / "bool.h"
+
+
+def test_the_second_target_takes_the_first_ones_code(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    mp = monkeypatch
+    counter = tmp_path / "runs"
+    counter.write_text("")
+    mp.setenv("GEN_COUNTER", str(counter))
+    cache = tmp_path / "ws" / ".uros" / "gen-cache"
+    argv7, m7 = _target(tmp_path / "ws", "cortex-m7")
+    argv4, m4 = _target(tmp_path / "ws", "cortex-m4f")
+    assert gencache.is_generator_run(argv7)
+
+    assert gencache.generate(argv7, cache, m7) == "miss"
+    assert gencache.generate(argv4, cache, m4) == "hit"
+    assert counter.read_text() == "x"  # the generator ran once for both targets
+    assert _header(m4).read_bytes() == _header(m7).read_bytes()
+    assert _header(m4).read_text().startswith("/* from msg/Bool.idl a b */ struct Bool")
+
+    # a hit over a file already as it should be leaves its time alone (ninja's restat)
+    before = _header(m4).stat().st_mtime_ns
+    assert gencache.generate(argv4, cache, m4) == "hit"
+    assert _header(m4).stat().st_mtime_ns == before
+
+    # another .idl, another generator option, another parser: another key, the generator runs
+    (m4 / "build" / "std_msgs" / "rosidl_adapter" / "msg" / "Bool.idl").write_text("struct Bool { int8 d; };")
+    assert gencache.generate(argv4, cache, m4) == "miss"
+    assert "int8" in _header(m4).read_text()
+    assert gencache.generate([*argv7[:4], "a"], cache, m7) == "miss"
+    (m7 / "install/lib/python3.11/site-packages/rosidl_parser/__init__.py").write_text("# parser 2\n")
+    assert gencache.generate(argv7, cache, m7) == "miss"
+    assert counter.read_text() == "xxxx"
+
+
+def test_code_that_names_its_folder_is_not_shared(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    mp = monkeypatch
+    counter = tmp_path / "runs"
+    counter.write_text("")
+    mp.setenv("GEN_COUNTER", str(counter))
+    cache = tmp_path / "ws" / ".uros" / "gen-cache"
+    argv, m7 = _target(tmp_path / "ws", "cortex-m7", idl="EMBED")
+    assert gencache.generate(argv, cache, m7) == "bypass"
+    assert str(_header(m7).parent.parent) in _header(m7).read_text()  # as CMake asked, its own folder
+    assert not list(cache.rglob("*.tar"))
+
+
+def test_the_shim_sends_only_generator_runs_to_the_cache(tmp_path: Path) -> None:
+    text = gencache.shim_text(
+        "/venv/bin/python3", tmp_path / "c d", tmp_path / "t", Path("/code"), "uros 1 build"
+    )
+    assert text.startswith("#!/bin/sh\n# Written by uros 1 build")
+    assert f"'{tmp_path / 'c d'}'" in text  # quoted for the shell
+    assert text.rstrip().endswith('exec /venv/bin/python3 "$@"')
+    assert gencache.count_runs("hit a\nmiss b\nhit c\nbypass d\n") == {"hit": 2, "miss": 1, "bypass": 1}

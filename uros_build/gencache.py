@@ -1,0 +1,260 @@
+"""Interface code generation once per workspace, not once per target (issue 19, item 1).
+
+rosidl's generators (``rosidl_generator_c``, ``rosidl_typesupport_c``, ``..._introspection_c``,
+``..._microxrcedds_c``) turn an interface package's .idl files into C sources. What they write
+depends on the .idl files, the generator's code and templates and its command line, never on the
+target: yet every target's build runs them again (about a third of a cold build of micro-ROS).
+
+Each target's CMake builds run Python through a small shim (:func:`shim_text`): a generator run
+(``SCRIPT --generator-arguments-file FILE ...``, how rosidl_generate_interfaces calls every
+generator: https://github.com/ros2/rosidl/blob/humble/rosidl_cmake/cmake/rosidl_write_generator_arguments.cmake)
+comes here. Its key is the content of everything the generator reads, with the target's own folder
+taken out of every path: the arguments file, the command line, the files the arguments name
+(templates, .idl files, the interfaces it depends on: rosidl lists them as ``target_dependencies``),
+the Python packages of the target's install tree (the generators' code) and the generator's
+third-party modules' versions. A hit writes the stored files; a miss runs the generator (in this
+process, through runpy: no extra interpreter) into an empty folder, keeps exactly what it wrote,
+then writes it. Either way a file whose content is already there is left untouched, as the
+generators themselves do (their ninja rules have ``restat = 1``).
+
+Any trouble with the cache itself falls back to running the generator as CMake asked: the cache
+can make a build faster, never different or broken.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib.metadata
+import io
+import json
+import os
+import runpy
+import shlex
+import sys
+import tarfile
+import tempfile
+from collections.abc import Iterable, Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+FORMAT = 1
+ARGUMENTS_FLAG = "--generator-arguments-file"
+# third-party modules the generators import: their versions are part of the key
+GENERATOR_MODULES = ("empy", "lark", "lark-parser", "numpy")
+PLACEHOLDER = "<target>"
+
+
+def is_generator_run(argv: Sequence[str]) -> bool:
+    """``SCRIPT --generator-arguments-file FILE ...`` (argv without the interpreter)."""
+    return len(argv) >= 3 and argv[1] == ARGUMENTS_FLAG and not argv[0].startswith("-")
+
+
+def shim_text(python: str, cache_dir: Path, target_dir: Path, code_dir: Path, written_by: str) -> str:
+    """The ``Python3_EXECUTABLE`` of a target's CMake builds: generator runs go through the
+    cache, everything else is the real interpreter, unchanged. ``code_dir``: the folder holding
+    uros_build (appended to the path: the generators' own imports resolve as before)."""
+    q = shlex.quote
+    entry = (
+        f"import sys; sys.path.append({str(code_dir)!r}); "
+        "from uros_build.gencache import main; sys.exit(main(sys.argv[1:]))"
+    )
+    return (
+        "#!/bin/sh\n"
+        f"# Written by {written_by}: the Python of this target's CMake builds. rosidl generator\n"
+        "# runs go through uros's generation cache (uros_build/gencache.py); all else is the real Python.\n"
+        f'if [ "$2" = {ARGUMENTS_FLAG} ] && [ -n "$3" ]; then\n'
+        f'  exec {q(python)} -c {q(entry)} {q(str(cache_dir))} {q(str(target_dir))} "$@"\n'
+        "fi\n"
+        f'exec {q(python)} "$@"\n'
+    )
+
+
+def _normal(text: str, target_dir: str) -> str:
+    return text.replace(target_dir, PLACEHOLDER)
+
+
+def _named_files(arguments: Mapping[str, Any]) -> list[str]:
+    """Every file the arguments name: target_dependencies, and the .idl files of idl_tuples
+    (``base:relative``) and ros_interface_dependencies (``package:path``)."""
+    out = [str(p) for p in arguments.get("target_dependencies", ())]
+    for item in arguments.get("idl_tuples", ()):
+        base, _, rel = str(item).rpartition(":")
+        out.append(os.path.join(base, rel))
+    for item in arguments.get("ros_interface_dependencies", ()):
+        out.append(str(item).partition(":")[2])
+    return sorted(set(out))
+
+
+def _sha(path: str) -> str:
+    try:
+        return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    except OSError:
+        return "missing"
+
+
+def _python_tree(target_dir: Path) -> str:
+    """The Python packages installed in the target's tree (the generators' own code)."""
+    h = hashlib.sha256()
+    for site in sorted(target_dir.glob("install/lib/python3*/site-packages")):
+        for path in sorted(site.rglob("*.py")):
+            h.update(f"{path.relative_to(site)}\0{_sha(str(path))}\n".encode())
+    return h.hexdigest()
+
+
+def _versions(names: Iterable[str]) -> dict[str, str]:
+    out = {}
+    for name in names:
+        try:
+            out[name] = importlib.metadata.version(name)
+        except importlib.metadata.PackageNotFoundError:
+            out[name] = "-"
+    return out
+
+
+def run_key(argv: Sequence[str], arguments_text: str, target_dir: Path) -> str:
+    """The content of everything the generator run reads, with the target's folder taken out."""
+    top = str(target_dir)
+    arguments = json.loads(arguments_text)
+    files = {_normal(p, top): _sha(p) for p in [argv[0], *_named_files(arguments)]}
+    data = {
+        "format": FORMAT,
+        "argv": [_normal(a, top) for a in argv],
+        "arguments": _normal(arguments_text, top),
+        "files": files,
+        "python": list(sys.version_info[:2]),
+        "modules": _versions(GENERATOR_MODULES),
+        "installed python": _python_tree(target_dir),
+    }
+    return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()
+
+
+def pack_files(folder: Path) -> bytes:
+    """Every file under ``folder`` (relative names, contents; nothing else) as a tar."""
+    buffer = io.BytesIO()
+    with tarfile.open(fileobj=buffer, mode="w", format=tarfile.PAX_FORMAT) as tar:
+        for path in sorted(p for p in folder.rglob("*") if p.is_file()):
+            data = path.read_bytes()
+            info = tarfile.TarInfo(path.relative_to(folder).as_posix())
+            info.size = len(data)
+            info.mode = 0o644
+            tar.addfile(info, io.BytesIO(data))
+    return buffer.getvalue()
+
+
+def unpack_files(data: bytes) -> dict[str, bytes]:
+    files: dict[str, bytes] = {}
+    with tarfile.open(fileobj=io.BytesIO(data), mode="r") as tar:
+        for member in tar:
+            parts = Path(member.name).parts
+            if not member.isfile() or member.name.startswith("/") or ".." in parts:
+                raise ValueError(f"refused entry {member.name!r}")
+            source = tar.extractfile(member)
+            if source is None:
+                raise ValueError(f"unreadable entry {member.name!r}")
+            files[member.name] = source.read()
+    return files
+
+
+def write_changed(files: Mapping[str, bytes], output_dir: Path) -> int:
+    """Write each file whose content differs (a file already as it should be keeps its time, as
+    the generators do). Returns how many were written."""
+    written = 0
+    for name, data in sorted(files.items()):
+        path = output_dir / name
+        try:
+            if path.read_bytes() == data:
+                continue
+        except OSError:
+            pass
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_name(f".{path.name}.uros-{os.getpid()}")
+        tmp.write_bytes(data)
+        tmp.replace(path)
+        written += 1
+    return written
+
+
+def _run_generator(argv: Sequence[str]) -> None:
+    """The generator script as CMake would have run it, in this process."""
+    saved = sys.argv
+    sys.argv = list(argv)
+    try:
+        runpy.run_path(argv[0], run_name="__main__")
+    except SystemExit as exc:
+        if exc.code not in (None, 0):
+            raise
+    finally:
+        sys.argv = saved
+
+
+def generate(argv: Sequence[str], cache_dir: Path, target_dir: Path) -> str:
+    """One generator run through the cache; returns "hit", "miss" or "bypass" (cache unusable:
+    the generator ran as CMake asked)."""
+    arguments_path = Path(argv[2])
+    try:
+        arguments_text = arguments_path.read_text(encoding="utf-8")
+        arguments = json.loads(arguments_text)
+        output_dir = Path(arguments["output_dir"])
+        key = run_key(argv, arguments_text, target_dir)
+    except (OSError, ValueError, KeyError, TypeError):
+        _run_generator(argv)
+        return "bypass"
+    entry = cache_dir / key[:2] / f"{key}.tar"
+    try:
+        files = unpack_files(entry.read_bytes())
+    except (OSError, ValueError, tarfile.TarError):
+        files = None
+    if files is not None:
+        write_changed(files, output_dir)
+        return "hit"
+    with tempfile.TemporaryDirectory(prefix="uros-gen-") as tmp:
+        scratch = Path(tmp) / "out"
+        scratch.mkdir()
+        private = Path(tmp) / "arguments.json"
+        private.write_text(json.dumps({**arguments, "output_dir": str(scratch)}), encoding="utf-8")
+        _run_generator([argv[0], argv[1], str(private), *argv[3:]])
+        data = pack_files(scratch)
+        files = unpack_files(data)
+    if any(str(target_dir).encode() in c or tmp.encode() in c for c in files.values()):
+        # a generator that writes folders into the code is not the same for every target: it runs
+        # again as CMake asked, and nothing is kept
+        _run_generator(argv)
+        return "bypass"
+    try:
+        entry.parent.mkdir(parents=True, exist_ok=True)
+        part = entry.with_name(f".{entry.name}.{os.getpid()}")
+        part.write_bytes(data)
+        part.replace(entry)
+    except OSError:
+        pass  # not kept: the next target generates again
+    write_changed(files, output_dir)
+    return "miss"
+
+
+RUNS = "gen-runs.log"  # in the target's folder: one line per generator run of its build
+
+
+def main(args: Sequence[str]) -> int:
+    """``python -m uros_build.gencache CACHE_DIR TARGET_DIR SCRIPT --generator-arguments-file F ...``"""
+    cache_dir, target_dir, *argv = args
+    result = generate(argv, Path(cache_dir), Path(target_dir))
+    try:  # one short line with O_APPEND: parallel generator runs do not mix their lines
+        with (Path(target_dir) / RUNS).open("a", encoding="utf-8") as f:
+            f.write(f"{result} {Path(argv[0]).name} {argv[2]}\n")
+    except OSError:
+        pass
+    return 0
+
+
+def count_runs(text: str) -> dict[str, int]:
+    """hit/miss/bypass counts of a gen-runs.log."""
+    out = {"hit": 0, "miss": 0, "bypass": 0}
+    for line in text.splitlines():
+        word = line.partition(" ")[0]
+        if word in out:
+            out[word] += 1
+    return out
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
