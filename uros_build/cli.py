@@ -226,9 +226,12 @@ def meta_write(
 
 
 @click.command()
-@_toolchain_option(
-    "A target name (see `uros targets`) or your own CMake toolchain file (default: uros.yaml's target)."
-)
+@click.option(
+    "--toolchain", "--target", "toolchains", cls=_Option, aliases=("--target",), multiple=True,
+    help="A target name (see `uros targets`) or your own CMake toolchain file; repeat it to build "
+    "several targets in one run (default: uros.yaml's target or targets).",
+    shell_complete=_complete_targets,
+)  # fmt: skip
 @click.option(
     "--profile",
     type=_PATH,
@@ -293,7 +296,7 @@ def meta_write(
 )
 @_VERBOSE
 def build(
-    toolchain: str | None,
+    toolchains: tuple[str, ...],
     profile: Path | None,
     workspace: Path | None,
     metas: tuple[Path, ...],
@@ -318,20 +321,21 @@ def build(
     target or targets in the workspace's uros.yaml)."""
     build_cmd.build_all(
         BuildArgs(
-            workspace,
-            toolchain,
-            profile,
-            metas,
-            sets,
-            preset,
-            transport,
-            output,
-            verbose,
-            force,
-            packages_up_to,
-            jobs,
-            compiler_prefix,
-            cflags,
+            workspace=workspace,
+            toolchain=toolchains[0] if len(toolchains) == 1 else None,
+            toolchains=toolchains,
+            profile=profile,
+            metas=metas,
+            sets=sets,
+            preset=preset,
+            transport=transport,
+            output=output,
+            verbose=verbose,
+            force=force,
+            packages_up_to=packages_up_to,
+            jobs=jobs,
+            compiler_prefix=compiler_prefix,
+            cflags=cflags,
             idf_build=idf_build,
             rebuild=rebuild,
             packages=packages,

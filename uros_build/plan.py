@@ -214,6 +214,7 @@ class BuildArgs:
 
     workspace: Path | None = None  # None: resolve_workspace's default
     toolchain: str | None = None
+    toolchains: tuple[str, ...] = ()  # --toolchain given several times: one build each
     profile: Path | None = None
     metas: tuple[Path, ...] = ()
     sets: tuple[str, ...] = ()
@@ -235,13 +236,27 @@ class BuildArgs:
     cache_upload: bool = False  # --cache-upload: write this build's output to the cache
 
     def names_a_target(self) -> bool:
-        return bool(self.toolchain or self.profile or self.compiler_prefix or self.cflags)
+        return bool(self.toolchain or self.toolchains or self.profile or self.compiler_prefix or self.cflags)
 
 
 def expand_targets(args: BuildArgs) -> tuple[BuildArgs, ...]:
     """One BuildArgs per target to build: the command line's, else the workspace uros.yaml's
     target or targets (the command line wins), else the command line's as it is (and plan_build
     says that no target was given)."""
+    names = tuple(dict.fromkeys(args.toolchains))
+    if len(names) > 1:
+        if args.output is not None:
+            raise ConfigError(
+                f"--output with {len(names)} targets ({', '.join(names)})",
+                "each target has its own output (<workspace>/build/<target>): leave --output out",
+            )
+        if args.profile is not None:
+            raise ConfigError(
+                f"--profile with {len(names)} --toolchain targets", "give --toolchain or --profile, once"
+            )
+        return tuple(replace(args, toolchain=n, toolchains=(n,)) for n in names)
+    if names:
+        args = replace(args, toolchain=names[0])
     if args.names_a_target():
         return (args,)
     root = resolve_workspace(args.workspace)

@@ -84,3 +84,37 @@ def test_uros_build_builds_every_target_uros_yaml_names(tmp_path: Path) -> None:
         assert (ws / "build" / key / "libmicroros.a").is_file(), key
     one = run_uros("build", "--toolchain", "cortex-m7", cwd=ws)  # the command line wins
     assert "building 2 targets" not in one.stderr
+
+
+def test_several_targets_on_the_command_line_each_say_how_they_ended(tmp_path: Path) -> None:
+    """Issue 19, item 6: `--toolchain a --toolchain b` builds each, goes on after one fails, says
+    per target how it ended, and exits with the first failure's code; a typo fails first."""
+    ws = make_fixture_workspace(tmp_path / "ws")
+    broken = tmp_path / "broken.cmake"
+    broken.write_text("set(CMAKE_SYSTEM_NAME Generic)\nset(CMAKE_C_COMPILER /nonexistent/gcc)\n")
+    meta = ["--meta", str(ws / "fixture.meta")]
+    typo = run_uros(
+        "build", "-w", str(ws), *meta, "--toolchain", "cortex-m7", "--toolchain", "cortex-m77", check=False
+    )
+    assert typo.returncode == 2 and "cortex-m77" in typo.stderr
+    assert not (ws / "build").exists()  # nothing was built before the typo was found
+
+    proc = run_uros(
+        "build", "-w", str(ws), *meta, "--toolchain", str(broken), "--toolchain", "cortex-m7",
+        "--toolchain", "cortex-m0plus", check=False,
+    )  # fmt: skip
+    assert proc.returncode == 4, proc.stderr
+    assert "building 3 targets" in proc.stderr and "3 targets:" in proc.stderr
+    summary = proc.stderr.split("3 targets:")[1]
+    assert (
+        "FAILED (exit 4" in summary
+        and "cortex-m7: built (" in summary
+        and "cortex-m0plus: built (" in summary
+    )
+    for key in ("cortex-m7", "cortex-m0plus"):
+        assert (ws / "build" / key / "libmicroros.a").is_file(), key
+    again = run_uros("build", "-w", str(ws), *meta, "--target", "cortex-m7", "--target", "cortex-m0plus")
+    assert "cortex-m7: up to date" in again.stderr and "cortex-m0plus: up to date" in again.stderr
+    with_output = run_uros("build", "-w", str(ws), "--toolchain", "cortex-m7", "--toolchain", "cortex-m0plus",
+                           "--output", str(tmp_path / "o"), check=False)  # fmt: skip
+    assert with_output.returncode == 2 and "--output with 2 targets" in with_output.stderr

@@ -56,7 +56,15 @@ from uros_build.buildinfo import (
     read_build_info,
 )
 from uros_build.cache import CacheSettings, CacheUnusable
-from uros_build.errors import ConfigError, DiskFull, StepFailed, VerifyError, interrupted
+from uros_build.errors import (
+    ConfigError,
+    DiskFull,
+    Interrupted,
+    StepFailed,
+    UrosError,
+    VerifyError,
+    interrupted,
+)
 from uros_build.hosttools import HostFacts
 from uros_build.plan import BuildArgs, BuildPlan, ProfileTarget, expand_targets, meta_transport, plan_build
 from uros_build.proc import Runner, disk_full_line, disk_full_path, first_error, stop_leftovers
@@ -79,17 +87,49 @@ from uros_build.workspace import (
 )
 
 
-def build_all(args: BuildArgs) -> list[Path]:
-    """`uros build`: the target the command line names, else each one the workspace's uros.yaml
-    names (target: or targets:)."""
+@dataclass(frozen=True)
+class Outcome:
+    target: str
+    output: Path
+    how: str  # "built", "up to date", "from the cache"
+
+
+def build_all(args: BuildArgs) -> list[Outcome]:
+    """`uros build`: the targets the command line names (--toolchain, repeatable), else each one
+    the workspace's uros.yaml names (target: or targets:). Several targets: every one is planned
+    first (a typo in the last fails before the first builds), each is built even when another
+    fails, and a line per target says how it ended; the first failure is the command's."""
     requests = expand_targets(args)
-    if len(requests) > 1:
-        names = ", ".join(str(r.toolchain) for r in requests)
-        console.step(f"building {len(requests)} targets ({names}) from {requests[0].toolchain_from}")
-    return [build(request) for request in requests]
+    if len(requests) == 1:
+        return [build(requests[0])]
+    names = ", ".join(str(r.toolchain) for r in requests)
+    console.step(f"building {len(requests)} targets ({names}) from {requests[0].toolchain_from}")
+    for request in requests:
+        plan_build(request)
+    outcomes: list[Outcome] = []
+    ended: list[str] = []
+    failure: UrosError | None = None
+    for request in requests:
+        started = time.monotonic()
+        try:
+            outcome = build(request)
+        except Interrupted:
+            raise
+        except UrosError as exc:
+            failure = failure or exc
+            ended.append(f"{request.toolchain}: FAILED (exit {exc.exit_code}: {str(exc).splitlines()[0]})")
+            continue
+        outcomes.append(outcome)
+        ended.append(f"{outcome.target}: {outcome.how} ({time.monotonic() - started:.1f} s)")
+    console.step(f"{len(requests)} targets:")
+    for line in ended:
+        (console.warn if "FAILED" in line else console.info)(line)
+    if failure is not None:
+        raise failure
+    return outcomes
 
 
-def build(args: BuildArgs) -> Path:
+def build(args: BuildArgs) -> Outcome:
     plan = plan_build(args)
     ws = plan.workspace
     ws.mark_ignored()
@@ -141,7 +181,7 @@ def build(args: BuildArgs) -> Path:
                 )
                 if plan.cache is not None and plan.cache.upload:
                     _upload(plan, build_key(plan, facts, toolchain_file, parts), _entries(plan.output))
-                return plan.output
+                return Outcome(plan.target.key, plan.output, "up to date")
             changed = fp.differing(previous.parts, parts) or ["the output folder"]
             console.info(f"changed since the last build: {', '.join(changed)}")
         # From here the trees change: until this build succeeds, no state vouches for the output.
@@ -154,7 +194,7 @@ def build(args: BuildArgs) -> Path:
                 _record(plan, state_path, parts, hit, merge_key="")
                 origin = f"from the cache {plan.cache.url.shown} (entry {key[:16]})"
                 _say_done(plan, hit, left, started, origin)
-                return plan.output
+                return Outcome(plan.target.key, plan.output, "from the cache")
         _drop_removed_packages(plan)
         (plan.target_dir / gencache.RUNS).unlink(missing_ok=True)
         progress = _run_colcon(plan, facts, runner, setup, parts)
@@ -183,7 +223,7 @@ def build(args: BuildArgs) -> Path:
     _say_done(plan, staged, left, started, "")
     if plan.cache is not None and plan.cache.upload:
         _upload(plan, key, entries)
-    return plan.output
+    return Outcome(plan.target.key, plan.output, "built")
 
 
 @dataclass(frozen=True)
