@@ -93,10 +93,13 @@ def _sha(path: str) -> str:
 
 
 def _python_tree(target_dir: Path) -> str:
-    """The Python packages installed in the target's tree (the generators' own code)."""
+    """The rosidl Python packages installed in the target's tree (the generators' own code and
+    what it imports: rosidl_parser, rosidl_pycommon, rosidl_cmake, ...). Only those: they are
+    installed before any interface package is built, while other packages' Python is installed
+    alongside, so the whole tree would differ with the order colcon happened to build in."""
     h = hashlib.sha256()
     for site in sorted(target_dir.glob("install/lib/python3*/site-packages")):
-        for path in sorted(site.rglob("*.py")):
+        for path in sorted(site.glob("rosidl*/**/*.py")):
             h.update(f"{path.relative_to(site)}\0{_sha(str(path))}\n".encode())
     return h.hexdigest()
 

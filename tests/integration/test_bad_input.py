@@ -104,7 +104,7 @@ CASES: dict[str, tuple[Setup, int, str]] = {
     "--config with an unknown key": (
         _config("colour: red\n"),
         2,
-        "colour: unknown key (known: distro, extra_packages",
+        "colour: unknown key (known: cache, distro, extra_packages",
     ),
     "--config mirror rules of numbers": (
         _config("mirror: {rules: [1]}\n"),

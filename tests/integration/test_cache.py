@@ -26,10 +26,10 @@ pytestmark = pytest.mark.integration
 M7 = ["build", "--toolchain", "cortex-m7"]
 
 
-def _fresh_copy(m7_build: Path, where: Path) -> Path:
+def _fresh_copy(seed: Path, where: Path) -> Path:
     """The fixture's sources and meta in a new workspace (no .uros, no output): another checkout."""
-    shutil.copytree(m7_build / "mcu_ws", where / "mcu_ws")
-    shutil.copy(m7_build / "fixture.meta", where / "fixture.meta")
+    shutil.copytree(seed / "mcu_ws", where / "mcu_ws")
+    shutil.copy(seed / "fixture.meta", where / "fixture.meta")
     return where
 
 
@@ -46,27 +46,35 @@ def _library(ws: Path) -> bytes:
     return (ws / "build" / "cortex-m7" / "libmicroros.a").read_bytes()
 
 
-def _upload_from(m7_build: Path, url: str, env: dict[str, str] | None = None) -> str:
-    """The session's fixture build, already up to date, uploaded to ``url``."""
-    done = _build(m7_build, "--cache", url, "--cache-upload", env=env)
+@pytest.fixture(scope="module")
+def seed(m7_build: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """This module's own built workspace (the session's m7_build is touched by other tests)."""
+    ws = _fresh_copy(m7_build, tmp_path_factory.mktemp("seed"))
+    _build(ws)
+    return ws
+
+
+def _upload_from(seed: Path, url: str, env: dict[str, str] | None = None) -> str:
+    """The seed workspace, already built and up to date, uploaded to ``url``."""
+    done = _build(seed, "--cache", url, "--cache-upload", env=env)
     assert "up to date" in done.stderr, done.stderr
     return done.stderr
 
 
-def test_a_fresh_workspace_takes_the_library_from_a_file_cache(m7_build: Path, tmp_path: Path) -> None:
+def test_a_fresh_workspace_takes_the_library_from_a_file_cache(seed: Path, tmp_path: Path) -> None:
     store = tmp_path / "team cache"
-    said = _upload_from(m7_build, store.as_uri())
-    key = _key(m7_build)
+    said = _upload_from(seed, store.as_uri())
+    key = _key(seed)
     assert f"uploaded entry {key[:16]}" in said
     assert sorted(p.name for p in store.iterdir()) == [f"{key}.json", f"{key}.tar.gz"]
-    again = _upload_from(m7_build, store.as_uri())
+    again = _upload_from(seed, store.as_uri())
     assert f"already has entry {key[:16]}" in again
 
-    ws = _fresh_copy(m7_build, tmp_path / "another checkout")
+    ws = _fresh_copy(seed, tmp_path / "another checkout")
     took = _build(ws, "--cache", store.as_uri())
     assert f"from the cache {store.as_uri()} (entry {key[:16]})" in took.stderr, took.stderr
     assert not (ws / ".uros" / "targets" / "cortex-m7" / "build").exists()  # colcon never ran
-    assert _library(ws) == _library(m7_build)  # the bytes, not the message
+    assert _library(ws) == _library(seed)  # the bytes, not the message
     info = json.loads((ws / "build" / "cortex-m7" / "build-info.json").read_text())
     assert info["build_key"] == key and info["from_cache"]["key"] == key
     assert (
@@ -108,13 +116,13 @@ def _entry_from(
     return data, manifest.to_json().encode()
 
 
-def test_an_unusable_entry_is_never_used(m7_build: Path, tmp_path: Path) -> None:
+def test_an_unusable_entry_is_never_used(seed: Path, tmp_path: Path) -> None:
     need("arm-none-eabi-gcc", "arm-none-eabi-ar")
-    key = _key(m7_build)
-    out = m7_build / "build" / "cortex-m7"
+    key = _key(seed)
+    out = seed / "build" / "cortex-m7"
     store = tmp_path / "c"
     store.mkdir()
-    ws = _fresh_copy(m7_build, tmp_path / "ws")
+    ws = _fresh_copy(seed, tmp_path / "ws")
     good, manifest = _entry_from(out, key, tmp_path)
 
     def attempt(tarball: bytes, manifest: bytes) -> str:
@@ -125,7 +133,7 @@ def test_an_unusable_entry_is_never_used(m7_build: Path, tmp_path: Path) -> None
 
     said = attempt(good[: len(good) // 2], manifest)  # cut short in transit
     assert "cut short or replaced" in said and "building instead" in said
-    assert _library(ws) == _library(m7_build)  # built here, and right
+    assert _library(ws) == _library(seed)  # built here, and right
 
     flipped = bytearray(good)
     flipped[len(flipped) // 2] ^= 0xFF
@@ -144,10 +152,10 @@ def test_an_unusable_entry_is_never_used(m7_build: Path, tmp_path: Path) -> None
     subprocess.run(["arm-none-eabi-ar", "rcs", str(tmp_path / "m0.a"), str(tmp_path / "m0.o")], check=True)
     wrong = _entry_from(out, key, tmp_path, {"libmicroros.a": (tmp_path / "m0.a").read_bytes()})
     assert "fails the ABI check" in attempt(*wrong)
-    assert _library(ws) == _library(m7_build)
+    assert _library(ws) == _library(seed)
 
     assert "from the cache" in attempt(good, manifest)  # and the good entry is taken
-    assert _library(ws) == _library(m7_build)
+    assert _library(ws) == _library(seed)
 
 
 def _free_port() -> int:
@@ -214,31 +222,31 @@ http {{
         server.wait(timeout=10)
 
 
-def test_a_team_cache_on_nginx_webdav(m7_build: Path, tmp_path: Path, nginx: tuple[str, Path]) -> None:
+def test_a_team_cache_on_nginx_webdav(seed: Path, tmp_path: Path, nginx: tuple[str, Path]) -> None:
     url, served = nginx
     netrc = tmp_path / "netrc"
     netrc.write_text("machine 127.0.0.1 login ci password s3cret-pass\n")
     netrc.chmod(0o600)
     with_netrc = {**os.environ, "NETRC": str(netrc)}
-    key = _key(m7_build)
+    key = _key(seed)
 
-    refused = _upload_from(m7_build, url)  # no credentials: the server says no, the build stands
+    refused = _upload_from(seed, url)  # no credentials: the server says no, the build stands
     assert "not uploaded" in refused and "HTTP 401" in refused
 
-    said = _upload_from(m7_build, url, env=with_netrc)
+    said = _upload_from(seed, url, env=with_netrc)
     assert f"uploaded entry {key[:16]}" in said
     assert (served / f"{key}.tar.gz").is_file() and (served / f"{key}.json").is_file()
 
-    ws = _fresh_copy(m7_build, tmp_path / "teammate")
+    ws = _fresh_copy(seed, tmp_path / "teammate")
     took = _build(ws, "--cache", url, env=with_netrc)
     assert f"from the cache {url} (entry {key[:16]})" in took.stderr, took.stderr
-    assert _library(ws) == _library(m7_build)
+    assert _library(ws) == _library(seed)
     # the password is in no output and no log, the token neither
     token_env = {**os.environ, "UROS_CACHE_TOKEN": "tok-123-secret"}
     _build(ws, "--cache", url, "--cache-upload", env=token_env)
     logs = "".join(
         p.read_text(errors="replace")
-        for top in (ws, m7_build)
+        for top in (ws, seed)
         for p in (top / ".uros").rglob("*.log")
         if p.is_file() and not p.is_symlink()
     )

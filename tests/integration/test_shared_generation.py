@@ -1,0 +1,58 @@
+"""Issue 19, item 1, on real micro-ROS Humble: a second target takes the interface code the first
+generated (rosidl's generators do not run again), and its library is byte for byte the one a
+workspace that never built another target makes. Needs UROS_MIRROR (see test_real_sources.py);
+about six minutes on 2 cores (three builds of std_msgs' closure)."""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+from pathlib import Path
+
+import pytest
+from test_real_sources import humble_mirror_args
+from uros_helpers import run_uros
+
+pytestmark = [pytest.mark.integration, pytest.mark.realsources]
+
+MIRROR = os.environ.get("UROS_MIRROR")
+
+
+def _generation(stderr: str) -> tuple[int, int]:
+    found = re.search(
+        r"interface code: (\d+) generator runs, (\d+) taken from the workspace's generation cache, (\d+) generated",
+        stderr,
+    )
+    assert found, stderr
+    return int(found[2]), int(found[3])
+
+
+@pytest.mark.skipif(not MIRROR, reason="set UROS_MIRROR to a folder of upstream clones (<owner>+<repo>/repo)")
+def test_a_second_target_reuses_the_generated_code_and_builds_the_same_bytes(tmp_path: Path) -> None:
+    assert MIRROR
+    if shutil.which("arm-none-eabi-gcc") is None:
+        pytest.skip("arm-none-eabi-gcc is not installed")
+    shared = tmp_path / "shared"
+    run_uros("create-firmware", "generate_lib", "--distro", "humble", "--workspace", str(shared),
+             *humble_mirror_args(MIRROR))  # fmt: skip
+    alone = tmp_path / "alone"
+    alone.mkdir()
+    for name in ("mcu_ws", "dev_ws", "uros.yaml", "uros.lock", "colcon.meta"):
+        if (shared / name).is_dir():
+            shutil.copytree(shared / name, alone / name, symlinks=True)
+        elif (shared / name).exists():
+            shutil.copy2(shared / name, alone / name)
+
+    def build(ws: Path, target: str) -> tuple[int, int]:
+        done = run_uros("build", "--toolchain", target, "--packages", "std_msgs", "--workspace", str(ws))
+        return _generation(done.stderr)
+
+    taken, generated = build(shared, "cortex-m7")
+    assert taken == 0 and generated > 0
+    taken, generated = build(shared, "cortex-m4f")
+    assert generated == 0 and taken > 0  # every generator run of the second target was a hit
+    taken, generated = build(alone, "cortex-m4f")
+    assert taken == 0 and generated > 0
+    lib = Path("build") / "cortex-m4f" / "libmicroros.a"
+    assert (shared / lib).read_bytes() == (alone / lib).read_bytes()
