@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -16,7 +17,7 @@ from uros_build import abi, colcon, console, fingerprint, toolsearch
 from uros_build import distros as distros_mod
 from uros_build import packages as packages_mod
 from uros_build.archive import BinTools
-from uros_build.errors import MissingToolError, StepFailed
+from uros_build.errors import MissingToolError, StepFailed, UrosError
 from uros_build.packages import PackageInfo
 from uros_build.proc import Runner
 from uros_build.profiles import TargetProfile
@@ -307,3 +308,45 @@ def build_dev_workspace(
     record = {"built": sorted(needed), "available": sorted(p.name for p in dev)}
     (ws.dev_install / DEV_PACKAGES).write_text(json.dumps(record, indent=1) + "\n", encoding="utf-8")
     ws.mark_dev_built()
+
+
+# ---------------------------------------------------------------------------------------------
+# CMake's compiler facts, found once per target (issue 19, item 1)
+
+SEED_LANGUAGES = ("C", "CXX")
+
+
+def cmake_compiler_facts(
+    runner: Runner,
+    cmake: str,
+    toolchain_file: Path,
+    scratch: Path,
+    generator: str | None,
+    env: Mapping[str, str],
+) -> dict[str, str] | None:
+    """What CMake finds out about the target's compilers (identification, ABI, implicit folders,
+    compile features: its ``CMakeFiles/<version>/CMake<LANG>Compiler.cmake``), from one tiny
+    project configured with the toolchain file; None (the build then goes without) when CMake
+    could not make them, for instance a target without a C++ compiler."""
+    shutil.rmtree(scratch, ignore_errors=True)
+    source = scratch / "src"
+    source.mkdir(parents=True)
+    (source / "CMakeLists.txt").write_text(
+        "cmake_minimum_required(VERSION 3.12)\nproject(uros_compiler_facts C CXX)\n", encoding="utf-8"
+    )
+    argv = [cmake, "-S", str(source), "-B", str(scratch / "build")]
+    argv.append(f"-DCMAKE_TOOLCHAIN_FILE={toolchain_file}")
+    if generator:
+        argv.append(f"-G{generator}")
+    try:
+        runner.query(argv, step="find the target compilers' facts (once per target)", env=env)
+    except UrosError:
+        return None
+    found = {}
+    for lang in SEED_LANGUAGES:
+        files = sorted((scratch / "build" / "CMakeFiles").glob(f"*/CMake{lang}Compiler.cmake"))
+        if len(files) != 1:
+            return None
+        found[lang] = files[0].read_text(encoding="utf-8")
+    shutil.rmtree(scratch, ignore_errors=True)
+    return found

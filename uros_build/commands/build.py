@@ -75,6 +75,7 @@ from uros_build.toolchain import (
     ToolchainRequest,
     microros_flags,
     render_toolchain,
+    seeded_toolchain_text,
     tool_paths,
 )
 from uros_build.workspace import (
@@ -166,7 +167,7 @@ def build(args: BuildArgs) -> Outcome:
         meta_path = plan.target_dir / "colcon.meta"
         meta_text = meta_mod.dump_meta(plan.meta, f"uros build --toolchain {plan.target.key}")
         write_if_changed(meta_path, meta_text)
-        setup = _colcon_setup(plan, facts, toolchain_file, meta_path)
+        setup = _colcon_setup(plan, facts, toolchain_file, meta_path, runner)
         outside_digest = _drop_readers_of_changed_headers(plan)
         parts = _input_parts(plan, facts, toolchain_file, meta_text, setup)
         parts["headers outside the workspace"] = outside_digest
@@ -541,7 +542,9 @@ class ColconSetup:
         return self.plan.install_base
 
 
-def _colcon_setup(plan: BuildPlan, facts: HostFacts, toolchain_file: Path, meta_path: Path) -> ColconSetup:
+def _colcon_setup(
+    plan: BuildPlan, facts: HostFacts, toolchain_file: Path, meta_path: Path, runner: Runner
+) -> ColconSetup:
     ws = plan.workspace
     env, scrubbed = hosttools.colcon_env(ws, plan.config, facts.cmake_version)
     if scrubbed:
@@ -560,7 +563,7 @@ def _colcon_setup(plan: BuildPlan, facts: HostFacts, toolchain_file: Path, meta_
         install_base=plan.target_dir / "install",
         log_base=plan.target_dir / "log",
         metas=(meta_path,),
-        toolchain_file=toolchain_file,
+        toolchain_file=_seeded_toolchain(plan, facts, toolchain_file, runner, env),
         python=str(_python_shim(plan)),
         generator=colcon.generator(env),
         verbose=plan.verbose,
@@ -568,6 +571,36 @@ def _colcon_setup(plan: BuildPlan, facts: HostFacts, toolchain_file: Path, meta_
         parallel_workers=plan.jobs,
     )
     return ColconSetup(colcon_plan, tuple(colcon.colcon_argv(colcon_plan, facts.colcon)), env, skipped)
+
+
+SEED_SWITCH = "UROS_COMPILER_SEED"  # "off": every package's configure finds the compilers itself
+
+
+def _seeded_toolchain(
+    plan: BuildPlan, facts: HostFacts, toolchain_file: Path, runner: Runner, env: Mapping[str, str]
+) -> Path:
+    """The toolchain file colcon passes to every package: the target's, with CMake's compiler facts
+    found once per target (and again only when the toolchain, compiler or CMake changes). The
+    rendered toolchain file stays what the build key and build-info describe."""
+    if os.environ.get(SEED_SWITCH, "").lower() == "off":
+        return toolchain_file
+    seed = plan.target_dir / "toolchain-seeded.cmake"
+    stamp = plan.target_dir / "toolchain-seeded.key"
+    generator = colcon.generator(env)
+    identity = (compiler_identity(facts), facts.cmake, facts.cmake_version, str(generator))
+    key = fp.digest(fp.file_sha256(toolchain_file), *identity)
+    if seed.is_file() and stamp.is_file() and stamp.read_text(encoding="utf-8").strip() == key:
+        return seed
+    found = hosttools.cmake_compiler_facts(
+        runner, facts.cmake, toolchain_file, plan.target_dir / "compiler-facts", generator, env
+    )
+    if found is None:
+        console.info("CMake could not find the compilers' facts once: each package's configure finds them")
+        seed.unlink(missing_ok=True)
+        return toolchain_file
+    write_if_changed(seed, seeded_toolchain_text(toolchain_file, found, f"uros {__version__} build"))
+    write_if_changed(stamp, key + "\n")
+    return seed
 
 
 def _say_generation(plan: BuildPlan) -> None:
