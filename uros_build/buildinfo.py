@@ -99,14 +99,17 @@ class BuildInfo:
     build_key: str = ""
     # {"url", "key", "archive_sha256"} when this output was taken from a team cache, not built here
     from_cache: Mapping[str, str] = field(default_factory=dict)
+    # {"hits", "misses"}: this build's compiles through ccache (absent: no ccache)
+    ccache: Mapping[str, int] = field(default_factory=dict)
 
     def to_json(self) -> str:
         data = asdict(self)
         for key in ("idf_target", "idf"):
             if data[key] is None:
                 del data[key]
-        if not data["from_cache"]:
-            del data["from_cache"]
+        for key in ("from_cache", "ccache"):
+            if not data[key]:
+                del data[key]
         if data["library"]["size"] is None:
             del data["library"]["size"]
         return json.dumps(_lists(data), indent=2, sort_keys=True) + "\n"
@@ -195,7 +198,15 @@ def parse_build_info(data: Any, source: str) -> BuildInfo:
         sources=_nested_strings(top.get("sources"), f"{source}: sources"),
         build_key=str(top.get("build_key", "")),
         from_cache=loader.string_map(top, "from_cache", source) if top.get("from_cache") else {},
+        ccache=_counts(top.get("ccache"), f"{source}: ccache"),
     )
+
+
+def _counts(value: Any, where: str) -> dict[str, int]:
+    if value is None:
+        return {}
+    data = loader.mapping(value, where)
+    return {str(k): _count(data, k, where) for k in data}
 
 
 def _nested_strings(data: Any, where: str) -> dict[str, dict[str, str]]:

@@ -290,6 +290,10 @@ def meta_write(
     help="Upload this build's output to the cache (CI); without it the cache is only read. "
     "Credentials: $UROS_CACHE_TOKEN or ~/.netrc, never in the URL.",
 )  # fmt: skip
+@click.option(
+    "--ccache/--no-ccache", default=None,
+    help="Compile through ccache (default: when it is installed); the library is the same either way.",
+)  # fmt: skip
 @click.option("--force", is_flag=True, help="Write into an --output folder holding other files (kept).")
 @click.option(
     "--rebuild", is_flag=True, help="Run every step even when no input changed (the cache is not read)."
@@ -313,6 +317,7 @@ def build(
     idf_build: Path | None,
     cache: str | None,
     cache_upload: bool,
+    ccache: bool | None,
     force: bool,
     rebuild: bool,
     verbose: bool,
@@ -342,6 +347,7 @@ def build(
             for_firmware=for_firmware,
             cache=cache,
             cache_upload=cache_upload,
+            ccache=ccache,
         )
     )
 

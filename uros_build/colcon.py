@@ -88,6 +88,23 @@ class ColconPlan:
     # package is gone from colcon's package set: a dependency on it is an external one.
     # https://github.com/colcon/colcon-core/blob/master/colcon_core/verb/build.py (get_packages)
     packages_ignore: tuple[str, ...] = ()
+    compiler_launcher: str | None = None  # ccache, in front of every C and C++ compile
+
+
+def ccache_env(workspace: Path, stats_log: Path) -> dict[str, str]:
+    """ccache's settings for a build of ``workspace``: paths under it are made relative to each
+    package's build folder (so another checkout at another path hits the same entries; the
+    toolchain's relative -ffile-prefix-map gives those paths the names the absolute ones get, and
+    the library keeps its bytes); the working folder left out of the hash (no object holds it);
+    this build's hits and misses counted in ``stats_log``
+    (https://ccache.dev/manual/4.7.html#config_base_dir, #config_hash_dir, #config_stats_log)."""
+    return {"CCACHE_BASEDIR": str(workspace), "CCACHE_NOHASHDIR": "true", "CCACHE_STATSLOG": str(stats_log)}
+
+
+def ccache_counts(stats_log: str) -> dict[str, int]:
+    """Compiles that hit and missed, from a ccache stats_log ("# <source>" then its counters)."""
+    hits = stats_log.count("\ndirect_cache_hit") + stats_log.count("\npreprocessed_cache_hit")
+    return {"hits": hits, "misses": stats_log.count("\ncache_miss")}
 
 
 def kept_by_ignores(plan: ColconPlan, names: Iterable[str]) -> set[str]:
@@ -135,6 +152,11 @@ def colcon_argv(plan: ColconPlan, colcon: str = "colcon") -> list[str]:
     cmake_args = ["--no-warn-unused-cli", "-DBUILD_TESTING=OFF", "-DCMAKE_BUILD_TYPE=Release"]
     cmake_args.append(f"-DPython3_EXECUTABLE={plan.python}")
     cmake_args.append("-DCMAKE_EXPORT_COMPILE_COMMANDS=ON")
+    if plan.compiler_launcher:
+        cmake_args += [
+            f"-DCMAKE_C_COMPILER_LAUNCHER={plan.compiler_launcher}",
+            f"-DCMAKE_CXX_COMPILER_LAUNCHER={plan.compiler_launcher}",
+        ]
     if plan.toolchain_file is not None:
         cmake_args += [
             f"-DCMAKE_TOOLCHAIN_FILE={plan.toolchain_file}",

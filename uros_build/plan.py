@@ -234,6 +234,7 @@ class BuildArgs:
     idf_build: Path | None = None  # an ESP-IDF project's build folder to compile micro-ROS against
     cache: str | None = None  # --cache URL: a team cache of outputs (default: uros.yaml's cache:)
     cache_upload: bool = False  # --cache-upload: write this build's output to the cache
+    ccache: bool | None = None  # --ccache/--no-ccache (None: ccache when it is installed)
 
     def names_a_target(self) -> bool:
         return bool(self.toolchain or self.toolchains or self.profile or self.compiler_prefix or self.cflags)
@@ -310,6 +311,7 @@ class BuildPlan:
     force: bool = False  # --force: the output may be another target's, or hold the user's files
     output_flag: str = "--output"  # how messages name the output ("the output folder" by default)
     cache: CacheSettings | None = None  # the team cache of outputs (None: none)
+    ccache: bool | None = None  # True: ccache required; None: when installed; False: never
 
     @property
     def profile(self) -> TargetProfile | None:
@@ -487,6 +489,7 @@ def plan_build(args: BuildArgs) -> BuildPlan:
         force=args.force,
         output_flag=flag,
         cache=_cache_settings(args, cfg, ws.root / CONFIG),
+        ccache=args.ccache,
     )
 
 

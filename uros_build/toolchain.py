@@ -81,7 +81,20 @@ def microros_flags(req: ToolchainRequest) -> list[str]:
         # -ffile-prefix-map implies -fmacro-prefix-map (__FILE__) and -fdebug-prefix-map
         # (https://gcc.gnu.org/onlinedocs/gcc/Overall-Options.html#index-ffile-prefix-map).
         flags.append(f"-ffile-prefix-map={req.prefix_map}=.")
+        # The same names for the paths ccache's base_dir makes relative to a package's build
+        # folder (<workspace>/.uros/targets/<target>/build/<package>: five levels down), so that
+        # the library is the same with and without ccache; the template maps the build folder
+        # itself (generated sources), whose path CMake knows only while configuring.
+        flags.append(f"-ffile-prefix-map={RELATIVE_WORKSPACE}=./")
     return flags
+
+
+RELATIVE_WORKSPACE = "../../../../../"
+
+
+def maps_build_dirs(req: ToolchainRequest) -> bool:
+    gcc_ok = req.gcc_major is None or req.gcc_major >= _PREFIX_MAP_SINCE_GCC
+    return bool(req.micro_ros and req.prefix_map and gcc_ok)
 
 
 def link_unsafe_flags(flags: list[str]) -> list[str]:
@@ -147,6 +160,7 @@ def render_toolchain(req: ToolchainRequest) -> str:
         idf=idf,
         c_standard=c_standard,
         xrce_platform=p.micro_ros.xrce_platform if req.micro_ros and transport in _IP_TRANSPORTS else "",
+        map_build_dir=maps_build_dirs(req),
     )
 
 

@@ -198,8 +198,10 @@ def build(args: BuildArgs) -> Outcome:
                 return Outcome(plan.target.key, plan.output, "from the cache")
         _drop_removed_packages(plan)
         (plan.target_dir / gencache.RUNS).unlink(missing_ok=True)
+        (plan.target_dir / CCACHE_STATS).unlink(missing_ok=True)
         progress = _run_colcon(plan, facts, runner, setup, parts)
         _say_generation(plan)
+        ccache_counts = _say_ccache(plan, setup)
         built = _check_built(plan, setup, progress, parts)
         # what the compiler read outside the workspace this time: the state records its content
         parts["headers outside the workspace"] = _record_outside_headers(plan, runner, setup)
@@ -217,7 +219,7 @@ def build(args: BuildArgs) -> Outcome:
         except BaseException:
             outputs.remove_tree(staging)
             raise
-        staged = Staged(staging, dataclasses.replace(info, build_key=key))
+        staged = Staged(staging, dataclasses.replace(info, build_key=key, ccache=ccache_counts))
         entries = _entries(staging)
         left = _deliver(plan, staged)
         _record(plan, state_path, parts, staged, merge_key)
@@ -552,6 +554,9 @@ def _colcon_setup(
     # colcon prints its job events with flush=True, but its other output is block-buffered in a
     # pipe: unbuffered, the live view sees each line when it is written.
     env = {**env, "PYTHONUNBUFFERED": "1"}
+    launcher = _ccache(plan, env, runner)
+    if launcher:
+        env.update(colcon.ccache_env(ws.root, plan.target_dir / CCACHE_STATS))
     skipped = tuple(packages_mod.host_only(list(plan.packages)))
     # --packages/--for-firmware/uros.yaml packages: exactly their closure, without the test
     # dependencies colcon's --packages-up-to would add (a user's --packages-up-to stays colcon's)
@@ -569,8 +574,37 @@ def _colcon_setup(
         verbose=plan.verbose,
         packages_up_to=plan.packages_up_to if out is None else (),
         parallel_workers=plan.jobs,
+        compiler_launcher=launcher,
     )
     return ColconSetup(colcon_plan, tuple(colcon.colcon_argv(colcon_plan, facts.colcon)), env, skipped)
+
+
+CCACHE_STATS = "ccache-stats.log"  # this build's ccache counters (the user's totals stay theirs)
+
+
+def _ccache(plan: BuildPlan, env: Mapping[str, str], runner: Runner) -> str | None:
+    """ccache's path when the build compiles through it: --ccache (then it must be installed),
+    --no-ccache never, by default when it is on PATH. Only for uros's own toolchain: a user's
+    toolchain file does not carry the path maps that keep the library the same under ccache."""
+    if plan.ccache is False or not isinstance(plan.target, ProfileTarget):
+        return None
+    if plan.ccache:
+        return runner.which("ccache", path=env.get("PATH"))
+    return shutil.which("ccache", path=env.get("PATH"))
+
+
+def _say_ccache(plan: BuildPlan, setup: ColconSetup) -> dict[str, int]:
+    """This build's ccache hits and misses (empty without ccache)."""
+    if not setup.plan.compiler_launcher:
+        return {}
+    try:
+        counts = colcon.ccache_counts((plan.target_dir / CCACHE_STATS).read_text(encoding="utf-8"))
+    except OSError:
+        counts = {"hits": 0, "misses": 0}
+    total = counts["hits"] + counts["misses"]
+    rate = f" ({100 * counts['hits'] / total:.0f}%)" if total else ""
+    console.info(f"ccache: {counts['hits']} of {total} compiles taken from the cache{rate}")
+    return counts
 
 
 SEED_SWITCH = "UROS_COMPILER_SEED"  # "off": every package's configure finds the compilers itself

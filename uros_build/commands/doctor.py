@@ -73,6 +73,14 @@ def eval_ninja(path: str | None) -> Check:
     return Check("ninja", OK, path)
 
 
+def eval_ccache(path: str | None, version: str | None) -> Check:
+    """ccache is optional: without it every compile that misses uros's caches runs."""
+    if path is None:
+        why = "not found: compiles are not cached across builds and checkouts"
+        return Check("ccache", SKIP, why, "apt-get install ccache")
+    return Check("ccache", OK, f"{path} {version or ''}".rstrip() + " (uros build compiles through it)")
+
+
 def eval_probe_tools(qemu: str | None, agent: str | None, agent_given: bool) -> list[Check]:
     """What `uros probe` needs; neither is needed to build, so a missing one is a note, not a failure."""
     checks = [
@@ -362,6 +370,7 @@ def doctor(workspace: Path | None, toolchain: str | None, as_json: bool) -> list
         eval_empy(_empy_version(), colcon.host_python()),
         eval_ros_env(os.environ),
     ]
+    checks.append(eval_ccache(_which(runner, "ccache", build_path), _version(runner, "ccache")))
     agent = os.environ.get("UROS_AGENT")
     checks += eval_probe_tools(
         _which(runner, "qemu-system-arm"), _which(runner, agent) if agent else None, bool(agent)

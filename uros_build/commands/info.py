@@ -33,6 +33,7 @@ def gather(out: Path) -> dict[str, Any]:
         "generated_by": info.generated_by,
         "build_key": info.build_key or None,
         "from_cache": dict(info.from_cache) or None,
+        "ccache": dict(info.ccache) or None,
         "target": info.target,
         "profile": info.profile,
         "toolchain_file": info.toolchain_file,
@@ -77,6 +78,9 @@ def render(data: dict[str, Any]) -> str:
     sizes = f"; text {size['text']:,}, data {size['data']:,}, bss {size['bss']:,} bytes" if size else ""
     lines.append(f"library    {lib['file']}: {lib['bytes']:,} bytes, {lib['members']:,} objects{sizes}")
     lines.append(f"headers    {data['include']['files']:,} files in {data['include']['dir']}/")
+    if data["ccache"]:
+        hits, misses = data["ccache"].get("hits", 0), data["ccache"].get("misses", 0)
+        lines.append(f"ccache     {hits} of {hits + misses} compiles of this build taken from the cache")
     lines.append(f"transport  {data['transport'] or '-'}")
     memory = contents.memory_options(data["options"])
     for i, (pkg, opts) in enumerate(memory.items()):
