@@ -1,0 +1,128 @@
+"""Issue 19's rows, side by side in one invocation on real micro-ROS Humble: SET (micro_ros_setup's
+flow by hand, as benchmarks/side_by_side.py runs it) and uros for a cold build, a second target from
+the same workspace, a fresh workspace with a warm team cache, and a fresh workspace with only a
+warm ccache. Prints a Markdown table with uros/SET and checks that the libraries are the same bytes.
+
+    python benchmarks/build_once.py --mirror /work/.mirror [--dir /tmp/empty-folder]
+
+The machine is shared and its speed moves 2-4x between runs: only the ratios within one invocation
+mean something. ccache gets its own empty folder (CCACHE_DIR under the work folder).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import sys
+import tempfile
+import threading
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from side_by_side import (
+    EXAMPLE,
+    EXTRA_PACKAGE,
+    SECOND_TARGET,
+    SETUP_GIT,
+    TARGET,
+    Bench,
+    humble_mirror_args,
+    machine_facts,
+    sample_load,
+)
+
+GOALS = {
+    "uros cold": ("set cold", 0.6),
+    "uros second target": ("set second target", 0.35),
+    "uros fresh, warm team cache": ("set cold", 0.05),
+    "uros fresh, warm ccache only": ("set cold", 0.4),
+}
+
+
+def fresh_copy(ws: Path, where: Path) -> Path:
+    """Another checkout of the same workspace: its sources, dev_ws, uros.yaml and lock; no trees."""
+    where.mkdir(parents=True)
+    for name in ("mcu_ws", "dev_ws", "uros.yaml", "uros.lock", "colcon.meta", "COLCON_IGNORE"):
+        source = ws / name
+        if source.is_dir():
+            shutil.copytree(source, where / name, symlinks=True)
+        elif source.exists():
+            shutil.copy2(source, where / name)
+    shutil.rmtree(where / "mcu_ws" / "build", ignore_errors=True)
+    return where
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument(
+        "--mirror", default=os.environ.get("UROS_MIRROR"), help="folder of <owner>+<repo>/repo"
+    )
+    parser.add_argument("--dir", type=Path, help="work folder (default: a new one under /tmp, kept)")
+    args = parser.parse_args()
+    if not args.mirror:
+        sys.exit("needs --mirror or UROS_MIRROR")
+    root = (args.dir or Path(tempfile.mkdtemp(prefix="uros-once-"))).resolve()
+    root.mkdir(parents=True, exist_ok=True)
+    os.environ["CCACHE_DIR"] = str(root / "ccache")
+    bench = Bench(root, args.mirror, SETUP_GIT)
+    facts = machine_facts(SETUP_GIT)
+    print("\n".join(facts), flush=True)
+    threading.Thread(target=sample_load, args=(bench.loads,), daemon=True).start()
+
+    pkg = root / EXTRA_PACKAGE
+    bench.uros("interface new", "interface", "new", EXTRA_PACKAGE,
+               "--msg", str(EXAMPLE / "interfaces/CmdVel.msg"), "--srv", str(EXAMPLE / "interfaces/GetTime.srv"),
+               "--output", str(pkg))  # fmt: skip
+    bench.uros("uros create-firmware", "create-firmware", "generate_lib", "--distro", "humble",
+               "--workspace", str(bench.ws), "--toolchain", TARGET, "--extra-package", str(pkg),
+               *humble_mirror_args(args.mirror))  # fmt: skip
+    bench.set_dev()
+    r = bench.results
+    r["set cold"] = bench.set_mcu("cold", TARGET)
+    r["uros cold"] = bench.uros_build("uros cold")
+    r["set second target"] = bench.set_mcu("second target", SECOND_TARGET)
+    r["uros second target"] = bench.uros_build("uros second target", target=SECOND_TARGET)
+    store = (root / "team cache").as_uri()
+    bench.uros_build("uros upload to the team cache", "--cache", store, "--cache-upload")
+    teammate = fresh_copy(bench.ws, root / "teammate")
+    r["uros fresh, warm team cache"] = bench.uros(
+        "uros fresh, warm team cache",
+        "build",
+        "--toolchain",
+        TARGET,
+        "--workspace",
+        str(teammate),
+        "--cache",
+        store,
+    )
+    took = bench.said("from the cache")
+    other = fresh_copy(bench.ws, root / "other checkout")
+    r["uros fresh, warm ccache only"] = bench.uros(
+        "uros fresh, warm ccache only",
+        "build",
+        "--toolchain",
+        TARGET,
+        "--workspace",
+        str(other),
+        "--cache",
+        "none",
+    )
+    ccache_line = next((ln for ln in bench.runs[-1].log.read_text().splitlines() if "ccache:" in ln), "")
+
+    lib = Path("build") / TARGET / "libmicroros.a"
+    same = (bench.ws / lib).read_bytes() == (teammate / lib).read_bytes() == (other / lib).read_bytes()
+    print("\n| row | seconds | SET row | SET seconds | uros/SET | goal |")
+    print("|---|---|---|---|---|---|")
+    for row, (set_row, goal) in GOALS.items():
+        ratio = r[row] / r[set_row]
+        print(f"| {row} | {r[row]:.1f} | {set_row} | {r[set_row]:.1f} | {ratio:.2f} | <= {goal} "
+              f"{'met' if ratio <= goal else 'NOT met'} |")  # fmt: skip
+    print(f"\nteam cache used: {took}; {ccache_line.strip()}")
+    print(f"libraries of the three {TARGET} workspaces byte-identical: {same}")
+    loads = bench.loads or [0.0]
+    print(f"load average during the run: min {min(loads):.1f}, max {max(loads):.1f}; work folder {root}")
+
+
+if __name__ == "__main__":
+    main()
