@@ -272,9 +272,7 @@ def verify(
 
 def check_library(runner: Runner, library: Path, profile: TargetProfile) -> dict[str, Any]:
     """Read every object of ``library`` in one readelf run and verify it against ``profile``."""
-    argv = readelf_argv(
-        library, profile.elf, symbols=profile.native_64bit_atomics or bool(profile.missing_atomics)
-    )
+    argv = readelf_argv(library, profile.elf, symbols=reads_symbols(profile))
     argv[0] = runner.which(READELF, READELF_HINT)
     lines = runner.query(argv, step=f"read the ELF facts of {library.name}").splitlines()
     return verify(parse_readelf(lines, library.name), profile, library.name)

@@ -109,11 +109,6 @@ def _safe(name: str) -> str:
     return re.sub(r"[^A-Za-z0-9_.+-]", "_", name)
 
 
-def parse_members(ar_t_text: str) -> tuple[str, ...]:
-    """``ar t`` output -> member names in archive order, same-named members each time they occur."""
-    return tuple(line for line in ar_t_text.splitlines() if line.strip())
-
-
 _AR_MAGIC = b"!<arch>\n"
 _AR_HEADER = 60
 # Symbol tables: GNU/SysV "/" and "/SYM64/", BSD "__.SYMDEF[ SORTED]" and its 64-bit forms.

@@ -152,10 +152,11 @@ def _table(rows: list[dict[str, Any]], as_json: bool, columns: tuple[tuple[str, 
 @click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
 @click.version_option(__version__, prog_name="uros")
 @click.option("--debug", is_flag=True, help="Show Python tracebacks on errors.")
-@click.pass_context
-def cli(ctx: click.Context, debug: bool) -> None:
+def cli(debug: bool) -> None:
     """Cross-compile micro-ROS into libmicroros.a, its include tree and a CMake package."""
-    ctx.obj = {"debug": debug}
+    # --debug is read by main() from the command line before click runs: it decides how errors
+    # that happen during option parsing print too. Declared here for --help and completion.
+    del debug
 
 
 @click.group(cls=_Group, invoke_without_command=True, subcommand_metavar="[show NAME]")

@@ -64,7 +64,13 @@ def generator(env: Mapping[str, str]) -> str | None:
     which colcon-cmake and CMake then use; None leaves the choice to them."""
     if env.get("CMAKE_GENERATOR"):
         return None
-    return "Ninja" if shutil.which("ninja", path=env.get("PATH")) else None
+    return "Ninja" if ninja_program(env) else None
+
+
+def ninja_program(env: Mapping[str, str]) -> str | None:
+    """The ninja the build's environment finds (uros's Python's bin/ comes first on its PATH: pip's
+    ninja is there); the one lookup the generator choice, the dependency record and doctor share."""
+    return shutil.which("ninja", path=env.get("PATH"))
 
 
 @dataclass(frozen=True)

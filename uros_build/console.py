@@ -7,8 +7,10 @@ When stderr is not a terminal (CI, pipes), rich prints plain lines without colou
 
 from __future__ import annotations
 
+import threading
 import time
 from dataclasses import dataclass
+from pathlib import Path
 
 from rich.console import Console
 from rich.live import Live
@@ -16,13 +18,36 @@ from rich.markup import escape
 from rich.text import Text
 
 _err = Console(stderr=True, highlight=False, soft_wrap=True)
+# The run's log also gets every status line, so that it says what uros decided (what changed, what
+# was pruned, where the output came from, the final error) between the tools' output, as
+# colcon-core's add_file_handler puts its own logger's lines in its per-run log.
+_record: Path | None = None
+_record_lock = threading.Lock()
+
+
+def record_to(path: Path | None) -> None:
+    """Append every status line to ``path`` from now on (None: stop)."""
+    global _record
+    _record = path
+
+
+def _recorded(line: str) -> None:
+    if _record is None:
+        return
+    try:
+        with _record_lock, _record.open("a", encoding="utf-8") as log:
+            log.write(f"uros: {line}\n")
+    except OSError:
+        pass  # a log that cannot be written must not stop the build (the disk-full path says why)
 
 
 def step(text: str) -> None:
+    _recorded(f"==> {text}")
     _err.print(f"[bold cyan]==>[/] {escape(text)}")
 
 
 def info(text: str) -> None:
+    _recorded(text)
     _err.print(escape(text))
 
 
@@ -32,10 +57,12 @@ def tool_line(text: str) -> None:
 
 
 def warn(text: str) -> None:
+    _recorded(f"warning: {text}")
     _err.print(f"[yellow]warning:[/] {escape(text)}")
 
 
 def error(text: str, hint: str | None) -> None:
+    _recorded(f"error: {text}" + (f" (hint: {hint})" if hint else ""))
     _err.print(f"[bold red]error:[/] {escape(text)}")
     if hint:
         _err.print(f"[bold]hint:[/] {escape(hint)}")

@@ -44,11 +44,6 @@ from uros_build.errors import ConfigError
 DESCRIPTION = "project_description.json"
 CACHE = "CMakeCache.txt"
 SDKCONFIG_H = "sdkconfig.h"
-# micro_ros_espidf_component's esp32_toolchain.cmake.in: the XRCE-DDS client maps a Generic system
-# with PLATFORM_NAME LwIP to UCLIENT_PLATFORM_POSIX_NOPOLL (its UDP/TCP transports over lwIP's
-# BSD sockets); without it the UDP transport does not compile ("field 'platform' has incomplete
-# type"). https://github.com/eProsima/Micro-XRCE-DDS-Client/blob/ros2/CMakeLists.txt
-XRCE_PLATFORM_NAME = "LwIP"
 _RECONFIGURE = "run `idf.py reconfigure` in the ESP-IDF project and pass its build folder"
 # GCC stops expanding nested response files at this depth (libiberty's expandargv has no limit
 # but a file that names itself would never end).

@@ -200,14 +200,6 @@ def save_sources_cache(path: Path, records: Mapping[str, FileRecord]) -> None:
     _write_atomic(path, json.dumps(data, separators=(",", ":")))
 
 
-def changed_files(before: Mapping[str, FileRecord], after: Mapping[str, FileRecord]) -> list[str]:
-    """Files added, removed or with other content (for saying what made a build run)."""
-    names = set(before) | set(after)
-    return sorted(
-        n for n in names if n not in before or n not in after or before[n].sha256 != after[n].sha256
-    )
-
-
 # ---------------------------------------------------------------------------------------------
 # files that must still be as written
 

@@ -17,6 +17,7 @@ from uros_build import abi, colcon, console, fingerprint, toolsearch
 from uros_build import distros as distros_mod
 from uros_build import packages as packages_mod
 from uros_build.archive import BinTools
+from uros_build.distros import Distro
 from uros_build.errors import MissingToolError, StepFailed, UrosError
 from uros_build.packages import PackageInfo
 from uros_build.proc import Runner
@@ -224,13 +225,17 @@ def size_totals(runner: Runner, size_tool: str, library: Path) -> dict[str, int]
 
 
 def colcon_env(
-    ws: Workspace, cfg: WorkspaceConfig | None, cmake_version: str, with_dev: bool = True
+    ws: Workspace,
+    cfg: WorkspaceConfig | None,
+    distro: Distro | None,
+    cmake_version: str,
+    with_dev: bool = True,
 ) -> tuple[dict[str, str], list[str]]:
     """The environment colcon runs in: sourced ROS 2 scrubbed, uros's Python first, and for a
-    firmware workspace its dev_ws (as if sourced) and git redirects for build-time clones."""
+    firmware workspace its dev_ws (as if sourced) and git redirects for the build-time clones of
+    its ``distro`` (the plan's, loaded once)."""
     git_config = None
-    if cfg is not None:
-        distro = distros_mod.load_distro(cfg.distro)
+    if cfg is not None and distro is not None:
         git_config = distros_mod.insteadof(distro.build_time_clones, cfg.mirror)
     env, scrubbed = colcon.build_env(
         os.environ,
@@ -270,7 +275,12 @@ def dev_needs_building(ws: Workspace, mcu: Sequence[PackageInfo]) -> bool:
 
 
 def build_dev_workspace(
-    ws: Workspace, cfg: WorkspaceConfig, runner: Runner, verbose: bool, jobs: int | None = None
+    ws: Workspace,
+    cfg: WorkspaceConfig,
+    distro: Distro,
+    runner: Runner,
+    verbose: bool,
+    jobs: int | None = None,
 ) -> None:
     """Build the part of dev_ws (ament and friends) the MCU packages need, for the host; every
     target reuses it. micro_ros_setup builds all of it, uncrustify and a dozen linters included,
@@ -283,7 +293,7 @@ def build_dev_workspace(
     )
     if needed:
         _cmake, version = cmake_version(runner)
-        env, _ = colcon_env(ws, cfg, version, with_dev=False)
+        env, _ = colcon_env(ws, cfg, distro, version, with_dev=False)
         plan = colcon.ColconPlan(
             base_paths=(ws.dev_dir,),
             build_base=ws.dev_dir / "build",

@@ -143,20 +143,35 @@ def merge(metas: Iterable[Meta]) -> Meta:
     return Meta(names=names, source="(merged)")
 
 
-def parse_set(item: str) -> Meta:
-    """``--set PKG.NAME=VALUE`` -> cmake-arg ``-DNAME=VALUE`` for PKG."""
+@dataclass(frozen=True)
+class SetItem:
+    """One ``PKG.OPTION=VALUE`` (--set, uros.yaml's set:): the one place that reads the form."""
+
+    package: str
+    option: str
+    value: str
+
+
+def split_set(item: str, where: str = "--set") -> SetItem:
+    """``PKG.OPTION=VALUE`` -> its parts; a ConfigError naming ``where`` when it is not that."""
     pkg, dot, rest = item.partition(".")
     name, eq, value = rest.partition("=")
     if not (pkg and dot and name and eq):
         raise ConfigError(
-            f"--set {item!r}: expected PACKAGE.OPTION=VALUE",
+            f"{where} {item!r}: expected PACKAGE.OPTION=VALUE",
             "for example --set rmw_microxrcedds.RMW_UXRCE_MAX_NODES=2",
         )
-    return Meta(names={pkg: {"cmake-args": (f"-D{name}={value}",)}}, source=f"--set {item}")
+    return SetItem(pkg, name, value)
 
 
-def transports() -> list[str]:
-    return sorted(p.stem for p in (resources.meta_dir() / "transports").glob("*.json"))
+def parse_set(item: str) -> Meta:
+    """``--set PKG.NAME=VALUE`` -> cmake-arg ``-DNAME=VALUE`` for PKG."""
+    one = split_set(item)
+    return Meta(names={one.package: {"cmake-args": (f"-D{one.option}={one.value}",)}}, source=f"--set {item}")
+
+
+def transports() -> tuple[str, ...]:
+    return resources.transports()
 
 
 def target_fragments(profile: TargetProfile | None, transport: str | None) -> list[Meta]:

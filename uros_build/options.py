@@ -6,10 +6,11 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass
+from dataclasses import astuple, dataclass
 
 from uros_build import loader, resources
 from uros_build.errors import ConfigError, did_you_mean
+from uros_build.meta import split_set
 
 TYPES = ("int", "bool", "string")
 _BOOLS = ("ON", "OFF", "TRUE", "FALSE", "1", "0", "YES", "NO")
@@ -90,8 +91,7 @@ def check_sets(sets: Iterable[str], known: Mapping[str, Mapping[str, KnownOption
     that cannot be right (not a number, not a power of two, not one of the choices) is an error."""
     warnings = []
     for item in sets:
-        package, _dot, rest = item.partition(".")
-        name, _eq, value = rest.partition("=")
+        package, name, value = astuple(split_set(item))
         if package not in known:
             continue
         option = known[package].get(name)

@@ -300,7 +300,7 @@ class BuildPlan:
     meta: meta_mod.Meta
     output: Path
     target_dir: Path  # .uros/targets/<key>
-    packages_up_to: tuple[str, ...]
+    packages_up_to: tuple[str, ...]  # colcon's --packages-up-to as the user gave it (and only that)
     jobs: int | None
     verbose: bool
     packages: tuple[PackageInfo, ...] = ()  # every package colcon will find in the workspace
@@ -316,6 +316,12 @@ class BuildPlan:
     @property
     def profile(self) -> TargetProfile | None:
         return target_profile(self.target)
+
+    @property
+    def requested(self) -> tuple[str, ...]:
+        """The packages whose closure the build is for: the selection's (--packages, --for-firmware,
+        uros.yaml's packages:), else --packages-up-to's; () for every package."""
+        return self.selection.request if self.selection else self.packages_up_to
 
 
 def _closest(name: str, names: set[str]) -> str:
@@ -333,7 +339,7 @@ def unknown_packages(metas: list[meta_mod.Meta], sets: tuple[str, ...], names: s
                 near = _closest(pkg, names)
                 out.append(f"--meta {meta.source}: names.{pkg}: no package {pkg} in the workspace{near}")
     for item in sets:
-        pkg = item.partition(".")[0]
+        pkg = meta_mod.split_set(item).package
         if pkg not in names:
             out.append(f"--set {item}: no package {pkg} in the workspace{_closest(pkg, names)}")
     return out
@@ -451,7 +457,7 @@ def plan_build(args: BuildArgs) -> BuildPlan:
         raise ConfigError(f"-j/--jobs {args.jobs}: must be 1 or more", "omit it to let colcon choose")
     packages = packages_mod.discover(ws.source_dir)
     names = {p.name for p in packages}
-    named = {*args.packages_up_to, *(s.partition(".")[0] for s in sets)}
+    named = {*args.packages_up_to, *(meta_mod.split_set(s).package for s in sets)}
     given_metas = [meta_mod.load_meta_file(p) for p in args.metas]
     named |= {pkg for m in given_metas for pkg in m.names}
     if named - names:  # colcon also builds CMake packages that have no package.xml
@@ -478,7 +484,7 @@ def plan_build(args: BuildArgs) -> BuildPlan:
         meta=meta,
         output=out,
         target_dir=ws.target_dir(target.key),
-        packages_up_to=selection.request if selection else args.packages_up_to,
+        packages_up_to=args.packages_up_to,
         jobs=args.jobs,
         verbose=args.verbose,
         packages=tuple(packages),

@@ -199,6 +199,7 @@ class Runner:
         global _current_log
         self.log_path.parent.mkdir(parents=True, exist_ok=True)
         _current_log = self.log_path
+        console.record_to(self.log_path)
 
     def which(self, program: str, hint: str | None = None, path: str | None = None) -> str:
         """Absolute path of ``program``; MissingToolError naming the fix when absent."""

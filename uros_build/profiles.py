@@ -21,7 +21,7 @@ from typing import Any
 from uros_build import loader, resources, templating
 from uros_build.errors import ConfigError, did_you_mean
 
-TRANSPORTS = ("custom", "udp", "serial")
+TRANSPORTS = resources.transports()
 
 
 @dataclass(frozen=True)

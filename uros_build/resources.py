@@ -29,3 +29,9 @@ def meta_dir() -> Path:
 
 def templates_dir() -> Path:
     return data_dir("templates")
+
+
+def transports() -> tuple[str, ...]:
+    """The XRCE-DDS transports uros knows: one colcon.meta fragment each in meta/transports/
+    (the one list: profiles, uros.yaml, --transport and the toolchain all read it)."""
+    return tuple(sorted(p.stem for p in (meta_dir() / "transports").glob("*.json")))

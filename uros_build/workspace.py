@@ -36,6 +36,7 @@ from uros_build import __version__, console, defaults, loader, proc
 from uros_build import distros as distros_mod
 from uros_build.distros import Mirror, Source
 from uros_build.errors import ConfigError, did_you_mean
+from uros_build.meta import split_set
 from uros_build.profiles import TRANSPORTS
 
 CONFIG = defaults.WORKSPACE_MARKER  # "uros.yaml"
@@ -92,13 +93,7 @@ def parse_config(data: Any, source: str, partial: bool = False) -> WorkspaceConf
         )
     sets = loader.string_list(top, "set", source)
     for item in sets:
-        pkg, dot, rest = item.partition(".")
-        option, eq, _value = rest.partition("=")
-        if not (pkg and dot and option and eq):
-            raise ConfigError(
-                f"{source}: set: {item!r} is not PKG.OPTION=VALUE",
-                "e.g. rmw_microxrcedds.RMW_UXRCE_MAX_NODES=2",
-            )
+        split_set(item, f"{source}: set:")
     return WorkspaceConfig(
         distro=loader.string(top, "distro", source) if "distro" in top or not partial else "",
         platform=loader.one_of(top, "platform", source, (defaults.PLATFORM,), defaults.PLATFORM),

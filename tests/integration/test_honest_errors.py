@@ -62,6 +62,10 @@ def test_a_lock_that_is_a_folder(tmp_path: Path) -> None:
     assert proc.returncode == 2
     assert ".uros/targets/cortex-m7/.lock: is a folder" in _error_line(proc.stderr)
     assert (ws / ".uros/targets/cortex-m7/.lock").is_dir()
+    # the run log says what uros said, the final error included, between the tools' output
+    log = (ws / ".uros" / "log" / "latest.log").read_text()
+    assert "uros: ==> uros build: target cortex-m7" in log
+    assert "uros: error: " in log and ".lock: is a folder" in log.split("uros: error: ")[1]
 
 
 def test_ctrl_c_while_starting_up_is_no_traceback() -> None:

@@ -31,9 +31,14 @@ def _text(name: str) -> str:
     return (DATA / name).read_text(encoding="utf-8")
 
 
+def _ar_t(text: str) -> tuple[str, ...]:
+    """``ar t`` output (the recorded listings in data/) -> member names in archive order."""
+    return tuple(line for line in text.splitlines() if line.strip())
+
+
 def _contents(stem: str) -> ArchiveContents:
     return ArchiveContents(
-        archive.parse_members(_text(f"archive-{stem}.ar-t.txt")),
+        _ar_t(_text(f"archive-{stem}.ar-t.txt")),
         archive.parse_defined_globals(_text(f"archive-{stem}.nm.txt")),
     )
 
@@ -42,22 +47,17 @@ def _listings() -> list[ArchiveListing]:
     return [ArchiveListing(Path("/ws/install/lib") / name, _contents(name[3:-2]).members) for name in INPUTS]
 
 
-# --- parse_members ---------------------------------------------------------------------------
+# --- the recorded listings --------------------------------------------------------------------
 
 
-def test_parse_members_keeps_every_same_named_member_in_order() -> None:
-    assert archive.parse_members(_text("archive-fx_dup.ar-t.txt")) == (
+def test_the_recorded_listing_keeps_every_same_named_member_in_order() -> None:
+    assert _ar_t(_text("archive-fx_dup.ar-t.txt")) == (
         "common.c.obj",
         "empty.c.obj",
         "common.c.obj",
         "util.c.obj",
         "common.c.obj",
     )
-
-
-def test_parse_members_skips_blank_lines() -> None:
-    assert archive.parse_members("a.o\n\nb.o\n  \n") == ("a.o", "b.o")
-    assert archive.parse_members("") == ()
 
 
 # --- parse_defined_globals -------------------------------------------------------------------
@@ -118,7 +118,7 @@ def test_plan_merge_names_every_member_uniquely_in_output_order() -> None:
         "libfx_util__scale.c.obj",
     )
     # the same names ar t lists in the library merge_archives made of these three
-    assert plan.output_names == archive.parse_members(_text("archive-merged.ar-t.txt"))
+    assert plan.output_names == _ar_t(_text("archive-merged.ar-t.txt"))
     assert plan.renamed_duplicates == 3
     assert len({m.source for m in plan.members}) == len(plan.members)  # no extraction overwrites another
 
@@ -312,7 +312,7 @@ class FakeRunner:
         elif argv[1] == "qcsD":
             rsp = (cwd / argv[3].removeprefix("@")).read_text(encoding="utf-8").split()
             assert all((cwd / name).is_file() for name in rsp)
-            assert rsp == list(archive.parse_members(_text("archive-merged.ar-t.txt")))
+            assert rsp == list(_ar_t(_text("archive-merged.ar-t.txt")))
             Path(argv[2]).write_bytes(ar_bytes(rsp))
         return []
 
@@ -353,7 +353,7 @@ def test_merge_archives_process_count(tmp_path: Path) -> None:
 def test_parse_ar_lists_what_ar_t_lists(stem: str) -> None:
     import io
 
-    names = archive.parse_members(_text(f"archive-{stem}.ar-t.txt"))
+    names = _ar_t(_text(f"archive-{stem}.ar-t.txt"))
     assert archive.parse_ar(io.BytesIO(ar_bytes(names)), stem) == names
     assert archive.parse_ar(io.BytesIO(ar_bytes(names, symbol_table=False)), stem) == names
 

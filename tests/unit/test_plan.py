@@ -356,7 +356,7 @@ def test_packages_add_the_core_the_workspace_has_and_the_extra_packages(tmp_path
     assert plan.selection is not None
     assert plan.selection.core == ("rcl", "rclc", "rmw_microxrcedds")  # no micro_ros_utilities here
     assert plan.selection.extra == ("my_msgs",)
-    assert plan.packages_up_to == ("my_msgs", "nav_msgs", "rcl", "rclc", "rmw_microxrcedds")
+    assert plan.requested == ("my_msgs", "nav_msgs", "rcl", "rclc", "rmw_microxrcedds")
 
 
 def test_uros_yaml_packages_and_the_command_line_overriding_them(tmp_path: Path) -> None:
@@ -365,7 +365,7 @@ def test_uros_yaml_packages_and_the_command_line_overriding_them(tmp_path: Path)
     assert plan.selection is not None and plan.selection.wanted == ("std_msgs",)
     plan = plan_build(BuildArgs(workspace=ws, toolchain="cortex-m7", packages=("nav_msgs",)))
     assert plan.selection is not None and plan.selection.wanted == ("nav_msgs",)
-    assert "std_msgs" not in plan.packages_up_to
+    assert "std_msgs" not in plan.requested
 
 
 def test_for_firmware_builds_what_the_sources_use(tmp_path: Path) -> None:
@@ -375,7 +375,7 @@ def test_for_firmware_builds_what_the_sources_use(tmp_path: Path) -> None:
     (app / "main.c").write_text("#include <nav_msgs/msg/odometry.h>\n", encoding="utf-8")
     plan = plan_build(BuildArgs(workspace=ws, toolchain="cortex-m7", for_firmware=app))
     assert plan.selection is not None and plan.selection.wanted == ()  # uros.yaml's are replaced
-    assert plan.packages_up_to == ("my_msgs", "nav_msgs", "rcl", "rclc", "rmw_microxrcedds")
+    assert plan.requested == ("my_msgs", "nav_msgs", "rcl", "rclc", "rmw_microxrcedds")
 
 
 @pytest.mark.parametrize(

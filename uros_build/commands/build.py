@@ -157,7 +157,8 @@ def build(args: BuildArgs) -> Outcome:
         ws.sync_extra_packages(plan.config)
         # a workspace with a hand-written uros.yaml may have no dev_ws: nothing to build then
         if ws.dev_dir.is_dir() and hosttools.dev_needs_building(ws, plan.packages):
-            hosttools.build_dev_workspace(ws, plan.config, runner, plan.verbose, plan.jobs)
+            assert plan.distro is not None  # loaded with the config
+            hosttools.build_dev_workspace(ws, plan.config, plan.distro, runner, plan.verbose, plan.jobs)
     with locked(plan.target_dir, plan.target.key):
         repaired = _repair(plan)
         started = time.monotonic()
@@ -470,7 +471,7 @@ def _record_outside_headers(plan: BuildPlan, runner: Runner, setup: ColconSetup)
     """Read, from ninja's record of the compiler's dependency output, every header each package's
     objects included from outside the workspace, and keep their sha256 for the next build. With
     another generator than Ninja there is no such record: those headers are not tracked."""
-    ninja = shutil.which("ninja", path=setup.env.get("PATH"))
+    ninja = colcon.ninja_program(setup.env)
     if ninja is None:
         return depfiles.changed_packages({})[1]
     roots = (plan.workspace.root, plan.target_dir)
@@ -548,7 +549,7 @@ def _colcon_setup(
     plan: BuildPlan, facts: HostFacts, toolchain_file: Path, meta_path: Path, runner: Runner
 ) -> ColconSetup:
     ws = plan.workspace
-    env, scrubbed = hosttools.colcon_env(ws, plan.config, facts.cmake_version)
+    env, scrubbed = hosttools.colcon_env(ws, plan.config, plan.distro, facts.cmake_version)
     if scrubbed:
         console.warn(f"ignoring the sourced environment for this build: {', '.join(scrubbed)}")
     # colcon prints its job events with flush=True, but its other output is block-buffered in a
@@ -560,7 +561,7 @@ def _colcon_setup(
     skipped = tuple(packages_mod.host_only(list(plan.packages)))
     # --packages/--for-firmware/uros.yaml packages: exactly their closure, without the test
     # dependencies colcon's --packages-up-to would add (a user's --packages-up-to stays colcon's)
-    out = packages_mod.left_out(plan.packages, plan.packages_up_to) if plan.selection else None
+    out = packages_mod.left_out(plan.packages, plan.selection.request) if plan.selection else None
     colcon_plan = colcon.ColconPlan(
         base_paths=(ws.source_dir,),
         packages_ignore=skipped if out is None else tuple(sorted(out | set(skipped))),
@@ -572,7 +573,7 @@ def _colcon_setup(
         python=str(_python_shim(plan)),
         generator=colcon.generator(env),
         verbose=plan.verbose,
-        packages_up_to=plan.packages_up_to if out is None else (),
+        packages_up_to=plan.packages_up_to,
         parallel_workers=plan.jobs,
         compiler_launcher=launcher,
     )
@@ -749,7 +750,7 @@ def _input_parts(
         or k.startswith(("GIT_CONFIG_", *colcon.FINGERPRINTED_PREFIXES))
     }
     marker = ws.dev_install / DEV_MARKER
-    ninja = shutil.which("ninja", path=setup.env.get("PATH"))
+    ninja = colcon.ninja_program(setup.env)
     return {
         "sources": fp.tree_digest(sources),
         "colcon.meta": fp.digest(meta_text),
@@ -772,7 +773,7 @@ def _input_parts(
         "dev_ws": fp.digest(
             marker.read_text(encoding="utf-8") if marker.is_file() else "", fp.stat_key(marker)
         ),
-        "packages": fp.digest_json([list(plan.packages_up_to), list(setup.skipped)]),
+        "packages": fp.digest_json([list(plan.requested), list(setup.skipped)]),
         "colcon": fp.digest_json([stable, sorted(env.items())]),
         "output": fp.digest(str(plan.output)),
     }

@@ -141,7 +141,7 @@ def create_firmware(args: CreateArgs) -> Path:
             )
         (root / "COLCON_IGNORE").write_text("uros: the firmware folder is not a package\n")
         if args.build_dev:
-            hosttools.build_dev_workspace(Workspace(root), cfg, runner, args.verbose)
+            hosttools.build_dev_workspace(Workspace(root), cfg, distro, runner, args.verbose)
     except (UrosError, KeyboardInterrupt):
         if not args.keep_partial:
             _remove_partial(root, plan.existed, plan.sources)

@@ -364,7 +364,7 @@ def doctor(workspace: Path | None, toolchain: str | None, as_json: bool) -> list
     build_path = os.pathsep.join([str(Path(colcon.host_python()).parent), os.environ.get("PATH", "")])
     checks = [
         eval_cmake(_version(runner, "cmake")),
-        eval_ninja(_which(runner, "ninja", build_path)),
+        eval_ninja(colcon.ninja_program({"PATH": build_path})),
         eval_git(_version(runner, "git"), bool(cfg and cfg.mirror.rules)),
         eval_colcon(_which(runner, hosttools.colcon_program())),
         eval_empy(_empy_version(), colcon.host_python()),
