@@ -44,6 +44,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
     ),
     ("workspace model", ("workspace", "outputs", "clones")),
     ("plans and probes", ("plan", "hosttools")),
+    ("build steps", ("steps",)),
     ("commands", ("commands",)),
     ("cli", ("cli", "__main__")),
 )

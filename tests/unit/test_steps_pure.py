@@ -1,0 +1,121 @@
+"""`uros build`'s steps over a fake runner (tests/unit/fake_runner.py): no process starts."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+from pathlib import Path
+from types import SimpleNamespace
+from typing import Any
+
+from fake_runner import FakeRunner
+
+from uros_build import fingerprint as fp
+from uros_build import hosttools, includes
+from uros_build.steps import inputs, team_cache
+
+C_FACTS = 'set(CMAKE_C_COMPILER "/usr/bin/arm-none-eabi-gcc")\nset(CMAKE_C_COMPILER_ID "GNU")\n'
+
+
+def _cmake_writes(langs: tuple[str, ...]) -> Any:
+    """A cmake that, like the real one configuring a project, leaves CMake<LANG>Compiler.cmake."""
+
+    def answer(argv: Sequence[str]) -> str:
+        build = Path(argv[argv.index("-B") + 1])
+        platform = build / "CMakeFiles" / "3.25.1"
+        platform.mkdir(parents=True)
+        for lang in langs:
+            (platform / f"CMake{lang}Compiler.cmake").write_text(C_FACTS.replace("C_", f"{lang}_"))
+        return ""
+
+    return answer
+
+
+def test_the_compilers_facts_come_from_one_configure(tmp_path: Path) -> None:
+    runner = FakeRunner(tmp_path / "log", {"cmake": _cmake_writes(("C", "CXX"))})
+    found = hosttools.cmake_compiler_facts(
+        runner,  # type: ignore[arg-type]
+        "cmake",
+        tmp_path / "toolchain.cmake",
+        tmp_path / "scratch",
+        "Ninja",
+        {},
+    )
+    assert found is not None and set(found) == {"C", "CXX"}
+    assert 'set(CMAKE_CXX_COMPILER_ID "GNU")' in found["CXX"]
+    argv = runner.calls[0]
+    assert f"-DCMAKE_TOOLCHAIN_FILE={tmp_path / 'toolchain.cmake'}" in argv and "-GNinja" in argv
+    assert not (tmp_path / "scratch").exists()  # the probe project is gone afterwards
+
+
+def test_without_a_cxx_compiler_there_are_no_facts(tmp_path: Path) -> None:
+    runner = FakeRunner(tmp_path / "log", {"cmake": _cmake_writes(("C",))})
+    args = ("cmake", tmp_path / "t.cmake", tmp_path / "s", None, {})
+    assert hosttools.cmake_compiler_facts(runner, *args) is None  # type: ignore[arg-type]
+    failing = FakeRunner(tmp_path / "log", {})  # cmake fails: the build goes without the seed
+    assert hosttools.cmake_compiler_facts(failing, *args) is None  # type: ignore[arg-type]
+
+
+def _plan(tmp_path: Path, rebuild: bool = False) -> Any:
+    return SimpleNamespace(rebuild=rebuild, output=tmp_path / "out", cache=None)
+
+
+def _inputs(previous: fp.BuildState | None, parts: dict[str, str]) -> inputs.Inputs:
+    return inputs.Inputs(Path("t.cmake"), None, parts, previous, Path("state.json"), "k" * 64)  # type: ignore[arg-type]
+
+
+def _state(parts: dict[str, str], out: Path, library_sha: str) -> fp.BuildState:
+    return fp.BuildState(
+        fingerprint=fp.combine(parts),
+        parts=parts,
+        output=str(out),
+        output_files=fp.stat_folder(out),
+        library_sha256=library_sha,
+        merge_key="",
+    )
+
+
+def test_up_to_date_needs_the_same_inputs_and_the_output_as_written(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "libmicroros.a").write_bytes(b"!<arch>\n")
+    sha = fp.file_sha256(out / "libmicroros.a")
+    info = {"generated_by": "uros 0", "target": "t", "library": {"file": "libmicroros.a", "sha256": sha}}
+    (out / "build-info.json").write_text(json.dumps(info))
+    parts = {"sources": "a", "colcon.meta": "b"}
+    state = _state(parts, out, sha)
+    plan = _plan(tmp_path)
+    assert inputs.up_to_date(plan, _inputs(state, dict(parts)), repaired=False)
+    assert not inputs.up_to_date(plan, _inputs(state, dict(parts)), repaired=True)  # a repair: build
+    assert not inputs.up_to_date(plan, _inputs(None, dict(parts)), repaired=False)  # never built
+    assert not inputs.up_to_date(plan, _inputs(state, {**parts, "sources": "c"}), repaired=False)
+    assert not inputs.up_to_date(_plan(tmp_path, rebuild=True), _inputs(state, dict(parts)), repaired=False)
+    (out / "libmicroros.a").write_bytes(b"!<arch>\nchanged")  # the output is not as written
+    assert not inputs.up_to_date(plan, _inputs(state, dict(parts)), repaired=False)
+
+
+def test_no_cache_or_a_rebuild_never_asks_one(tmp_path: Path) -> None:
+    runner = FakeRunner(tmp_path / "log")
+    assert team_cache.take(runner, _plan(tmp_path), "k" * 64) is None  # type: ignore[arg-type]
+    settings = SimpleNamespace(url=SimpleNamespace(shown="file:///nowhere"))
+    plan = SimpleNamespace(rebuild=True, output=tmp_path / "out", cache=settings)
+    assert team_cache.take(runner, plan, "k" * 64) is None  # type: ignore[arg-type]
+    assert runner.calls == []
+
+
+def test_the_include_tree_is_flattened_and_limited_to_the_build(tmp_path: Path) -> None:
+    inc = tmp_path / "install" / "include"
+    (inc / "rcl" / "rcl").mkdir(parents=True)
+    (inc / "rcl" / "rcl" / "node.h").write_text("/* rcl */\n")
+    (inc / "std_msgs" / "msg").mkdir(parents=True)
+    (inc / "std_msgs" / "msg" / "bool.h").write_text("/* msg */\n")
+    (inc / "other").mkdir()
+    (inc / "other" / "o.h").write_text("/* not this build's */\n")
+    only = frozenset({inc / "rcl" / "rcl" / "node.h", inc / "std_msgs" / "msg" / "bool.h"})
+    report = includes.flatten_includes(inc, tmp_path / "out", only=only)
+    assert (
+        tmp_path / "out" / "rcl" / "node.h"
+    ).read_text() == "/* rcl */\n"  # include/<pkg>/<pkg>/ flattened
+    assert (tmp_path / "out" / "std_msgs" / "msg" / "bool.h").is_file()
+    assert not (tmp_path / "out" / "other" / "o.h").exists()
+    assert (report.files, report.packages) == (2, 2)

@@ -1,0 +1,232 @@
+"""colcon runs: the live view, the packages it built, a failure read from its logs, what it generated
+and compiled from the caches, the headers it read outside the workspace.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+
+from uros_build import (
+    colcon,
+    console,
+    depfiles,
+    gencache,
+    installtree,
+)
+from uros_build import packages as packages_mod
+from uros_build.errors import (
+    DiskFull,
+    StepFailed,
+    VerifyError,
+)
+from uros_build.hosttools import HostFacts
+from uros_build.plan import BuildPlan
+from uros_build.proc import Runner, disk_full_line, disk_full_path, first_error
+from uros_build.steps.inputs import CCACHE_STATS, ColconSetup, Inputs, _flags_fingerprint
+from uros_build.steps.prepare import _DISK_FULL_MARK, _drop_removed_packages
+from uros_build.workspace import (
+    write_if_changed,
+)
+
+
+def _record_outside_headers(plan: BuildPlan, runner: Runner, setup: ColconSetup) -> str:
+    """Read, from ninja's record of the compiler's dependency output, every header each package's
+    objects included from outside the workspace, and keep their sha256 for the next build. With
+    another generator than Ninja there is no such record: those headers are not tracked."""
+    ninja = colcon.ninja_program(setup.env)
+    if ninja is None:
+        return depfiles.changed_packages({})[1]
+    roots = (plan.workspace.root, plan.target_dir)
+    per_package: dict[str, list[str]] = {}
+    for folder in sorted(p for p in setup.build_base.iterdir() if (p / ".ninja_deps").is_file()):
+        text = runner.query(
+            [ninja, "-C", str(folder), "-t", "deps"], step=f"read {folder.name}'s dependencies"
+        )
+        per_package[folder.name] = depfiles.outside(depfiles.parse_ninja_deps(text), roots)
+    snap = depfiles.snapshot(per_package)
+    write_if_changed(plan.target_dir / depfiles.RECORD, depfiles.record_text(snap))
+    return depfiles.changed_packages(snap)[1]
+
+
+def _say_ccache(plan: BuildPlan, setup: ColconSetup) -> dict[str, int]:
+    """This build's ccache hits and misses (empty without ccache)."""
+    if not setup.plan.compiler_launcher:
+        return {}
+    try:
+        counts = colcon.ccache_counts((plan.target_dir / CCACHE_STATS).read_text(encoding="utf-8"))
+    except OSError:
+        counts = {"hits": 0, "misses": 0}
+    total = counts["hits"] + counts["misses"]
+    rate = f" ({100 * counts['hits'] / total:.0f}%)" if total else ""
+    console.info(f"ccache: {counts['hits']} of {total} compiles taken from the cache{rate}")
+    return counts
+
+
+def _say_generation(plan: BuildPlan) -> None:
+    try:
+        runs = gencache.count_runs((plan.target_dir / gencache.RUNS).read_text(encoding="utf-8"))
+    except OSError:
+        return  # no interface code generated in this build
+    bypass = f", {runs['bypass']} not cacheable" if runs["bypass"] else ""
+    console.info(
+        f"interface code: {sum(runs.values())} generator runs, {runs['hit']} taken from the "
+        f"workspace's generation cache, {runs['miss']} generated{bypass}"
+    )
+
+
+def _run_colcon(
+    plan: BuildPlan, facts: HostFacts, runner: Runner, setup: ColconSetup, parts: Mapping[str, str]
+) -> colcon.BuildProgress:
+    """colcon build into the target's own trees, shown as it goes (colcon's own job events).
+    Every package colcon reports finished is stamped with the flags it was built with; one being
+    built vouches for nothing."""
+    if setup.skipped:
+        console.info(f"not building {len(setup.skipped)} pure-Python packages: {', '.join(setup.skipped)}")
+    flags = _flags_fingerprint(parts)
+    progress = colcon.BuildProgress(total=_expected_packages(plan, setup), started_at=time.monotonic())
+    console.step("colcon build")
+    view = console.ProgressView(progress.total, plain=plan.verbose)
+
+    def on_line(line: str) -> None:
+        event = progress.feed(line, time.monotonic())
+        if event is None:
+            return
+        if event.kind == "start":
+            (setup.build_base / event.package / installtree.STAMP).unlink(missing_ok=True)
+        elif event.kind == "finish":
+            entry = plan.meta.names.get(event.package, {})
+            installtree.write_stamp(
+                setup.build_base, event.package, installtree.package_stamp(flags, event.package, entry)
+            )
+        ended = None
+        if event.kind != "start":
+            what = {"finish": "built", "fail": "FAILED", "abort": "stopped"}[event.kind]
+            ended = (what, event.package, event.seconds or 0.0)
+        view.update(
+            console.Progress(
+                progress.done,
+                progress.total,
+                tuple(progress.running.items()),
+                progress.started_at,
+                tuple(progress.failed),
+            ),
+            ended,
+        )
+
+    # Files CMake generates when it configures (a package's <pkg>Config.cmake, its targets file)
+    # can be cut short by a full disk, and CMake writes them again only when it configures. A mark
+    # written now, while there is room, and removed unless the disk filled up, makes the next build
+    # configure every package afresh (the objects stay: ninja redoes only what differs).
+    mark = plan.target_dir / _DISK_FULL_MARK
+    with contextlib.suppress(OSError):
+        mark.write_text("a colcon build that may run out of disk\n", encoding="utf-8")
+    try:
+        runner.run(
+            setup.argv,
+            step="colcon build",
+            cwd=plan.workspace.root,
+            env=setup.env,
+            hint=f"the full output is in {runner.log_path}",
+            on_line=on_line,
+            quiet=not plan.verbose,  # the command is in the log; the progress says the rest
+        )
+    except StepFailed as exc:
+        failure = _colcon_failure(exc, setup.plan.log_base, runner.log_path)
+        if not isinstance(failure, DiskFull):
+            mark.unlink(missing_ok=True)
+        raise failure from None
+    finally:
+        view.stop()
+    mark.unlink(missing_ok=True)
+    elapsed = time.monotonic() - progress.started_at
+    slowest = ", ".join(f"{name} {seconds:.1f} s" for name, seconds in progress.slowest(5))
+    console.info(f"colcon built {len(progress.finished)} packages in {elapsed:.1f} s; slowest: {slowest}")
+    return progress
+
+
+def _expected_packages(plan: BuildPlan, setup: ColconSetup) -> int:
+    """How many packages colcon will build (for the progress view; colcon does not say)."""
+    if setup.plan.packages_up_to:
+        names = packages_mod.closure(plan.packages, setup.plan.packages_up_to)
+    else:  # colcon also builds the CMake packages without a package.xml (Micro-CDR, the XRCE client)
+        names = {p.name for p in plan.packages} | packages_mod.plain_cmake_packages(plan.workspace.source_dir)
+    return len(colcon.kept_by_ignores(setup.plan, names))
+
+
+def _check_built(
+    plan: BuildPlan, setup: ColconSetup, progress: colcon.BuildProgress, parts: Mapping[str, str]
+) -> tuple[str, ...]:
+    """The packages of this build (those colcon reported finished), each stamped with this
+    build's flags: VerifyError otherwise, before anything is merged."""
+    built = tuple(sorted(progress.finished))
+    if not built:
+        raise StepFailed(
+            "colcon reported no package built",
+            f"check that colcon finds packages in {plan.workspace.source_dir}; the log is above",
+        )
+    flags = _flags_fingerprint(parts)
+    expected = {p: installtree.package_stamp(flags, p, plan.meta.names.get(p, {})) for p in built}
+    stale = installtree.stale(setup.build_base, expected)
+    if stale:
+        raise VerifyError(
+            f"{', '.join(stale)}: built with other flags than this build's (build stamp differs)",
+            "run `uros build --rebuild` to build them again with the flags recorded",
+        )
+    return built
+
+
+def _colcon_failure(exc: StepFailed, log_base: Path, run_log: Path) -> StepFailed | DiskFull:
+    """Name the package that failed and its own first error, read from colcon's log of that
+    package (the interleaved output of parallel packages can put another's line first)."""
+    failed = colcon.failed_packages(exc.output)
+    if not failed:
+        return _disk_full(exc.output, log_base, "colcon build failed") or exc
+    package = failed[0]
+    log = colcon.package_log(log_base, package)
+    lines = log.read_text(encoding="utf-8", errors="replace").splitlines() if log.is_file() else []
+    full = _disk_full([*lines, *exc.output], log_base, f"colcon build failed in package {package}")
+    if full is not None:
+        return full
+    cause = first_error(lines) or first_error(exc.output) or "no error line in its output"
+    others = f" (also failed: {', '.join(failed[1:])})" if failed[1:] else ""
+    where = f"its log: {log}; everything: {run_log}" if lines else f"the full output is in {run_log}"
+    return StepFailed(f"colcon build failed in package {package}{others}: {cause}", where, exc.output)
+
+
+# Below this, a failed build is taken for a full disk even when no tool said so (some, like CMake's
+# file(WRITE) or an install step, report a short write in their own words).
+_NEARLY_FULL = 1 << 20
+
+
+def _disk_full(lines: list[str] | tuple[str, ...], where: Path, what: str) -> DiskFull | None:
+    full = disk_full_line(lines)
+    error = DiskFull.at((full and disk_full_path(full)) or where, f"{what}: {full}" if full else what)
+    if full is not None or (error.free is not None and error.free < _NEARLY_FULL):
+        return error
+    return None
+
+
+@dataclass(frozen=True)
+class Compiled:
+    packages: tuple[str, ...]  # what colcon built, in build-info's order
+    progress: colcon.BuildProgress
+    ccache: dict[str, int]  # this build's ccache hits and misses (empty without ccache)
+
+
+def compile_packages(plan: BuildPlan, facts: HostFacts, runner: Runner, inputs: Inputs) -> Compiled:
+    """colcon over the workspace: packages it lost dropped first; then what the generation cache
+    and ccache served, and the headers read outside the workspace (into ``inputs.parts``)."""
+    _drop_removed_packages(plan)
+    (plan.target_dir / gencache.RUNS).unlink(missing_ok=True)
+    (plan.target_dir / CCACHE_STATS).unlink(missing_ok=True)
+    progress = _run_colcon(plan, facts, runner, inputs.setup, inputs.parts)
+    _say_generation(plan)
+    counts = _say_ccache(plan, inputs.setup)
+    built = _check_built(plan, inputs.setup, progress, inputs.parts)
+    # what the compiler read outside the workspace this time: the state records its content
+    inputs.parts["headers outside the workspace"] = _record_outside_headers(plan, runner, inputs.setup)
+    return Compiled(built, progress, counts)

@@ -1,0 +1,385 @@
+"""What a build is made of: the toolchain file (and its seeded form), the colcon command and
+environment (ccache, the Python shim of the generation cache), every input as a digest (the
+fingerprint) and the portable build key.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib.metadata
+import os
+import shutil
+import sys
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+
+import uros_build
+from uros_build import (
+    __version__,
+    colcon,
+    console,
+    gencache,
+    hosttools,
+)
+from uros_build import fingerprint as fp
+from uros_build import meta as meta_mod
+from uros_build import packages as packages_mod
+from uros_build.buildinfo import (
+    read_build_info,
+)
+from uros_build.errors import (
+    ConfigError,
+)
+from uros_build.hosttools import HostFacts
+from uros_build.plan import BuildPlan, ProfileTarget, meta_transport
+from uros_build.proc import Runner
+from uros_build.steps.prepare import (
+    _drop_readers_of_changed_headers,
+    _forget_configured_flags,
+    compiler_identity,
+)
+from uros_build.toolchain import (
+    CLOCK_HEADER_NAME,
+    CLOCK_HEADER_TEXT,
+    ToolchainRequest,
+    render_toolchain,
+    seeded_toolchain_text,
+)
+from uros_build.workspace import (
+    DEV_MARKER,
+    write_if_changed,
+)
+
+
+def _say_selection(plan: BuildPlan) -> None:
+    sel = plan.selection
+    if sel is None:
+        return
+    if sel.firmware is not None:
+        console.info(f"the firmware uses ({sel.firmware.scanned} files read): {sel.firmware.describe()}")
+    parts = [f"{', '.join(sel.wanted)} (asked for)"] if sel.wanted else []
+    if sel.firmware is not None:
+        parts.append(f"{', '.join(sorted(sel.firmware.packages))} (the firmware's)")
+    if sel.core:
+        parts.append(f"{', '.join(sel.core)} (core)")
+    if sel.extra:
+        parts.append(f"{', '.join(sel.extra)} (extra packages)")
+    console.info(f"building {'; '.join(parts)} and what they depend on")
+
+
+@dataclass(frozen=True)
+class ColconSetup:
+    plan: colcon.ColconPlan
+    argv: tuple[str, ...]
+    env: Mapping[str, str]
+    skipped: tuple[str, ...]  # pure-Python packages left out
+
+    @property
+    def build_base(self) -> Path:
+        return self.plan.build_base
+
+    @property
+    def install_base(self) -> Path:
+        return self.plan.install_base
+
+
+def _colcon_setup(
+    plan: BuildPlan, facts: HostFacts, toolchain_file: Path, meta_path: Path, runner: Runner
+) -> ColconSetup:
+    ws = plan.workspace
+    env, scrubbed = hosttools.colcon_env(ws, plan.config, plan.distro, facts.cmake_version)
+    if scrubbed:
+        console.warn(f"ignoring the sourced environment for this build: {', '.join(scrubbed)}")
+    # colcon prints its job events with flush=True, but its other output is block-buffered in a
+    # pipe: unbuffered, the live view sees each line when it is written.
+    env = {**env, "PYTHONUNBUFFERED": "1"}
+    launcher = _ccache(plan, env, runner)
+    if launcher:
+        env.update(colcon.ccache_env(ws.root, plan.target_dir / CCACHE_STATS))
+    skipped = tuple(packages_mod.host_only(list(plan.packages)))
+    # --packages/--for-firmware/uros.yaml packages: exactly their closure, without the test
+    # dependencies colcon's --packages-up-to would add (a user's --packages-up-to stays colcon's)
+    out = packages_mod.left_out(plan.packages, plan.selection.request) if plan.selection else None
+    colcon_plan = colcon.ColconPlan(
+        base_paths=(ws.source_dir,),
+        packages_ignore=skipped if out is None else tuple(sorted(out | set(skipped))),
+        build_base=plan.target_dir / "build",
+        install_base=plan.target_dir / "install",
+        log_base=plan.target_dir / "log",
+        metas=(meta_path,),
+        toolchain_file=_seeded_toolchain(plan, facts, toolchain_file, runner, env),
+        python=str(_python_shim(plan)),
+        generator=colcon.generator(env),
+        verbose=plan.verbose,
+        packages_up_to=plan.packages_up_to,
+        parallel_workers=plan.jobs,
+        compiler_launcher=launcher,
+    )
+    return ColconSetup(colcon_plan, tuple(colcon.colcon_argv(colcon_plan, facts.colcon)), env, skipped)
+
+
+CCACHE_STATS = "ccache-stats.log"  # this build's ccache counters (the user's totals stay theirs)
+
+
+def _ccache(plan: BuildPlan, env: Mapping[str, str], runner: Runner) -> str | None:
+    """ccache's path when the build compiles through it: --ccache (then it must be installed),
+    --no-ccache never, by default when it is on PATH. Only for uros's own toolchain: a user's
+    toolchain file does not carry the path maps that keep the library the same under ccache."""
+    if plan.ccache is False or not isinstance(plan.target, ProfileTarget):
+        return None
+    if plan.ccache:
+        return runner.which("ccache", path=env.get("PATH"))
+    return shutil.which("ccache", path=env.get("PATH"))
+
+
+SEED_SWITCH = "UROS_COMPILER_SEED"  # "off": every package's configure finds the compilers itself
+
+
+def _seeded_toolchain(
+    plan: BuildPlan, facts: HostFacts, toolchain_file: Path, runner: Runner, env: Mapping[str, str]
+) -> Path:
+    """The toolchain file colcon passes to every package: the target's, with CMake's compiler facts
+    found once per target (and again only when the toolchain, compiler or CMake changes). The
+    rendered toolchain file stays what the build key and build-info describe."""
+    if os.environ.get(SEED_SWITCH, "").lower() == "off":
+        return toolchain_file
+    seed = plan.target_dir / "toolchain-seeded.cmake"
+    stamp = plan.target_dir / "toolchain-seeded.key"
+    generator = colcon.generator(env)
+    identity = (compiler_identity(facts), facts.cmake, facts.cmake_version, str(generator))
+    key = fp.digest(fp.file_sha256(toolchain_file), *identity)
+    if seed.is_file() and stamp.is_file() and stamp.read_text(encoding="utf-8").strip() == key:
+        return seed
+    found = hosttools.cmake_compiler_facts(
+        runner, facts.cmake, toolchain_file, plan.target_dir / "compiler-facts", generator, env
+    )
+    if found is None:
+        console.info("CMake could not find the compilers' facts once: each package's configure finds them")
+        seed.unlink(missing_ok=True)
+        return toolchain_file
+    write_if_changed(seed, seeded_toolchain_text(toolchain_file, found, f"uros {__version__} build"))
+    write_if_changed(stamp, key + "\n")
+    return seed
+
+
+def _python_shim(plan: BuildPlan) -> Path:
+    """The Python of the target's CMake builds: the real one, with rosidl's generator runs going
+    through the workspace's generation cache (shared by every target: gencache.py)."""
+    shim = plan.target_dir / "uros-python"
+    text = gencache.shim_text(
+        colcon.host_python(),
+        plan.workspace.state_dir / "gen-cache",
+        plan.target_dir,
+        Path(uros_build.__file__).resolve().parent.parent,
+        f"uros {__version__} build",
+    )
+    write_if_changed(shim, text)
+    shim.chmod(0o755)
+    return shim
+
+
+def build_key(plan: BuildPlan, facts: HostFacts, toolchain_file: Path, parts: Mapping[str, str]) -> str:
+    """The build's inputs by content alone, so that two machines (or two checkouts) that build the
+    same thing get the same key (issue 19): the sources' names and contents, the merged colcon.meta,
+    the toolchain text with the workspace's path taken out, the profile's file, the compiler's version
+    and program, the package selection, uros's own code. Known before anything is built, so that a
+    cache can be asked for it: the headers read outside the workspace are known only after a build,
+    so they are not in the key; a cache entry lists them and is used only where they match."""
+    if isinstance(plan.target, ProfileTarget):
+        # rendered again with a placeholder for the workspace, quoted as a plain path is
+        toolchain = render_toolchain(_toolchain_request(plan, facts, Path("/workspace")))
+    else:
+        toolchain = toolchain_file.read_text(encoding="utf-8", errors="replace")
+    profile = plan.profile
+    profile_text = (
+        Path(profile.source).read_bytes() if profile is not None and Path(profile.source).is_file() else b""
+    )
+    try:
+        driver = fp.file_sha256(Path(os.path.realpath(facts.gcc))) if facts.gcc else ""
+    except OSError:
+        driver = ""
+    code = Path(uros_build.__file__).parent
+    return fp.digest_json(
+        {
+            "sources": parts["sources"],
+            "colcon.meta": parts["colcon.meta"],
+            "toolchain": fp.digest(toolchain),
+            "profile": fp.digest(profile_text),
+            "compiler": fp.digest(facts.gcc_version, driver),
+            "packages": parts["packages"],
+            "uros": fp.digest(__version__, *(p.read_bytes() for p in sorted(code.rglob("*.py")))),
+        }
+    )
+
+
+def _uros_code() -> str:
+    """uros's own code, by file identity (a development checkout changes without a version)."""
+    root = Path(uros_build.__file__).parent
+    return fp.digest(*(fp.stat_key(p) for p in sorted(root.rglob("*.py"))))
+
+
+def _versions(*distributions: str) -> str:
+    found = []
+    for name in distributions:
+        try:
+            found.append(f"{name} {importlib.metadata.version(name)}")
+        except importlib.metadata.PackageNotFoundError:
+            found.append(f"{name} -")
+    return ", ".join(found)
+
+
+_ENV_THAT_MATTERS = ("CMAKE_GENERATOR", "CMAKE_POLICY_VERSION_MINIMUM", "PYTHONPATH", "AMENT_PREFIX_PATH")
+
+
+def _input_parts(
+    plan: BuildPlan, facts: HostFacts, toolchain_file: Path, meta_text: str, setup: ColconSetup
+) -> dict[str, str]:
+    """Every input of the build, each as a digest: equal parts, equal build."""
+    ws = plan.workspace
+    cache_path = plan.target_dir / fp.SOURCES_CACHE
+    cached = fp.load_sources_cache(cache_path)
+    # An --output inside a plain workspace (and its staging folders beside it) is not a source.
+    out = plan.output
+    sources = fp.scan_tree(ws.source_dir, cached, (str(out), str(out.parent / f".{out.name}.")))
+    newer = fp.content_changed(cached, sources)
+    if newer:
+        fp.make_newer(ws.source_dir, newer, sources)
+    if sources != cached:
+        fp.save_sources_cache(cache_path, sources)
+    # The colcon command without what does not change its result (progress output, workers).
+    stable = colcon.colcon_argv(
+        dataclasses.replace(setup.plan, verbose=False, parallel_workers=None), facts.colcon
+    )
+    env = {
+        k: v
+        for k, v in setup.env.items()
+        if k in _ENV_THAT_MATTERS
+        or k in colcon.FINGERPRINTED_VARIABLES
+        or k.startswith(("GIT_CONFIG_", *colcon.FINGERPRINTED_PREFIXES))
+    }
+    marker = ws.dev_install / DEV_MARKER
+    ninja = colcon.ninja_program(setup.env)
+    return {
+        "sources": fp.tree_digest(sources),
+        "colcon.meta": fp.digest(meta_text),
+        "toolchain file": fp.file_sha256(toolchain_file),
+        "profile": fp.digest(repr(plan.profile)),
+        # the ESP-IDF project's version, target, include folders, flags and sdkconfig.h hash
+        "ESP-IDF project": fp.digest(repr(plan.idf)),
+        "compiler": compiler_identity(facts),
+        "tools": fp.digest(
+            facts.cmake,
+            facts.cmake_version,
+            fp.stat_key(Path(facts.cmake)),
+            fp.stat_key(Path(facts.colcon)),
+            _versions("colcon-core", "colcon-cmake", "colcon-ros", "colcon-package-selection"),
+            fp.stat_key(Path(ninja)) if ninja else "",
+            sys.version,
+            __version__,
+            _uros_code(),
+        ),
+        "dev_ws": fp.digest(
+            marker.read_text(encoding="utf-8") if marker.is_file() else "", fp.stat_key(marker)
+        ),
+        "packages": fp.digest_json([list(plan.requested), list(setup.skipped)]),
+        "colcon": fp.digest_json([stable, sorted(env.items())]),
+        "output": fp.digest(str(plan.output)),
+    }
+
+
+def _output_intact(plan: BuildPlan, state: fp.BuildState) -> bool:
+    """The output folder is what the recorded build wrote (its build-info.json names the
+    library's sha256, and every file is as written)."""
+    try:
+        info = read_build_info(plan.output)
+    except ConfigError:
+        return False
+    return fp.output_intact(state, plan.output, info.library.file, info.library.sha256)
+
+
+def _flags_fingerprint(parts: Mapping[str, str]) -> str:
+    """What every package of the target is compiled with: the toolchain file, the compiler and
+    colcon's CMake arguments (a package's own colcon.meta entry is added per package)."""
+    return fp.digest(parts["toolchain file"], parts["compiler"], parts["colcon"])
+
+
+def _prepare_toolchain(plan: BuildPlan, facts: HostFacts) -> Path:
+    target = plan.target
+    if not isinstance(target, ProfileTarget):
+        # The user's own file: its flags, too, reach the compiles only through a fresh configure.
+        seen = plan.target_dir / "toolchain-file.sha256"
+        if write_if_changed(seen, fp.file_sha256(target.toolchain_file) + "\n"):
+            _forget_configured_flags(plan.target_dir / "build")
+        return target.toolchain_file
+    profile = target.profile
+    header = plan.target_dir / CLOCK_HEADER_NAME
+    if profile.micro_ros.declare_clock_gettime:
+        write_if_changed(header, CLOCK_HEADER_TEXT)
+    path = plan.target_dir / "toolchain.cmake"
+    if write_if_changed(path, render_toolchain(_toolchain_request(plan, facts, plan.workspace.root))):
+        _forget_configured_flags(plan.target_dir / "build")
+    return path
+
+
+def _toolchain_request(plan: BuildPlan, facts: HostFacts, root: Path) -> ToolchainRequest:
+    """The micro-ROS toolchain file's inputs, with ``root`` standing for the workspace (the real one,
+    or a placeholder for the portable build key)."""
+    target = plan.target
+    assert isinstance(target, ProfileTarget)
+    profile = target.profile
+    header = root / plan.target_dir.relative_to(plan.workspace.root) / CLOCK_HEADER_NAME
+    return ToolchainRequest(
+        profile,
+        micro_ros=True,
+        gcc_major=facts.gcc_major,
+        clock_header=str(header) if profile.micro_ros.declare_clock_gettime else None,
+        tool_dir=facts.tool_dir,
+        command=f"uros build --toolchain {profile.name}",
+        prefix_map=str(root),
+        idf=plan.idf,
+        transport=meta_transport(plan.meta),
+    )
+
+
+@dataclass
+class Inputs:
+    """What this build is made of: the step after resolve reads it, colcon_run adds the headers it
+    read outside the workspace to ``parts``."""
+
+    toolchain_file: Path  # the rendered one (the build key's); colcon gets its seeded form
+    setup: ColconSetup
+    parts: dict[str, str]  # every input as a digest (the fingerprint's parts)
+    previous: fp.BuildState | None  # the last good build's state
+    state_path: Path
+    key: str  # the portable build key
+
+
+def resolve(plan: BuildPlan, facts: HostFacts, runner: Runner) -> Inputs:
+    """The toolchain file and colcon.meta written (only when they change), the colcon command,
+    every input as a digest, the last good build's state, the build key."""
+    toolchain_file = _prepare_toolchain(plan, facts)
+    meta_path = plan.target_dir / "colcon.meta"
+    meta_text = meta_mod.dump_meta(plan.meta, f"uros build --toolchain {plan.target.key}")
+    write_if_changed(meta_path, meta_text)
+    setup = _colcon_setup(plan, facts, toolchain_file, meta_path, runner)
+    outside_digest = _drop_readers_of_changed_headers(plan)
+    parts = _input_parts(plan, facts, toolchain_file, meta_text, setup)
+    parts["headers outside the workspace"] = outside_digest
+    state_path = plan.target_dir / fp.STATE
+    key = build_key(plan, facts, toolchain_file, parts)
+    return Inputs(toolchain_file, setup, parts, fp.read_state(state_path), state_path, key)
+
+
+def up_to_date(plan: BuildPlan, inputs: Inputs, repaired: bool) -> bool:
+    """No input changed since the last good build and its output is as written (else say what
+    changed). A repair changed the trees the state vouches for: never up to date then."""
+    previous = inputs.previous
+    if previous is None or plan.rebuild or repaired:
+        return False
+    if previous.fingerprint == fp.combine(inputs.parts) and _output_intact(plan, previous):
+        console.step(f"up to date: {plan.output} (no input changed since its build; --rebuild forces one)")
+        return True
+    changed = fp.differing(previous.parts, inputs.parts) or ["the output folder"]
+    console.info(f"changed since the last build: {', '.join(changed)}")
+    return False

@@ -1,0 +1,352 @@
+"""The output beside its final place: this build's archives merged (or the previous library reused),
+checked against the target's ELF facts, the include tree, the CMake package and build-info.json;
+then swapped in, and the state that vouches for it.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import errno
+import shutil
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from uros_build import (
+    __version__,
+    abi,
+    clones,
+    colcon,
+    console,
+    contents,
+    export,
+    hosttools,
+    includes,
+    installtree,
+    outputs,
+)
+from uros_build import fingerprint as fp
+from uros_build.archive import BinTools, MergeReport, merge_archives
+from uros_build.buildinfo import (
+    BUILD_INFO,
+    BuildInfo,
+    Compiler,
+    Flags,
+    IdfInfo,
+    Include,
+    Library,
+    read_build_info,
+)
+from uros_build.errors import (
+    ConfigError,
+    DiskFull,
+    StepFailed,
+    interrupted,
+)
+from uros_build.hosttools import HostFacts
+from uros_build.plan import BuildPlan, ProfileTarget, meta_transport
+from uros_build.proc import Runner
+from uros_build.profiles import TargetProfile
+from uros_build.steps.colcon_run import Compiled
+from uros_build.steps.inputs import ColconSetup, Inputs
+from uros_build.toolchain import (
+    CLOCK_HEADER_NAME,
+    ToolchainRequest,
+    microros_flags,
+    render_toolchain,
+    tool_paths,
+)
+from uros_build.workspace import (
+    locked,
+    read_lock,
+)
+
+
+@dataclass(frozen=True)
+class Staged:
+    """An output ready to be swapped in: its folder beside the output, and its build-info."""
+
+    folder: Path
+    info: BuildInfo
+
+
+def entries_of(folder: Path) -> list[str]:
+    """What uros writes into an output (build-info.json's folder), its marker left out."""
+    return sorted(p.name for p in folder.iterdir() if p.name != outputs.MARKER)
+
+
+def _deliver(plan: BuildPlan, staged: Staged) -> list[str]:
+    """build-info.json and the marker into the staged folder, then the swap: the staged folder
+    becomes the output (removed if anything fails first). Returns what of the previous output
+    could not be removed."""
+    staging = staged.folder
+    try:
+        (staging / BUILD_INFO).write_text(staged.info.to_json(), encoding="utf-8")
+        outputs.write_marker(staging, plan.target.key, [p.name for p in staging.iterdir()])
+        # Two targets' builds into one --output: one writer at a time, and the second does not
+        # replace the first's output unless --force (checked again now that it is its turn).
+        # (the lock lives in the workspace's .uros/, not beside the output in the user's folder)
+        writers = plan.workspace.state_dir / "output-locks" / fp.digest(str(plan.output))[:16]
+        with locked(writers, f"the output {plan.output}"):
+            outputs.check_output_owner(plan.output, plan.target.key, plan.force, plan.output_flag)
+            try:
+                return outputs.install_output(staging, plan.output)
+            except OSError as exc:
+                # the output's disk, not the workspace's (where the log is): a mount point is
+                # filled in place, so its own disk can be the full one
+                if exc.errno not in (errno.ENOSPC, errno.EDQUOT):
+                    raise
+                raise DiskFull.at(plan.output, f"writing the output {plan.output}: {exc.strerror}") from exc
+    except BaseException:
+        outputs.remove_tree(staging)
+        raise
+
+
+def _record(plan: BuildPlan, state_path: Path, parts: dict[str, str], staged: Staged, merge_key: str) -> None:
+    """The state that vouches for the output just swapped in (the next build compares with it)."""
+    fp.write_state(
+        state_path,
+        fp.BuildState(
+            fingerprint=fp.combine(parts),
+            parts=parts,
+            output=str(plan.output),
+            output_files=fp.stat_folder(plan.output),
+            library_sha256=staged.info.library.sha256,
+            merge_key=merge_key,
+            packages=staged.info.packages,
+        ),
+    )
+
+
+def say_done(plan: BuildPlan, staged: Staged, left: list[str], started: float, origin: str) -> None:
+    try:
+        for why in left:  # the new output is in place: a warning, not a failure
+            console.warn(f"could not remove the previous output {why}: remove it by hand")
+        lib = plan.output / "libmicroros.a"
+        verb, origin = ("took", f" {origin}") if origin else ("built", "")
+        console.step(
+            f"{verb} {lib} ({lib.stat().st_size:,} bytes, {staged.info.library.members} objects) and "
+            f"{staged.info.include.files} headers in {plan.output / 'include'}{origin} "
+            f"({time.monotonic() - started:.1f} s)"
+        )
+    except KeyboardInterrupt as stop:
+        raise interrupted(
+            stop, "interrupted", f"the new output was already in place: {plan.output}"
+        ) from None
+
+
+def _free_bytes(folder: Path) -> int:
+    try:
+        return shutil.disk_usage(folder).free
+    except OSError:
+        return 1 << 62
+
+
+def _bintools(plan: BuildPlan, facts: HostFacts) -> BinTools:
+    if isinstance(plan.target, ProfileTarget):
+        tools = tool_paths(plan.target.profile, facts.tool_dir)
+        return BinTools(ar=tools["ar"], ranlib=tools["ranlib"], nm=tools["nm"])
+    # A user toolchain file: use the archiver CMake recorded for it (the target's); the host
+    # binutils read foreign ELF archives too, as a fallback.
+    return hosttools.bintools_from_build(plan.target_dir / "build") or BinTools("ar", "ranlib", "nm")
+
+
+def _stage_output(
+    runner: Runner,
+    plan: BuildPlan,
+    facts: HostFacts,
+    staging: Path,
+    setup: ColconSetup,
+    built: tuple[str, ...],
+    progress: colcon.BuildProgress,
+    previous: fp.BuildState | None,
+) -> tuple[BuildInfo, str]:
+    """The output in ``staging``: the archives and headers of this build's packages only.
+    Returns its build-info and the merge key (what the library depends on)."""
+    install = setup.install_base
+    by_package = installtree.archives(setup.build_base, install, built)
+    libs = sorted({lib for libs in by_package.values() for lib in libs}, key=lambda p: p.name)
+    if not libs:
+        raise StepFailed(
+            f"colcon built no static library into {install / 'lib'}",
+            "check that the packages install their libraries: install(TARGETS ... ARCHIVE DESTINATION lib)",
+        )
+    if staging.exists():
+        shutil.rmtree(staging)
+    staging.mkdir(parents=True)
+    library = staging / "libmicroros.a"
+    tools = _bintools(plan, facts)
+    profile = plan.profile
+    merge_key = fp.digest_json(
+        {
+            "archives": fp.stat_files(libs),
+            "tools": [tools.ar, tools.nm, tools.ranlib],
+            "profile": repr(profile),
+            "uros": __version__,
+        }
+    )
+    reused = _previous_library(plan, previous, merge_key) if not plan.rebuild else None
+    abi_check: Mapping[str, Any]
+    if reused is not None:
+        console.step(f"no archive changed: reusing libmicroros.a of {plan.output}")
+        shutil.copy2(plan.output / reused.library.file, library)
+        lib_info = dataclasses.replace(reused.library)
+        abi_check = reused.abi_check
+    else:
+        console.step(f"merging {len(libs)} libraries into libmicroros.a")
+        report = merge_archives(runner, tools, libs, library, plan.target_dir / "merge")
+        # Before the output is swapped in: a library that fails the check never replaces a good one.
+        if profile is None:
+            abi_check = {
+                "checked": False,
+                "reason": "your own toolchain file: no target profile to compare with",
+            }
+        else:
+            console.step(f"checking every object against {profile.name}'s ELF facts")
+            abi_check = abi.check_library(runner, library, profile)
+            console.info(abi.describe(abi_check))
+        lib_info = _library_info(runner, facts, profile, library, report)
+    for warning in abi_check.get("warnings", ()):
+        console.warn(warning)
+    inc = includes.flatten_includes(
+        install / "include", staging / "include", only=installtree.headers(setup.build_base, install, built)
+    )
+    if profile is not None:
+        firmware_tc = render_toolchain(
+            ToolchainRequest(profile, micro_ros=False, command=f"uros toolchain render {profile.name}")
+        )
+        (staging / "toolchain.cmake").write_text(firmware_tc, encoding="utf-8")
+        # recorded without the workspace's folder, so that build-info.json does not depend on it
+        mr_req = ToolchainRequest(
+            profile,
+            micro_ros=True,
+            gcc_major=facts.gcc_major,
+            clock_header=CLOCK_HEADER_NAME,
+            prefix_map="<workspace>",
+        )
+    target = plan.target
+    info = BuildInfo(
+        generated_by=f"uros {__version__}",
+        target=target.key,
+        profile=Path(profile.source).name if profile else None,
+        toolchain_file=None if isinstance(target, ProfileTarget) else str(target.toolchain_file),
+        compiler=Compiler(facts.gcc, facts.gcc_version) if profile else None,
+        cmake_version=facts.cmake_version,
+        flags=Flags(
+            cpu=profile.cpu_flags,
+            c=profile.c_flags,
+            cxx=profile.cxx_flags,
+            optimization=profile.optimization,
+            micro_ros_only=tuple(microros_flags(mr_req)),
+        )
+        if profile
+        else Flags(),
+        transport=meta_transport(plan.meta),
+        packages=built,
+        library=lib_info,
+        include=Include(dir="include", files=inc.files, bytes=inc.bytes, packages=inc.packages),
+        abi_check=abi_check,
+        skipped_python_packages=setup.skipped,
+        idf_target=profile.idf_target or None if profile else None,
+        idf=_idf_info(plan),
+        package_seconds={p: round(progress.finished[p], 2) for p in built if p in progress.finished},
+        cmake_options=contents.cmake_options(plan.meta),
+        sources=_sources(plan, built),
+    )
+    export.write_cmake_package(staging, info)
+    return info, merge_key
+
+
+def _sources(plan: BuildPlan, built: tuple[str, ...]) -> dict[str, dict[str, str]]:
+    """The clone and commit each built package came from (uros info shows them from here, not from
+    a workspace that may have moved on since)."""
+    ws = plan.workspace
+    if not ws.lock_path.is_file():
+        return {}
+    clone_paths = read_lock(ws.lock_path, "uros.lock").repositories
+    wanted = set(built)
+    located = [(p.name, p.path.resolve()) for p in plan.packages if p.name in wanted]
+    return clones.built_from(located, ws.root, clone_paths)
+
+
+def _library_info(
+    runner: Runner, facts: HostFacts, profile: TargetProfile | None, library: Path, report: MergeReport
+) -> Library:
+    size = None
+    if profile is not None:
+        size = hosttools.size_totals(runner, tool_paths(profile, facts.tool_dir)["size"], library)
+    return Library(
+        file="libmicroros.a",
+        bytes=library.stat().st_size,
+        sha256=fp.file_sha256(library),
+        members=report.members,
+        defined_global_symbols=report.symbols,
+        renamed_duplicate_members=report.renamed_duplicates,
+        inputs=report.inputs,
+        size=size,
+    )
+
+
+def _previous_library(plan: BuildPlan, previous: fp.BuildState | None, merge_key: str) -> BuildInfo | None:
+    """The last build's output when its library was merged from the very archives this build
+    installed (same sizes and mtimes: CMake's install leaves an unchanged file alone) and is
+    still intact; None otherwise."""
+    if previous is None or previous.merge_key != merge_key or previous.output != str(plan.output):
+        return None
+    try:
+        info = read_build_info(plan.output)
+    except ConfigError:
+        return None
+    lib = plan.output / info.library.file
+    if info.library.sha256 != previous.library_sha256 or not lib.is_file():
+        return None
+    return info if fp.file_sha256(lib) == previous.library_sha256 else None
+
+
+def _idf_info(plan: BuildPlan) -> IdfInfo | None:
+    idf = plan.idf
+    if idf is None:
+        return None
+    return IdfInfo(
+        version=idf.version_text,
+        target=idf.target,
+        sdkconfig_sha256=idf.sdkconfig_sha256,
+        components=idf.components,
+        include_dirs=len(idf.include_dirs),
+        c_flags=idf.c_flags,
+        cxx_flags=idf.cxx_flags,
+    )
+
+
+def merge_and_verify(
+    runner: Runner, plan: BuildPlan, facts: HostFacts, inputs: Inputs, compiled: Compiled
+) -> tuple[Staged, str]:
+    """This build's archives merged (or the previous library reused) and checked, the include tree,
+    the CMake package: the output staged beside its final place. Returns it and the merge key."""
+    staging = outputs.staging_dir(plan.output)
+    try:
+        info, merge_key = _stage_output(
+            runner, plan, facts, staging, inputs.setup, compiled.packages, compiled.progress, inputs.previous
+        )
+    except OSError as exc:
+        outputs.remove_tree(staging)
+        # Python names no file for a failed write(): the disk of the step's folders with the
+        # least room is the full one (not the log's, which the catch-all would name)
+        if exc.errno not in (errno.ENOSPC, errno.EDQUOT) or exc.filename:
+            raise
+        fullest = min((plan.target_dir, staging.parent), key=_free_bytes)
+        raise DiskFull.at(fullest, f"merging the library in {fullest}: {exc.strerror}") from exc
+    except BaseException:
+        outputs.remove_tree(staging)
+        raise
+    return Staged(staging, dataclasses.replace(info, build_key=inputs.key, ccache=compiled.ccache)), merge_key
+
+
+def swap_in(plan: BuildPlan, inputs: Inputs, staged: Staged, merge_key: str) -> list[str]:
+    """The staged output swapped into place and the state that vouches for it recorded. Returns
+    what of the previous output could not be removed."""
+    left = _deliver(plan, staged)
+    _record(plan, inputs.state_path, inputs.parts, staged, merge_key)
+    return left

@@ -1,0 +1,49 @@
+"""The run itself, before the target's lock: its log, what the plan found worth saying, the host
+and target facts, the extra packages and the dev workspace (built once, shared by every target)."""
+
+from __future__ import annotations
+
+from uros_build import console, hosttools
+from uros_build.hosttools import HostFacts
+from uros_build.plan import BuildPlan
+from uros_build.proc import Runner
+from uros_build.steps.inputs import _say_selection
+
+
+def open_run(plan: BuildPlan) -> Runner:
+    """The run's log and its first lines (the target, the workspace, warnings, the selection)."""
+    ws = plan.workspace
+    ws.mark_ignored()
+    runner = Runner(ws.new_log("build", plan.target.key), verbose=plan.verbose, owner=str(plan.target_dir))
+    console.step(f"uros build: target {plan.target.key}, workspace {ws.root}")
+    console.info(f"log: {runner.log_path}")
+    for warning in plan.warnings:
+        console.warn(warning)
+    if plan.idf is not None:
+        idf = plan.idf
+        console.info(
+            f"ESP-IDF {idf.version_text} project {idf.build_dir} ({idf.target}): {idf.components} "
+            f"components, {len(idf.include_dirs)} include folders, sdkconfig.h {idf.sdkconfig_sha256[:12]}"
+        )
+    _say_selection(plan)
+    return runner
+
+
+def host_facts(plan: BuildPlan, runner: Runner) -> HostFacts:
+    """The host's and target's tools (probes cached by program identity), then the workspace's
+    extra packages synced and its dev_ws built when the MCU packages need more of it."""
+    ws = plan.workspace
+    facts = hosttools.probe_host(
+        runner,
+        plan.profile,
+        plan.target_dir,
+        check_libraries=plan.config is not None,
+        cache=hosttools.ProbeCache(ws.state_dir / "probes.json"),
+    )
+    if plan.config is not None:
+        ws.sync_extra_packages(plan.config)
+        # a workspace with a hand-written uros.yaml may have no dev_ws: nothing to build then
+        if ws.dev_dir.is_dir() and hosttools.dev_needs_building(ws, plan.packages):
+            assert plan.distro is not None  # loaded with the config
+            hosttools.build_dev_workspace(ws, plan.config, plan.distro, runner, plan.verbose, plan.jobs)
+    return facts
