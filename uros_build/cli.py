@@ -509,8 +509,9 @@ def export_arduino(output: Path, sources: tuple[Path, ...]) -> None:
 )
 @_toolchain_option("Check this target's compiler, C library and C++ headers before cloning.")
 @click.option(
-    "-j", "--jobs", type=int, default=defaults.CLONE_JOBS, show_default=True, help="Parallel clones."
-)
+    "--git-jobs", "jobs", type=int, default=defaults.CLONE_JOBS, show_default=True,
+    help="Parallel git clones (`uros build -j` is colcon's parallel packages).",
+)  # fmt: skip
 @_VERBOSE
 def create_firmware(
     platform: str,
@@ -566,8 +567,9 @@ def create_firmware(
 )
 @click.option("--dry-run", is_flag=True, help="Fetch and show what would move; change nothing.")
 @click.option(
-    "-j", "--jobs", type=int, default=defaults.CLONE_JOBS, show_default=True, help="Parallel fetches."
-)
+    "--git-jobs", "jobs", type=int, default=defaults.CLONE_JOBS, show_default=True,
+    help="Parallel git fetches (`uros build -j` is colcon's parallel packages).",
+)  # fmt: skip
 @_VERBOSE
 def update(
     workspace: Path | None, distro: str | None, before: str | None, dry_run: bool, jobs: int, verbose: bool

@@ -688,7 +688,7 @@ def plan_update(args: UpdateArgs) -> UpdatePlan:
     """Every input of `uros update` checked before git runs: a firmware workspace with its lock, a
     known distro, mirrors that exist, and new clones' folders free."""
     if args.jobs < 1:
-        raise ConfigError(f"-j/--jobs {args.jobs}: must be 1 or more")
+        raise ConfigError(f"--git-jobs {args.jobs}: must be 1 or more")
     if args.before is not None:
         check_day(args.before, "--before")
     ws, cfg = Workspace.open_firmware(resolve_workspace(args.directory))
@@ -739,7 +739,7 @@ def plan_create(args: CreateArgs) -> CreatePlan:
             f"create-firmware: unknown platform {args.platform!r}", "uros supports `generate_lib` (any MCU)"
         )
     if args.jobs < 1:
-        raise ConfigError(f"-j/--jobs {args.jobs}: must be 1 or more")
+        raise ConfigError(f"--git-jobs {args.jobs}: must be 1 or more")
     distro = distros_mod.load_distro(args.distro)
     root = resolve_workspace(args.directory).resolve()
     check_build_folder(root, "--workspace")

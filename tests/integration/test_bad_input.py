@@ -183,10 +183,10 @@ CASES: dict[str, tuple[Setup, int, str]] = {
         "notes.txt is a file, not a folder",
     ),
     "build -j -1": (lambda tmp: _build(tmp, "-j", "-1"), 2, "-j/--jobs -1: must be 1 or more"),
-    "create-firmware -j 0": (
-        lambda tmp: ["create-firmware", "--workspace", str(tmp / "fw"), "-j", "0"],
+    "create-firmware --git-jobs 0": (
+        lambda tmp: ["create-firmware", "--workspace", str(tmp / "fw"), "--git-jobs", "0"],
         2,
-        "-j/--jobs 0: must be 1 or more",
+        "--git-jobs 0: must be 1 or more",
     ),
     "--packages-up-to a typo": (
         lambda tmp: _build(tmp, "--packages-up-to", "fx_cre"),

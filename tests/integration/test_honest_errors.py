@@ -94,7 +94,17 @@ def upstream(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 def test_a_killed_create_firmware_is_finished_by_force(upstream: Path, tmp_path: Path) -> None:
     fw = tmp_path / "fw"
-    args = [sys.executable, "-m", "uros_build", "create-firmware", "-w", str(fw), "--no-dev-build", "-j", "1"]
+    args = [
+        sys.executable,
+        "-m",
+        "uros_build",
+        "create-firmware",
+        "-w",
+        str(fw),
+        "--no-dev-build",
+        "--git-jobs",
+        "1",
+    ]
     for delay in (0.6, 0.9, 1.2, 0.4):
         shutil.rmtree(fw, ignore_errors=True)
         proc = subprocess.Popen([*args, *upstream_mirror(upstream)], stderr=subprocess.PIPE, text=True)
