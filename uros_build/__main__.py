@@ -14,9 +14,19 @@ def run() -> None:
     try:
         from uros_build.cli import main
     except KeyboardInterrupt:
-        sys.stderr.write("error: interrupted\n")
-        sys.exit(130)
+        _interrupted()
+    except RuntimeError as exc:
+        # A Ctrl-C inside a class body's __set_name__ (a cached_property of a module being
+        # imported: ipaddress, functools) reaches us wrapped in RuntimeError (Python 3.11).
+        if isinstance(exc.__cause__, KeyboardInterrupt):
+            _interrupted()
+        raise
     main()
+
+
+def _interrupted() -> None:
+    sys.stderr.write("error: interrupted\n")
+    sys.exit(130)
 
 
 if __name__ == "__main__":

@@ -25,16 +25,16 @@ import gzip
 import hashlib
 import io
 import json
-import netrc
 import os
 import tarfile
-import urllib.error
 import urllib.parse
-import urllib.request
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
+
+if TYPE_CHECKING:
+    import urllib.request
 
 from uros_build.errors import ConfigError
 
@@ -285,6 +285,8 @@ class HttpStore:
     timeout: float = TIMEOUT_SECONDS
 
     def _request(self, name: str, method: str, data: bytes | None = None) -> urllib.request.Request:
+        import urllib.request  # here, not at the top: it pulls in http, email and ssl (slow to import)
+
         base = urllib.parse.urlsplit(self.url.location)
         address = urllib.parse.urlunsplit(
             (base.scheme, base.netloc, base.path + urllib.parse.quote(name), base.query, "")
@@ -298,6 +300,9 @@ class HttpStore:
         return request
 
     def get(self, name: str) -> bytes | None:
+        import urllib.error
+        import urllib.request
+
         try:
             with urllib.request.urlopen(self._request(name, "GET"), timeout=self.timeout) as answer:
                 data: bytes = answer.read()
@@ -311,6 +316,9 @@ class HttpStore:
             raise CacheUnusable(f"GET {self.url.shown}{name}: {reason}") from None
 
     def put(self, name: str, data: bytes) -> None:
+        import urllib.error
+        import urllib.request
+
         try:
             with urllib.request.urlopen(self._request(name, "PUT", data), timeout=self.timeout):
                 pass
@@ -328,6 +336,8 @@ def store(url: CacheUrl) -> Store:
 def authorization(host: str, environ: Mapping[str, str]) -> str:
     """The Authorization header for ``host``: the token of UROS_CACHE_TOKEN, else the netrc
     entry's login and password (Basic), else none."""
+    import netrc
+
     token = environ.get(TOKEN_VARIABLE, "")
     if token:
         return f"Bearer {token}"
