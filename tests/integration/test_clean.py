@@ -58,7 +58,13 @@ def test_clean_all_from_inside_the_workspace(m7_build: Path, tmp_path: Path) -> 
     shutil.copytree(m7_build, ws, symlinks=True)
     (ws / "uros.yaml").write_text("distro: humble\ntarget: cortex-m7\n")
     sources = _files(ws / "mcu_ws")
+    entry = ws / ".uros" / "gen-cache" / "ab" / ("ab" + "0" * 62 + ".tar")
+    entry.parent.mkdir(parents=True, exist_ok=True)
+    entry.write_bytes(b"x" * 100)
     run_uros("clean", cwd=ws / "mcu_ws")  # the default: uros.yaml's target, in the nearest workspace
     assert not (ws / "build" / "cortex-m7").exists() and not (ws / ".uros" / "targets" / "cortex-m7").exists()
-    run_uros("clean", "--all", cwd=ws)
+    # the generation cache every target shares goes with --all only
+    assert entry.is_file()  # still there after the one target's clean above
+    said = run_uros("clean", "--all", cwd=ws).stderr
     assert _files(ws / "mcu_ws") == sources and (ws / "uros.yaml").is_file()
+    assert not entry.exists() and "gen-cache" in said

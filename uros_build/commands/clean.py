@@ -83,5 +83,13 @@ def clean(workspace: Path | None, toolchain: str | None, everything: bool) -> in
                 console.warn(f"kept {output}: it holds files uros did not write ({', '.join(kept)})")
             else:
                 output.rmdir()
+    if everything:
+        # the interface code every target shared: only --all drops it (one target's clean must not
+        # cost the others their next build's hits)
+        gen = ws.state_dir / "gen-cache"
+        size = tree_bytes(gen) if gen.exists() else 0
+        if size and outputs.remove_tree(gen) is None:
+            freed += size
+            console.info(f"removed {gen} ({human(size)})")
     console.step(f"freed {human(freed)} ({freed:,} bytes) in {ws.root}")
     return freed
