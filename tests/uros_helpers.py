@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import signal
 import subprocess
 import sys
 from collections import Counter
@@ -11,6 +12,13 @@ from pathlib import Path
 from uros_build import distros
 
 REPO = Path(__file__).resolve().parent.parent
+
+
+def default_sigint() -> None:
+    """preexec_fn for a uros that a test interrupts: Ctrl-C at its default. A shell without job
+    control starts background commands with SIGINT ignored, and a Python started so keeps ignoring
+    it (no KeyboardInterrupt): a CI started in the background would otherwise never interrupt."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
 def run_uros(

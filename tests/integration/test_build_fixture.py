@@ -20,7 +20,7 @@ from fixture_ws import (
     FIXTURE_SYMBOLS,
     make_fixture_workspace,
 )
-from uros_helpers import defined_globals, run_uros
+from uros_helpers import default_sigint, defined_globals, run_uros
 
 pytestmark = pytest.mark.integration
 
@@ -145,6 +145,7 @@ def test_interrupted_build_leaves_previous_output(m7_build: Path, tmp_path: Path
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
+        preexec_fn=default_sigint,
     )
     time.sleep(4)  # inside fx_core's 60 s configure step
     os.kill(proc.pid, signal.SIGINT)

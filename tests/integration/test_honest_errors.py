@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 from conftest import need
-from uros_helpers import fake_upstream, run_uros, upstream_mirror
+from uros_helpers import default_sigint, fake_upstream, run_uros, upstream_mirror
 
 pytestmark = pytest.mark.integration
 
@@ -75,6 +75,7 @@ def test_ctrl_c_while_starting_up_is_no_traceback() -> None:
             stdout=subprocess.PIPE,
             stderr=subprocess.PIPE,
             text=True,
+            preexec_fn=default_sigint,
         )
         time.sleep(delay)
         proc.send_signal(signal.SIGINT)
