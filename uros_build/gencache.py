@@ -92,15 +92,31 @@ def _sha(path: str) -> str:
         return "missing"
 
 
+# The Python packages the C generators run on (their own code and what it imports). Only these:
+# other rosidl packages are installed alongside the interface packages in whatever order colcon
+# happens to run (rosidl_generator_dds_idl was installed after visualization_msgs on one target
+# and before it on the next: every run of that package missed).
+GENERATOR_PYTHON = (
+    "rosidl_adapter",
+    "rosidl_cli",
+    "rosidl_cmake",
+    "rosidl_generator_c",
+    "rosidl_generator_type_description",
+    "rosidl_parser",
+    "rosidl_pycommon",
+    "rosidl_typesupport_c",
+    "rosidl_typesupport_introspection_c",
+    "rosidl_typesupport_microxrcedds_c",
+)
+
+
 def _python_tree(target_dir: Path) -> str:
-    """The rosidl Python packages installed in the target's tree (the generators' own code and
-    what it imports: rosidl_parser, rosidl_pycommon, rosidl_cmake, ...). Only those: they are
-    installed before any interface package is built, while other packages' Python is installed
-    alongside, so the whole tree would differ with the order colcon happened to build in."""
+    """The generators' Python packages installed in the target's tree (GENERATOR_PYTHON)."""
     h = hashlib.sha256()
     for site in sorted(target_dir.glob("install/lib/python3*/site-packages")):
-        for path in sorted(site.glob("rosidl*/**/*.py")):
-            h.update(f"{path.relative_to(site)}\0{_sha(str(path))}\n".encode())
+        for name in GENERATOR_PYTHON:
+            for path in sorted((site / name).rglob("*.py")):
+                h.update(f"{path.relative_to(site)}\0{_sha(str(path))}\n".encode())
     return h.hexdigest()
 
 

@@ -91,10 +91,11 @@ def test_the_second_target_takes_the_first_ones_code(tmp_path: Path, monkeypatch
     assert gencache.generate(argv7, cache, m7) == "miss"
     assert counter.read_text() == "xxxx"
     # another package's Python installed meanwhile (colcon's order varies): the same key
-    other = m7 / "install/lib/python3.11/site-packages/micro_ros_utilities"
-    other.mkdir()
-    (other / "__init__.py").write_text("")
-    assert gencache.generate(argv7, cache, m7) == "hit"
+    for name in ("micro_ros_utilities", "rosidl_generator_dds_idl"):
+        other = m7 / "install/lib/python3.11/site-packages" / name
+        other.mkdir()
+        (other / "__init__.py").write_text("")
+        assert gencache.generate(argv7, cache, m7) == "hit"
 
 
 def test_code_that_names_its_folder_is_not_shared(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
