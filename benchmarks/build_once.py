@@ -35,6 +35,7 @@ from side_by_side import (
 
 GOALS = {
     "uros cold": ("set cold", 0.6),
+    "uros cold, --no-ccache": ("set cold", 0.6),
     "uros second target": ("set second target", 0.35),
     "uros fresh, warm team cache": ("set cold", 0.05),
     "uros fresh, warm ccache only": ("set cold", 0.4),
@@ -87,6 +88,11 @@ def main() -> None:
     dev = sum(s for w, s in colcon_steps(bench.logs / f"{len(bench.runs):02d}-uros-run.log") if w == "dev_ws")
     r["uros cold"] -= dev
     print(f"  (uros cold: {dev:.1f} s of dev_ws build subtracted)", flush=True)
+    # the same cold build without ccache (a cold ccache costs its misses), in a fresh checkout
+    plain = fresh_copy(bench.ws, root / "no ccache")
+    r["uros cold, --no-ccache"] = bench.uros(
+        "uros cold, --no-ccache", "build", "--toolchain", TARGET, "--workspace", str(plain), "--no-ccache"
+    )
     r["set second target"] = bench.set_mcu("second target", SECOND_TARGET)
     r["uros second target"] = bench.uros_build("uros second target", target=SECOND_TARGET)
     store = (root / "team cache").as_uri()
