@@ -88,37 +88,25 @@ def main() -> None:
     dev = sum(s for w, s in colcon_steps(bench.logs / f"{len(bench.runs):02d}-uros-run.log") if w == "dev_ws")
     r["uros cold"] -= dev
     print(f"  (uros cold: {dev:.1f} s of dev_ws build subtracted)", flush=True)
+
+    def fresh_build(name: str, folder: str, *more: str) -> float:
+        """`uros build` of the target in a new checkout of the workspace (see fresh_copy)."""
+        ws = fresh_copy(bench.ws, root / folder)
+        return bench.uros(name, "build", "--toolchain", TARGET, "--workspace", str(ws), *more)
+
     # the same cold build without ccache (a cold ccache costs its misses), in a fresh checkout
-    plain = fresh_copy(bench.ws, root / "no ccache")
-    r["uros cold, --no-ccache"] = bench.uros(
-        "uros cold, --no-ccache", "build", "--toolchain", TARGET, "--workspace", str(plain), "--no-ccache"
-    )
+    r["uros cold, --no-ccache"] = fresh_build("uros cold, --no-ccache", "no ccache", "--no-ccache")
     r["set second target"] = bench.set_mcu("second target", SECOND_TARGET)
     r["uros second target"] = bench.uros_build("uros second target", target=SECOND_TARGET)
     store = (root / "team cache").as_uri()
     bench.uros_build("uros upload to the team cache", "--cache", store, "--cache-upload")
-    teammate = fresh_copy(bench.ws, root / "teammate")
-    r["uros fresh, warm team cache"] = bench.uros(
-        "uros fresh, warm team cache",
-        "build",
-        "--toolchain",
-        TARGET,
-        "--workspace",
-        str(teammate),
-        "--cache",
-        store,
+    teammate, other = root / "teammate", root / "other checkout"
+    r["uros fresh, warm team cache"] = fresh_build(
+        "uros fresh, warm team cache", teammate.name, "--cache", store
     )
     took = bench.said("from the cache")
-    other = fresh_copy(bench.ws, root / "other checkout")
-    r["uros fresh, warm ccache only"] = bench.uros(
-        "uros fresh, warm ccache only",
-        "build",
-        "--toolchain",
-        TARGET,
-        "--workspace",
-        str(other),
-        "--cache",
-        "none",
+    r["uros fresh, warm ccache only"] = fresh_build(
+        "uros fresh, warm ccache only", other.name, "--cache", "none"
     )
     ccache_line = next((ln for ln in bench.runs[-1].log.read_text().splitlines() if "ccache:" in ln), "")
 

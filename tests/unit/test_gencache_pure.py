@@ -61,11 +61,16 @@ def _header(target: Path) -> Path:
     return target / "build" / "std_msgs" / "rosidl_generator_c" / "std_msgs" / "msg" / "bool.h"
 
 
-def test_the_second_target_takes_the_first_ones_code(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    mp = monkeypatch
-    counter = tmp_path / "runs"
-    counter.write_text("")
-    mp.setenv("GEN_COUNTER", str(counter))
+@pytest.fixture
+def counter(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    """The file the stand-in generator adds an x to on every run."""
+    runs = tmp_path / "runs"
+    runs.write_text("")
+    monkeypatch.setenv("GEN_COUNTER", str(runs))
+    return runs
+
+
+def test_the_second_target_takes_the_first_ones_code(tmp_path: Path, counter: Path) -> None:
     cache = tmp_path / "ws" / ".uros" / "gen-cache"
     argv7, m7 = _target(tmp_path / "ws", "cortex-m7")
     argv4, m4 = _target(tmp_path / "ws", "cortex-m4f")
@@ -98,11 +103,7 @@ def test_the_second_target_takes_the_first_ones_code(tmp_path: Path, monkeypatch
         assert gencache.generate(argv7, cache, m7) == "hit"
 
 
-def test_code_that_names_its_folder_is_not_shared(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    mp = monkeypatch
-    counter = tmp_path / "runs"
-    counter.write_text("")
-    mp.setenv("GEN_COUNTER", str(counter))
+def test_code_that_names_its_folder_is_not_shared(tmp_path: Path, counter: Path) -> None:
     cache = tmp_path / "ws" / ".uros" / "gen-cache"
     argv, m7 = _target(tmp_path / "ws", "cortex-m7", idl="EMBED")
     assert gencache.generate(argv, cache, m7) == "bypass"

@@ -19,7 +19,7 @@ from uros_build.errors import (
     Interrupted,
     UrosError,
 )
-from uros_build.plan import BuildArgs, expand_targets, plan_build
+from uros_build.plan import BuildArgs, BuildPlan, expand_targets, plan_build
 from uros_build.steps import colcon_run, inputs, prepare, stage, start, team_cache
 from uros_build.workspace import locked
 
@@ -38,23 +38,22 @@ def build_all(args: BuildArgs) -> list[Outcome]:
     fails, and a line per target says how it ended; the first failure is the command's."""
     requests = expand_targets(args)
     if len(requests) == 1:
-        return [build(requests[0])]
+        return [build(plan_build(requests[0]))]
     names = ", ".join(str(r.toolchain) for r in requests)
     console.step(f"building {len(requests)} targets ({names}) from {requests[0].toolchain_from}")
-    for request in requests:
-        plan_build(request)
+    plans = [plan_build(request) for request in requests]
     outcomes: list[Outcome] = []
     ended: list[str] = []
     failure: UrosError | None = None
-    for request in requests:
+    for plan in plans:
         started = time.monotonic()
         try:
-            outcome = build(request)
+            outcome = build(plan)
         except Interrupted:
             raise
         except UrosError as exc:
             failure = failure or exc
-            ended.append(f"{request.toolchain}: FAILED (exit {exc.exit_code}: {str(exc).splitlines()[0]})")
+            ended.append(f"{plan.target.key}: FAILED (exit {exc.exit_code}: {str(exc).splitlines()[0]})")
             continue
         outcomes.append(outcome)
         ended.append(f"{outcome.target}: {outcome.how} ({time.monotonic() - started:.1f} s)")
@@ -66,10 +65,9 @@ def build_all(args: BuildArgs) -> list[Outcome]:
     return outcomes
 
 
-def build(args: BuildArgs) -> Outcome:
-    """One target: resolve → prepare the trees → the team cache → colcon → merge and verify →
-    swap in → upload (model: colcon-core's BuildVerb.main, a sequence of named steps)."""
-    plan = plan_build(args)
+def build(plan: BuildPlan) -> Outcome:
+    """One planned target: resolve → prepare the trees → the team cache → colcon → merge and
+    verify → swap in → upload (model: colcon-core's BuildVerb.main, a sequence of named steps)."""
     runner = start.open_run(plan)
     facts = start.host_facts(plan, runner)
     with locked(plan.target_dir, plan.target.key):
