@@ -252,3 +252,24 @@ def test_a_team_cache_on_nginx_webdav(seed: Path, tmp_path: Path, nginx: tuple[s
     )
     for secret in ("s3cret-pass", "tok-123-secret", "czNjcmV0"):
         assert secret not in logs + said + took.stderr
+
+
+def test_the_workspace_names_its_cache_and_the_command_line_wins(seed: Path, tmp_path: Path) -> None:
+    """uros.yaml's cache: is read without --cache; --cache none builds without it; --cache-upload
+    without any cache is a one-line error naming the flag and the fix, and nothing is written."""
+    store = tmp_path / "store"
+    _upload_from(seed, store.as_uri())
+    ws = _fresh_copy(seed, tmp_path / "ws")
+    (ws / "uros.yaml").write_text("distro: humble\ntarget: cortex-m7\n")
+    refused = run_uros(
+        "build", "-w", str(ws), "--meta", str(ws / "fixture.meta"), "--cache-upload", check=False
+    )
+    assert refused.returncode == 2 and not (ws / "build").exists()
+    assert "error: --cache-upload without a cache" in refused.stderr and "cache: line" in refused.stderr
+    (ws / "uros.yaml").write_text(f"distro: humble\ntarget: cortex-m7\ncache: {store.as_uri()}\n")
+    took = run_uros("build", "-w", str(ws), "--meta", str(ws / "fixture.meta")).stderr
+    assert f"from the cache {store.as_uri()}" in took
+    shutil.rmtree(ws / "build")
+    plain = run_uros("build", "-w", str(ws), "--meta", str(ws / "fixture.meta"), "--cache", "none").stderr
+    assert store.as_uri() not in plain and "\ncache: " not in f"\n{plain}" and "==> built " in plain
+    assert _library(ws) == _library(seed)

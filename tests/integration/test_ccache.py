@@ -65,6 +65,10 @@ def test_another_checkout_hits_every_compile_and_the_library_keeps_its_bytes(tmp
     assert "ccache: 10 of 10 compiles taken from the cache (100%)" in second, second
     info = json.loads((two / "build" / "cortex-m7" / "build-info.json").read_text())
     assert info["ccache"] == {"hits": 10, "misses": 0}
+    shown = run_uros("info", str(two / "build" / "cortex-m7"), env=env).stdout
+    assert "ccache     10 of 10 compiles of this build taken from the cache" in shown
+    doctor = run_uros("doctor", "-w", str(two), env=env, check=False).stdout
+    assert "ccache" in doctor and "(uros build compiles through it)" in doctor
     without = build(plain, "--no-ccache")
     assert "ccache:" not in without
     assert "ccache" not in json.loads((plain / "build" / "cortex-m7" / "build-info.json").read_text())
