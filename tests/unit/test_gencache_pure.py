@@ -6,11 +6,14 @@ the code is never shared. (The generator runs in-process through runpy: no proce
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 
 import pytest
 
 from uros_build import gencache
+
+MODULES = {"empy": "3.3.4", "lark": "1.1.1"}
 
 GENERATOR = """
 import argparse, json, os, pathlib
@@ -76,46 +79,133 @@ def test_the_second_target_takes_the_first_ones_code(tmp_path: Path, counter: Pa
     argv4, m4 = _target(tmp_path / "ws", "cortex-m4f")
     assert gencache.is_generator_run(argv7)
 
-    assert gencache.generate(argv7, cache, m7) == "miss"
-    assert gencache.generate(argv4, cache, m4) == "hit"
+    assert gencache.generate(argv7, cache, m7, MODULES) == "miss"
+    assert gencache.generate(argv4, cache, m4, MODULES) == "hit"
     assert counter.read_text() == "x"  # the generator ran once for both targets
     assert _header(m4).read_bytes() == _header(m7).read_bytes()
     assert _header(m4).read_text().startswith("/* from msg/Bool.idl a b */ struct Bool")
 
     # a hit over a file already as it should be leaves its time alone (ninja's restat)
     before = _header(m4).stat().st_mtime_ns
-    assert gencache.generate(argv4, cache, m4) == "hit"
+    assert gencache.generate(argv4, cache, m4, MODULES) == "hit"
     assert _header(m4).stat().st_mtime_ns == before
 
     # another .idl, another generator option, another parser: another key, the generator runs
     (m4 / "build" / "std_msgs" / "rosidl_adapter" / "msg" / "Bool.idl").write_text("struct Bool { int8 d; };")
-    assert gencache.generate(argv4, cache, m4) == "miss"
+    assert gencache.generate(argv4, cache, m4, MODULES) == "miss"
     assert "int8" in _header(m4).read_text()
-    assert gencache.generate([*argv7[:4], "a"], cache, m7) == "miss"
+    assert gencache.generate([*argv7[:4], "a"], cache, m7, MODULES) == "miss"
     (m7 / "install/lib/python3.11/site-packages/rosidl_parser/__init__.py").write_text("# parser 2\n")
-    assert gencache.generate(argv7, cache, m7) == "miss"
+    assert gencache.generate(argv7, cache, m7, MODULES) == "miss"
     assert counter.read_text() == "xxxx"
     # another package's Python installed meanwhile (colcon's order varies): the same key
     for name in ("micro_ros_utilities", "rosidl_generator_dds_idl"):
         other = m7 / "install/lib/python3.11/site-packages" / name
         other.mkdir()
         (other / "__init__.py").write_text("")
-        assert gencache.generate(argv7, cache, m7) == "hit"
+        assert gencache.generate(argv7, cache, m7, MODULES) == "hit"
 
 
 def test_code_that_names_its_folder_is_not_shared(tmp_path: Path, counter: Path) -> None:
     cache = tmp_path / "ws" / ".uros" / "gen-cache"
     argv, m7 = _target(tmp_path / "ws", "cortex-m7", idl="EMBED")
-    assert gencache.generate(argv, cache, m7) == "bypass"
+    assert gencache.generate(argv, cache, m7, MODULES) == "bypass"
     assert str(_header(m7).parent.parent) in _header(m7).read_text()  # as CMake asked, its own folder
     assert not list(cache.rglob("*.tar"))
 
 
 def test_the_shim_sends_only_generator_runs_to_the_cache(tmp_path: Path) -> None:
-    text = gencache.shim_text(
-        "/venv/bin/python3", tmp_path / "c d", tmp_path / "t", Path("/code"), "uros 1 build"
-    )
+    def shim(stdlib_distutils: bool) -> str:
+        return gencache.shim_text(
+            "/venv/bin/python3", tmp_path / "c d", tmp_path / "t", Path("/code"), "uros 1 build",
+            MODULES, stdlib_distutils=stdlib_distutils,
+        )  # fmt: skip
+
+    text = shim(True)
     assert text.startswith("#!/bin/sh\n# Written by uros 1 build")
     assert f"'{tmp_path / 'c d'}'" in text  # quoted for the shell
+    assert """'{"empy": "3.3.4", "lark": "1.1.1"}'""" in text  # the versions, found once by uros
     assert text.rstrip().endswith('exec /venv/bin/python3 "$@"')
+    # only CMake's FindPython probe gets the standard library's distutils, and only where there is one
+    assert "*'from distutils import sysconfig'*)" in text and "SETUPTOOLS_USE_DISTUTILS=stdlib" in text
+    assert "SETUPTOOLS_USE_DISTUTILS" not in shim(False)
     assert gencache.count_runs("hit a\nmiss b\nhit c\nbypass d\n") == {"hit": 2, "miss": 1, "bypass": 1}
+
+
+def test_other_generator_module_versions_are_another_key(tmp_path: Path, counter: Path) -> None:
+    cache = tmp_path / "ws" / ".uros" / "gen-cache"
+    argv, m7 = _target(tmp_path / "ws", "cortex-m7")
+    assert gencache.generate(argv, cache, m7, MODULES) == "miss"
+    assert gencache.generate(argv, cache, m7, {**MODULES, "empy": "4.0"}) == "miss"
+    assert gencache.generate(argv, cache, m7, MODULES) == "hit"
+
+
+PARSER = """
+import os, pathlib
+def parse_idl_string(idl_string, png_file=None):
+    counter = pathlib.Path(os.environ["PARSE_COUNTER"])
+    counter.write_text(counter.read_text() + "p")
+    return {"parsed": idl_string.upper(), "by": VERSION}
+def parse_idl_file(path, png_file=None):
+    return parse_idl_string(pathlib.Path(path).read_text(), png_file=png_file)
+VERSION = 1
+"""
+
+PARSING_GENERATOR = """
+import json, pathlib, sys
+from rosidl_parser.parser import parse_idl_file
+args = json.loads(pathlib.Path(sys.argv[2]).read_text())
+out = pathlib.Path(args["output_dir"])
+for item in args["idl_tuples"]:
+    base, _, rel = item.rpartition(":")
+    content = parse_idl_file(pathlib.Path(base, rel))
+    target = out / (pathlib.Path(sys.argv[0]).name + ".h")
+    target.parent.mkdir(parents=True, exist_ok=True)
+    target.write_text(f"/* {content} */\\n")
+"""
+
+
+def test_the_idl_parses_of_a_miss_are_remembered(
+    tmp_path: Path, counter: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The C generators of a package each parse the same .idl files: a miss keeps what the parser
+    made of a text, and the next generator (or target) that parses the same text with the same
+    parser takes it. Another text or another parser's code parses again; the output is the same
+    as parsing."""
+    cache = tmp_path / "ws" / ".uros" / "gen-cache"
+    argv, m7 = _target(tmp_path / "ws", "cortex-m7")
+    site = m7 / "install/lib/python3.11/site-packages"
+    (site / "rosidl_parser" / "parser.py").write_text(PARSER)
+    monkeypatch.syspath_prepend(str(site))  # as colcon's PYTHONPATH gives it to a build
+    for name in [n for n in sys.modules if n.startswith("rosidl_parser")]:
+        monkeypatch.delitem(sys.modules, name)
+    parses = tmp_path / "parses"
+    parses.write_text("")
+    monkeypatch.setenv("PARSE_COUNTER", str(parses))
+    generators = []
+    for name in ("rosidl_generator_c", "rosidl_typesupport_c", "rosidl_typesupport_introspection_c"):
+        script = m7 / "install" / "lib" / name / name
+        script.parent.mkdir(parents=True, exist_ok=True)
+        script.write_text(PARSING_GENERATOR)
+        generators.append([str(script), *argv[1:3]])
+    out = m7 / "build" / "std_msgs" / "rosidl_generator_c" / "std_msgs"
+
+    assert [gencache.generate(g, cache, m7, MODULES) for g in generators] == ["miss"] * 3
+    assert parses.read_text() == "p"  # parsed once for three generators
+    for g in generators:
+        assert (
+            out / f"{Path(g[0]).name}.h"
+        ).read_text() == "/* {'parsed': 'STRUCT BOOL { BOOLEAN DATA; };', 'by': 1} */\n"
+    # the parser as the generator left it: the memo was only for the generator runs
+    import rosidl_parser.parser as parser_module  # type: ignore[import-not-found]
+
+    assert parser_module.parse_idl_string.__module__ == "rosidl_parser.parser"
+
+    (m7 / "build/std_msgs/rosidl_adapter/msg/Bool.idl").write_text("struct Bool { int8 d; };")
+    assert gencache.generate(generators[0], cache, m7, MODULES) == "miss"
+    assert parses.read_text() == "pp"  # another text
+    (site / "rosidl_parser" / "parser.py").write_text(PARSER.replace("VERSION = 1", "VERSION = 2"))
+    monkeypatch.delitem(sys.modules, "rosidl_parser.parser")
+    assert gencache.generate(generators[1], cache, m7, MODULES) == "miss"
+    assert parses.read_text() == "ppp"  # another parser
+    assert "'by': 2" in (out / "rosidl_typesupport_c.h").read_text()

@@ -173,6 +173,9 @@ def _python_shim(plan: BuildPlan) -> Path:
         plan.target_dir,
         Path(uros_build.__file__).resolve().parent.parent,
         f"uros {__version__} build",
+        gencache.module_versions(),
+        # host_python() is this interpreter (colcon.py): its version says whether it has distutils
+        stdlib_distutils=sys.version_info < (3, 12),
     )
     write_if_changed(shim, text)
     shim.chmod(0o755)

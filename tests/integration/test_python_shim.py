@@ -1,0 +1,62 @@
+"""The uros-python shim a target's CMake builds run Python through (gencache.shim_text), run by a
+real shell with this interpreter: CMake's FindPython probe gets the standard library's distutils and
+prints the same folders as the interpreter itself does; every other call is the interpreter,
+unchanged (arguments, exit status, environment)."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from uros_build import gencache
+
+pytestmark = pytest.mark.integration
+
+# CMake 3.25's probe, as FindPython/Support.cmake runs it (its -c program, verbatim)
+PROBE = (
+    "import sys\ntry:\n   from distutils import sysconfig\n   sys.stdout.write(';'.join([sysconfig.get_python_lib"
+    "(plat_specific=False,standard_lib=True),sysconfig.get_python_lib(plat_specific=True,standard_lib=True),"
+    "sysconfig.get_python_lib(plat_specific=False,standard_lib=False),sysconfig.get_python_lib(plat_specific=True,"
+    "standard_lib=False)]))\nexcept Exception:\n   import sysconfig\n   sys.stdout.write(';'.join([sysconfig.get_path"
+    "('stdlib'),sysconfig.get_path('platstdlib'),sysconfig.get_path('purelib'),sysconfig.get_path('platlib')]))"
+)
+ENV = "import os, sys; print(os.environ.get('SETUPTOOLS_USE_DISTUTILS', '-')); sys.exit(3)"
+
+
+def _shim(tmp_path: Path) -> Path:
+    shim = tmp_path / "uros-python"
+    shim.write_text(
+        gencache.shim_text(
+            sys.executable,
+            tmp_path / "cache",
+            tmp_path / "target",
+            Path(__file__).parents[2],
+            "test",
+            {"empy": "-"},
+            stdlib_distutils=sys.version_info < (3, 12),
+        )
+    )
+    shim.chmod(0o755)
+    return shim
+
+
+def test_the_findpython_probe_answers_the_same_and_nothing_else_changes(tmp_path: Path) -> None:
+    shim = _shim(tmp_path)
+    env = {k: v for k, v in os.environ.items() if k != "SETUPTOOLS_USE_DISTUTILS"}
+    real = subprocess.run([sys.executable, "-c", PROBE], capture_output=True, text=True, env=env, check=True)
+    through = subprocess.run([str(shim), "-c", PROBE], capture_output=True, text=True, env=env, check=True)
+    assert through.stdout == real.stdout and real.stdout.count(";") == 3
+
+    other = subprocess.run([str(shim), "-c", ENV], capture_output=True, text=True, env=env)
+    assert (other.returncode, other.stdout) == (3, "-\n")  # the interpreter as it is, its exit status
+
+    args = subprocess.run(
+        [str(shim), "-c", "import json, sys; print(json.dumps(sys.argv[1:]))", "a b", "$HOME", "--x"],
+        capture_output=True, text=True, env=env, check=True,
+    )  # fmt: skip
+    assert json.loads(args.stdout) == ["a b", "$HOME", "--x"]
