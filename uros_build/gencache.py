@@ -5,7 +5,7 @@ rosidl's generators (``rosidl_generator_c``, ``rosidl_typesupport_c``, ``..._int
 depends on the .idl files, the generator's code and templates and its command line, never on the
 target: yet every target's build runs them again (about a third of a cold build of micro-ROS).
 
-Each target's CMake builds run Python through a small shim (:func:`shim_text`): a generator run
+Each target's CMake builds run Python through a small shim (pyshim.py): a generator run
 (``SCRIPT --generator-arguments-file FILE ...``, how rosidl_generate_interfaces calls every
 generator: https://github.com/ros2/rosidl/blob/humble/rosidl_cmake/cmake/rosidl_write_generator_arguments.cmake)
 comes here. Its key is the content of everything the generator reads, with the target's own folder
@@ -21,9 +21,6 @@ A miss also keeps what rosidl_parser made of each .idl file (:func:`_parse_memo`
 generators of an interface package each parse all of its .idl files again (Earley parsing, about half
 of a generator run), and a parse depends only on the .idl text and the parser's code.
 
-The shim also makes CMake's FindPython probe cheap (:func:`shim_text`), so that each package's
-configure does not pay for importing setuptools.
-
 Any trouble with the cache itself falls back to running the generator as CMake asked: the cache
 can make a build faster, never different or broken.
 """
@@ -36,7 +33,6 @@ import hashlib
 import io
 import json
 import os
-import shlex
 import sys
 import tarfile
 from collections.abc import Callable, Iterable, Mapping, Sequence
@@ -55,61 +51,7 @@ def is_generator_run(argv: Sequence[str]) -> bool:
     return len(argv) >= 3 and argv[1] == ARGUMENTS_FLAG and not argv[0].startswith("-")
 
 
-# CMake's FindPython asks the interpreter for its library folders once per build folder, that is
-# once per package, with ``from distutils import sysconfig`` first
-# (https://gitlab.kitware.com/cmake/cmake/-/blob/v3.25.1/Modules/FindPython/Support.cmake#L1963).
-# In an environment with setuptools that import goes through setuptools' distutils shim and costs
-# about 0.3 s (measured: 0.35 s vs 0.035 s, the same four folders printed); the standard library's
-# own distutils answers the same question at once. Python 3.12 has no distutils of its own, so
-# there the probe is left as it is.
-FINDPYTHON_PROBE = "from distutils import sysconfig"
-
-
-def shim_text(
-    python: str,
-    cache_dir: Path,
-    target_dir: Path,
-    code_dir: Path,
-    written_by: str,
-    modules: Mapping[str, str],
-    stdlib_distutils: bool,
-) -> str:
-    """The ``Python3_EXECUTABLE`` of a target's CMake builds: generator runs go through the
-    cache, everything else is the real interpreter, unchanged. ``code_dir``: the folder holding
-    uros_build (appended to the path: the generators' own imports resolve as before).
-    ``modules``: :func:`module_versions` of ``python``, found once by uros rather than on every
-    run. ``stdlib_distutils``: ``python`` has a distutils of its own (before 3.12)."""
-    q = shlex.quote
-    entry = (
-        f"import sys; sys.path.append({str(code_dir)!r}); "
-        "from uros_build.gencache import main; sys.exit(main(sys.argv[1:]))"
-    )
-    versions = json.dumps(dict(modules), sort_keys=True)
-    probe = (
-        [
-            f'if [ "$1" = -c ]; then case "$2" in *{q(FINDPYTHON_PROBE)}*)',
-            "  SETUPTOOLS_USE_DISTUTILS=stdlib; export SETUPTOOLS_USE_DISTUTILS;; esac; fi",
-        ]
-        if stdlib_distutils
-        else []
-    )
-    return "\n".join(
-        [
-            "#!/bin/sh",
-            f"# Written by {written_by}: the Python of this target's CMake builds. rosidl generator",
-            "# runs go through uros's generation cache (uros_build/gencache.py); all else is the real",
-            "# Python (CMake's FindPython probe with the standard library's distutils, when it has one).",
-            f'if [ "$2" = {ARGUMENTS_FLAG} ] && [ -n "$3" ]; then',
-            f'  exec {q(python)} -c {q(entry)} {q(str(cache_dir))} {q(str(target_dir))} {q(versions)} "$@"',
-            "fi",
-            *probe,
-            f'exec {q(python)} "$@"',
-            "",
-        ]
-    )
-
-
-def _normal(text: str, target_dir: str) -> str:
+def normal(text: str, target_dir: str) -> str:
     return text.replace(target_dir, PLACEHOLDER)
 
 
@@ -125,7 +67,7 @@ def _named_files(arguments: Mapping[str, Any]) -> list[str]:
     return sorted(set(out))
 
 
-def _sha(path: str) -> str:
+def sha(path: str) -> str:
     try:
         return hashlib.sha256(Path(path).read_bytes()).hexdigest()
     except OSError:
@@ -156,7 +98,7 @@ def _python_tree(target_dir: Path) -> str:
     for site in sorted(target_dir.glob("install/lib/python3*/site-packages")):
         for name in GENERATOR_PYTHON:
             for path in sorted((site / name).rglob("*.py")):
-                h.update(f"{path.relative_to(site)}\0{_sha(str(path))}\n".encode())
+                h.update(f"{path.relative_to(site)}\0{sha(str(path))}\n".encode())
     return h.hexdigest()
 
 
@@ -177,11 +119,11 @@ def run_key(argv: Sequence[str], arguments_text: str, target_dir: Path, modules:
     """The content of everything the generator run reads, with the target's folder taken out."""
     top = str(target_dir)
     arguments = json.loads(arguments_text)
-    files = {_normal(p, top): _sha(p) for p in [argv[0], *_named_files(arguments)]}
+    files = {normal(p, top): sha(p) for p in [argv[0], *_named_files(arguments)]}
     data = {
         "format": FORMAT,
-        "argv": [_normal(a, top) for a in argv],
-        "arguments": _normal(arguments_text, top),
+        "argv": [normal(a, top) for a in argv],
+        "arguments": normal(arguments_text, top),
         "files": files,
         "python": list(sys.version_info[:2]),
         "modules": dict(modules),
@@ -190,17 +132,21 @@ def run_key(argv: Sequence[str], arguments_text: str, target_dir: Path, modules:
     return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()
 
 
-def pack_files(folder: Path) -> bytes:
-    """Every file under ``folder`` (relative names, contents; nothing else) as a tar."""
+def pack(files: Mapping[str, bytes]) -> bytes:
+    """Files (relative names, contents; nothing else) as a tar, in name order."""
     buffer = io.BytesIO()
     with tarfile.open(fileobj=buffer, mode="w", format=tarfile.PAX_FORMAT) as tar:
-        for path in sorted(p for p in folder.rglob("*") if p.is_file()):
-            data = path.read_bytes()
-            info = tarfile.TarInfo(path.relative_to(folder).as_posix())
+        for name, data in sorted(files.items()):
+            info = tarfile.TarInfo(name)
             info.size = len(data)
             info.mode = 0o644
             tar.addfile(info, io.BytesIO(data))
     return buffer.getvalue()
+
+
+def read_folder(folder: Path) -> dict[str, bytes]:
+    """Every file under ``folder`` by its relative name."""
+    return {p.relative_to(folder).as_posix(): p.read_bytes() for p in folder.rglob("*") if p.is_file()}
 
 
 def unpack_files(data: bytes) -> dict[str, bytes]:
@@ -240,7 +186,7 @@ def _package_tree(folder: Path) -> str:
     """The content of a Python package's .py files."""
     h = hashlib.sha256()
     for path in sorted(folder.rglob("*.py")):
-        h.update(f"{path.relative_to(folder)}\0{_sha(str(path))}\n".encode())
+        h.update(f"{path.relative_to(folder)}\0{sha(str(path))}\n".encode())
     return h.hexdigest()
 
 
@@ -344,8 +290,8 @@ def generate(argv: Sequence[str], cache_dir: Path, target_dir: Path, modules: Ma
         private = Path(tmp) / "arguments.json"
         private.write_text(json.dumps({**arguments, "output_dir": str(scratch)}), encoding="utf-8")
         _run_generator([argv[0], argv[1], str(private), *argv[3:]], (cache_dir / "idl", modules))
-        data = pack_files(scratch)
-        files = unpack_files(data)
+        files = read_folder(scratch)
+        data = pack(files)
     if any(str(target_dir).encode() in c or tmp.encode() in c for c in files.values()):
         # a generator that writes folders into the code is not the same for every target: it runs
         # again as CMake asked, and nothing is kept
@@ -360,33 +306,3 @@ def generate(argv: Sequence[str], cache_dir: Path, target_dir: Path, modules: Ma
         pass  # not kept: the next target generates again
     write_changed(files, output_dir)
     return "miss"
-
-
-RUNS = "gen-runs.log"  # in the target's folder: one line per generator run of its build
-
-
-def main(args: Sequence[str]) -> int:
-    """``python -m uros_build.gencache CACHE_DIR TARGET_DIR MODULES SCRIPT --generator-arguments-file F ...``
-    (MODULES: :func:`module_versions` as JSON)."""
-    cache_dir, target_dir, modules, *argv = args
-    result = generate(argv, Path(cache_dir), Path(target_dir), json.loads(modules))
-    try:  # one short line with O_APPEND: parallel generator runs do not mix their lines
-        with (Path(target_dir) / RUNS).open("a", encoding="utf-8") as f:
-            f.write(f"{result} {Path(argv[0]).name} {argv[2]}\n")
-    except OSError:
-        pass
-    return 0
-
-
-def count_runs(text: str) -> dict[str, int]:
-    """hit/miss/bypass counts of a gen-runs.log."""
-    out = {"hit": 0, "miss": 0, "bypass": 0}
-    for line in text.splitlines():
-        word = line.partition(" ")[0]
-        if word in out:
-            out[word] += 1
-    return out
-
-
-if __name__ == "__main__":
-    sys.exit(main(sys.argv[1:]))

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from uros_build import gencache
+from uros_build import pyshim
 
 pytestmark = pytest.mark.integration
 
@@ -31,7 +31,7 @@ ENV = "import os, sys; print(os.environ.get('SETUPTOOLS_USE_DISTUTILS', '-')); s
 def _shim(tmp_path: Path) -> Path:
     shim = tmp_path / "uros-python"
     shim.write_text(
-        gencache.shim_text(
+        pyshim.shim_text(
             sys.executable,
             tmp_path / "cache",
             tmp_path / "target",

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from uros_build import gencache
+from uros_build import gencache, pyshim
 
 MODULES = {"empy": "3.3.4", "lark": "1.1.1"}
 
@@ -116,7 +116,7 @@ def test_code_that_names_its_folder_is_not_shared(tmp_path: Path, counter: Path)
 
 def test_the_shim_sends_only_generator_runs_to_the_cache(tmp_path: Path) -> None:
     def shim(stdlib_distutils: bool) -> str:
-        return gencache.shim_text(
+        return pyshim.shim_text(
             "/venv/bin/python3", tmp_path / "c d", tmp_path / "t", Path("/code"), "uros 1 build",
             MODULES, stdlib_distutils=stdlib_distutils,
         )  # fmt: skip
@@ -129,7 +129,14 @@ def test_the_shim_sends_only_generator_runs_to_the_cache(tmp_path: Path) -> None
     # only CMake's FindPython probe gets the standard library's distutils, and only where there is one
     assert "*'from distutils import sysconfig'*)" in text and "SETUPTOOLS_USE_DISTUTILS=stdlib" in text
     assert "SETUPTOOLS_USE_DISTUTILS" not in shim(False)
-    assert gencache.count_runs("hit a\nmiss b\nhit c\nbypass d\n") == {"hit": 2, "miss": 1, "bypass": 1}
+    assert pyshim.count_runs("hit a\nmiss b\nhit c\nbypass d\ncall-hit -m rosidl_adapter\n") == {
+        "hit": 2,
+        "miss": 1,
+        "bypass": 1,
+        "call-hit": 1,
+        "call-miss": 0,
+        "call-bypass": 0,
+    }
 
 
 def test_other_generator_module_versions_are_another_key(tmp_path: Path, counter: Path) -> None:

@@ -14,8 +14,8 @@ from uros_build import (
     colcon,
     console,
     depfiles,
-    gencache,
     installtree,
+    pyshim,
 )
 from uros_build import packages as packages_mod
 from uros_build.errors import (
@@ -68,14 +68,21 @@ def _say_ccache(plan: BuildPlan, setup: ColconSetup) -> dict[str, int]:
 
 def _say_generation(plan: BuildPlan) -> None:
     try:
-        runs = gencache.count_runs((plan.target_dir / gencache.RUNS).read_text(encoding="utf-8"))
+        runs = pyshim.count_runs((plan.target_dir / pyshim.RUNS).read_text(encoding="utf-8"))
     except OSError:
-        return  # no interface code generated in this build
-    bypass = f", {runs['bypass']} not cacheable" if runs["bypass"] else ""
-    console.info(
-        f"interface code: {sum(runs.values())} generator runs, {runs['hit']} taken from the "
-        f"workspace's generation cache, {runs['miss']} generated{bypass}"
-    )
+        return  # nothing configured or generated in this build
+    generator_runs = runs["hit"] + runs["miss"] + runs["bypass"]
+    if generator_runs:
+        bypass = f", {runs['bypass']} not cacheable" if runs["bypass"] else ""
+        console.info(
+            f"interface code: {generator_runs} generator runs, {runs['hit']} taken from the "
+            f"workspace's generation cache, {runs['miss']} generated{bypass}"
+        )
+    calls = runs["call-hit"] + runs["call-miss"] + runs["call-bypass"]
+    if calls:
+        console.info(
+            f"configure: {calls} Python calls, {runs['call-hit']} answered from the workspace's cache"
+        )
 
 
 def _run_colcon(
@@ -221,7 +228,7 @@ def compile_packages(plan: BuildPlan, facts: HostFacts, runner: Runner, inputs: 
     """colcon over the workspace: packages it lost dropped first; then what the generation cache
     and ccache served, and the headers read outside the workspace (into ``inputs.parts``)."""
     _drop_removed_packages(plan)
-    (plan.target_dir / gencache.RUNS).unlink(missing_ok=True)
+    (plan.target_dir / pyshim.RUNS).unlink(missing_ok=True)
     (plan.target_dir / CCACHE_STATS).unlink(missing_ok=True)
     progress = _run_colcon(plan, facts, runner, inputs.setup, inputs.parts)
     _say_generation(plan)

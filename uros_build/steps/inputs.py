@@ -21,6 +21,7 @@ from uros_build import (
     console,
     gencache,
     hosttools,
+    pyshim,
 )
 from uros_build import fingerprint as fp
 from uros_build import meta as meta_mod
@@ -165,9 +166,9 @@ def _seeded_toolchain(
 
 def _python_shim(plan: BuildPlan) -> Path:
     """The Python of the target's CMake builds: the real one, with rosidl's generator runs going
-    through the workspace's generation cache (shared by every target: gencache.py)."""
+    through the workspace's caches (shared by every target: pyshim.py)."""
     shim = plan.target_dir / "uros-python"
-    text = gencache.shim_text(
+    text = pyshim.shim_text(
         colcon.host_python(),
         plan.workspace.state_dir / "gen-cache",
         plan.target_dir,

@@ -1,0 +1,249 @@
+"""The Python calls of a package's CMake configure, once per workspace (issue 19, item 1).
+
+Each of the ~60 configures of a micro-ROS build starts Python for the same few questions:
+ament_cmake_core's ``templates_2_cmake.py`` (what ament_package's templates are: the same answer
+for every package), ``package_xml_2_cmake.py`` (the package.xml as CMake variables) and, in an
+interface package, ``python -m rosidl_adapter`` (.msg/.srv to .idl). Each is a function of the
+files it reads and the Python code it runs, never of the target, and costs 0.1-0.2 s, mostly
+importing (catkin_pkg, empy). Measured on real Humble: about a third of a package's configure.
+
+A call's key is made in two steps, as ccache's direct mode does: the first from its command line
+(outputs and the target's folder taken out), the content of the files it reads, the environment
+it reads and the interpreter's search path; under that key a manifest lists the Python files the
+call imported when it ran, and the second key adds their content. A miss runs the call in this
+process (runpy) with its outputs in an empty folder and keeps exactly what it wrote; a hit writes
+it where the call would have (a file whose content is already there is left alone). An output
+that names the target's folder is never kept, except the rosidl_adapter list, whose folder is
+put back as the call would have written it.
+
+Sources:
+https://github.com/ament/ament_cmake/blob/humble/ament_cmake_core/cmake/ament_cmake_package_templates-extras.cmake,
+https://github.com/ament/ament_cmake/blob/humble/ament_cmake_core/cmake/core/ament_package_xml.cmake,
+https://github.com/ros2/rosidl/blob/humble/rosidl_adapter/cmake/rosidl_adapt_interfaces.cmake.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import re
+import sys
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from uros_build import gencache
+
+FORMAT = 1
+ADAPTER_FLAGS = {"--package-name", "--arguments-file", "--output-dir", "--output-file"}
+OUT = "<out>"  # the scratch folder of a miss, in a kept output
+
+
+@dataclass(frozen=True)
+class Call:
+    """A recognised configure call: what it reads and writes. ``outputs``: the name of each output
+    in a cache entry and where the call writes it (a folder for rosidl_adapter's .idl files)."""
+
+    kind: str
+    argv: tuple[str, ...]  # as CMake runs it (without the interpreter)
+    reads: tuple[str, ...]  # files whose content the answer depends on
+    env: tuple[str, ...]  # environment variables it reads
+    outputs: tuple[tuple[str, str], ...]
+
+
+def _flags(argv: Sequence[str]) -> dict[str, str] | None:
+    """``--name value`` pairs; None when anything else is there."""
+    if len(argv) % 2:
+        return None
+    pairs = dict(zip(argv[::2], argv[1::2], strict=True))
+    return pairs if all(k.startswith("--") for k in pairs) else None
+
+
+# package.xml conditions (REP 149) name environment variables as $NAME
+_CONDITION_VARIABLE = re.compile(r"\$\{?([A-Za-z_][A-Za-z0-9_]*)")
+
+
+def recognise(argv: Sequence[str]) -> Call | None:
+    """The call CMake asked for, when it is one of the three; else None (the real interpreter runs)."""
+    if len(argv) == 2 and argv[0].endswith("/package_templates/templates_2_cmake.py"):
+        return Call("templates", tuple(argv), (argv[0],), (), (("out", argv[1]),))
+    if len(argv) == 3 and argv[0].endswith("/core/package_xml_2_cmake.py"):
+        try:
+            text = Path(argv[1]).read_text(encoding="utf-8", errors="replace")
+        except OSError:
+            return None
+        env = tuple(sorted(set(_CONDITION_VARIABLE.findall(text))))
+        return Call("package_xml", tuple(argv), (argv[0], argv[1]), env, (("out", argv[2]),))
+    if argv[:2] == ["-m", "rosidl_adapter"]:
+        flags = _flags(argv[2:])
+        if flags is None or set(flags) != {
+            "--package-name",
+            "--arguments-file",
+            "--output-dir",
+            "--output-file",
+        }:
+            return None
+        try:
+            arguments = json.loads(Path(flags["--arguments-file"]).read_text(encoding="utf-8"))
+            named = [os.path.join(*str(t).rsplit(":", 1)) for t in arguments["non_idl_tuples"]]
+        except (OSError, ValueError, KeyError, TypeError):
+            return None
+        outputs = (("idl", flags["--output-dir"]), ("list", flags["--output-file"]))
+        return Call("rosidl_adapter", tuple(argv), (flags["--arguments-file"], *sorted(named)), (), outputs)
+    return None
+
+
+def _scratch_argv(call: Call, scratch: Path) -> list[str]:
+    """The call's command line with each output moved into ``scratch``."""
+    where = {path: str(scratch / name) for name, path in call.outputs}
+    return [where.get(a, a) for a in call.argv]
+
+
+def _first_key(call: Call, target_dir: Path) -> str:
+    top = str(target_dir)
+    outputs = {path for _, path in call.outputs}
+    data = {
+        "format": FORMAT,
+        "kind": call.kind,
+        "argv": [OUT if a in outputs else gencache.normal(a, top) for a in call.argv],
+        "reads": {gencache.normal(p, top): gencache.sha(p) for p in call.reads},
+        "env": {name: os.environ.get(name) for name in call.env},
+        "path": [gencache.normal(p, top) for p in sys.path[1:]],  # [0] is the script's folder
+        "python": list(sys.version_info[:3]),
+    }
+    return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()
+
+
+def _shadowed(path: str) -> bool:
+    """Whether a folder before the one ``path`` was imported from now holds a module of the same
+    top-level name (a package installed meanwhile would be imported instead)."""
+    for i, folder in enumerate(sys.path[1:], start=1):
+        if folder and path.startswith(os.path.join(os.path.abspath(folder), "")):
+            top = os.path.relpath(path, os.path.abspath(folder)).split(os.sep)[0].removesuffix(".py")
+            return any(
+                os.path.exists(os.path.join(earlier, top))
+                or os.path.exists(os.path.join(earlier, f"{top}.py"))
+                for earlier in sys.path[1:i]
+                if earlier
+            )
+    return False
+
+
+def _second_key(first: str, code: Sequence[str], target_dir: Path) -> str:
+    """``first`` with the content of the Python files the call imported, found in this target's
+    own folders (a module another folder now shadows makes a key no entry has)."""
+    h = hashlib.sha256(first.encode())
+    for path in code:
+        name = gencache.normal(path, str(target_dir))
+        h.update(f"\0{name}\0{gencache.sha(path)}\0{_shadowed(path)}".encode())
+    return h.hexdigest()
+
+
+def _folders(paths: Iterable[str]) -> tuple[str, ...]:
+    return tuple(os.path.join(os.path.abspath(p), "") for p in paths)
+
+
+def _module_files() -> list[str]:
+    """The files of the modules loaded now, but the standard library's (the interpreter's version
+    is in the key) and uros_build's own (the cache's code, not the call's). In a virtual
+    environment, site-packages sits inside platstdlib: what is there counts."""
+    import site
+    import sysconfig
+
+    paths = sysconfig.get_paths()
+    stdlib = _folders([paths["stdlib"], paths["platstdlib"]])
+    installed = _folders([paths["purelib"], paths["platlib"], *site.getsitepackages()])
+    own = _folders([str(Path(__file__).parent)])
+    files = set()
+    for module in list(sys.modules.values()):
+        path = getattr(module, "__file__", None)
+        if not isinstance(path, str) or not os.path.isfile(path):
+            continue
+        path = os.path.abspath(path)
+        if path.startswith(own) or (path.startswith(stdlib) and not path.startswith(installed)):
+            continue
+        files.add(path)
+    return sorted(files)
+
+
+def _run(argv: Sequence[str]) -> None:
+    import runpy
+
+    saved = sys.argv
+    sys.argv = list(argv) if argv[0] != "-m" else [argv[1], *argv[2:]]
+    try:
+        if argv[0] == "-m":
+            runpy.run_module(argv[1], run_name="__main__", alter_sys=True)
+        else:
+            runpy.run_path(argv[0], run_name="__main__")
+    except SystemExit as exc:
+        if exc.code not in (None, 0):
+            raise
+    finally:
+        sys.argv = saved
+
+
+def _restore(files: Mapping[str, bytes], call: Call) -> None:
+    """Write an entry's files where the call writes them, each output's own path put back where
+    the call named it (rosidl_adapter's list names its .idl folder)."""
+
+    def put_back(data: bytes) -> bytes:
+        for name, path in call.outputs:
+            data = data.replace(f"{OUT}/{name}".encode(), path.encode())
+        return data
+
+    for name, path in call.outputs:
+        if name == "idl":
+            idl = {k.removeprefix("idl/"): put_back(v) for k, v in files.items() if k.startswith("idl/")}
+            gencache.write_changed(idl, Path(path))
+        else:
+            gencache.write_changed({Path(path).name: put_back(files[name])}, Path(path).parent)
+
+
+def run(argv: Sequence[str], cache_dir: Path, target_dir: Path) -> str:
+    """One configure call through the cache: "hit", "miss" or "bypass" (run as CMake asked)."""
+    call = recognise(argv)
+    if call is None:
+        _run(argv)
+        return "bypass"
+    first = _first_key(call, target_dir)
+    manifest = cache_dir / first[:2] / f"{first}.code"
+    try:
+        listed = json.loads(manifest.read_text(encoding="utf-8"))
+        code = [str(p).replace(gencache.PLACEHOLDER, str(target_dir)) for p in listed]
+        entry = cache_dir / first[:2] / f"{_second_key(first, code, target_dir)}.tar"
+        files = gencache.unpack_files(entry.read_bytes())
+    except (OSError, ValueError, TypeError):
+        files = None
+    if files is not None and {name for name, _ in call.outputs if name != "idl"} <= set(files):
+        _restore(files, call)
+        return "hit"
+    import tempfile
+
+    with tempfile.TemporaryDirectory(prefix="uros-call-") as tmp:
+        scratch = Path(tmp)
+        try:
+            _run(_scratch_argv(call, scratch))
+        except BaseException:
+            _run(argv)  # fails as CMake asked it, naming its own files (or succeeds: then it is done)
+            return "bypass"
+        code = _module_files()
+        files = {k: v.replace(tmp.encode(), OUT.encode()) for k, v in gencache.read_folder(scratch).items()}
+    if any(str(target_dir).encode() in v for v in files.values()):
+        _run(argv)  # an answer that names the target's own folder is not the same for every target
+        return "bypass"
+    try:
+        entry = cache_dir / first[:2] / f"{_second_key(first, code, target_dir)}.tar"
+        entry.parent.mkdir(parents=True, exist_ok=True)
+        for path, content in (
+            (entry, gencache.pack(files)),
+            (manifest, json.dumps([gencache.normal(p, str(target_dir)) for p in code]).encode()),
+        ):
+            part = path.with_name(f".{path.name}.{os.getpid()}")
+            part.write_bytes(content)
+            part.replace(path)
+    except OSError:
+        pass  # not kept: the next configure asks again
+    _restore(files, call)
+    return "miss"
