@@ -40,6 +40,8 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
             "probe",
             "cache",
             "gencache",
+            "callcache",
+            "pyshim",
         ),
     ),
     ("workspace model", ("workspace", "outputs", "clones")),

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import shutil
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -326,6 +327,14 @@ def build_dev_workspace(
 SEED_LANGUAGES = ("C", "CXX")
 
 
+@dataclass(frozen=True)
+class CompilerFacts:
+    """What CMake found about a target's compilers in one tiny project."""
+
+    languages: Mapping[str, str]  # language -> the text of CMakeFiles/<version>/CMake<LANG>Compiler.cmake
+    executable_format: str  # CMAKE_EXECUTABLE_FORMAT, which identification caches ("" when it did not)
+
+
 def cmake_compiler_facts(
     runner: Runner,
     cmake: str,
@@ -333,7 +342,7 @@ def cmake_compiler_facts(
     scratch: Path,
     generator: str | None,
     env: Mapping[str, str],
-) -> dict[str, str] | None:
+) -> CompilerFacts | None:
     """What CMake finds out about the target's compilers (identification, ABI, implicit folders,
     compile features: its ``CMakeFiles/<version>/CMake<LANG>Compiler.cmake``), from one tiny
     project configured with the toolchain file; None (the build then goes without) when CMake
@@ -358,5 +367,10 @@ def cmake_compiler_facts(
         if len(files) != 1:
             return None
         found[lang] = files[0].read_text(encoding="utf-8")
+    try:
+        cache = (scratch / "build" / "CMakeCache.txt").read_text(encoding="utf-8", errors="replace")
+    except OSError:
+        return None
+    fmt = re.search(r"^CMAKE_EXECUTABLE_FORMAT:INTERNAL=(.*)$", cache, re.MULTILINE)
     shutil.rmtree(scratch, ignore_errors=True)
-    return found
+    return CompilerFacts(found, fmt[1] if fmt else "")

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -164,24 +164,51 @@ def render_toolchain(req: ToolchainRequest) -> str:
     )
 
 
-def seeded_toolchain_text(toolchain_file: Path, facts: Mapping[str, str], written_by: str) -> str:
-    """A toolchain file that includes ``toolchain_file`` and hands CMake the compiler facts it
-    found once for it (``facts``: language -> the text of its CMake<LANG>Compiler.cmake), so that
-    no package's configure identifies the compilers and detects their ABI and features again
-    (about half a second of each of ~60 configures). ``*_COMPILER_ID_RUN`` skips identification
-    (CMakeDetermine<LANG>Compiler.cmake), ``*_COMPILER_FORCED`` the working-compiler and ABI checks
-    (CMakeTest<LANG>Compiler.cmake); the facts set what those checks would have set."""
+# The lines of a CMake<LANG>Compiler.cmake that CMakeFindBinUtils would otherwise set as cache
+# entries while determining the compiler: left out of a seed so that it still does.
+_BINUTILS = re.compile(
+    r"\s*set\((CMAKE_AR|CMAKE_RANLIB|CMAKE_LINKER|CMAKE_MT|CMAKE_\w+_COMPILER_(AR|RANLIB))\b"
+)
+
+
+def seed_module_text(lang: str, facts: str, executable_format: str, written_by: str) -> str:
+    """A ``CMakeDetermine<LANG>Compiler.cmake`` that CMake takes (from CMAKE_MODULE_PATH) when a
+    project enables ``lang``: it sets what CMake found about the compiler once (``facts``: the
+    text of its CMake<LANG>Compiler.cmake) and then runs CMake's own module, which, seeing
+    ``*_COMPILER_ID_RUN``, does not identify the compiler again, while ``*_COMPILER_FORCED`` skips
+    the working-compiler and ABI checks of CMakeTest<LANG>Compiler.cmake. Only a language the
+    project enables gets its facts: a C project keeps CMAKE_CXX_COMPILER_ID undefined, as without
+    the seed (rmw's configure_rmw_library adds -fvisibility=hidden when it is GNU:
+    https://github.com/ros2/rmw/blob/humble/rmw/cmake/configure_rmw_library.cmake)."""
+    kept = [line for line in facts.splitlines() if not _BINUTILS.match(line)]
     lines = [
-        f"# Written by {templating.cmake_comment(written_by)}: "
-        f"{templating.cmake_comment(toolchain_file.name)} with the compiler facts CMake found for it",
-        "# once, so that each package's configure does not find them again.",
-        f'include("{templating.cmake_quote(str(toolchain_file))}")',
+        f"# Written by {templating.cmake_comment(written_by)}: CMake's compiler facts for {lang}, found",
+        "# once for this target, then CMake's own module (which finds them already there).",
     ]
-    for lang, text in sorted(facts.items()):
-        lines += [
-            f"# --- CMake{lang}Compiler.cmake, as CMake wrote it",
-            text.rstrip("\n"),
-            f"set(CMAKE_{lang}_COMPILER_ID_RUN 1)",
-            f"set(CMAKE_{lang}_COMPILER_FORCED TRUE)",
-        ]
+    if executable_format:
+        fmt = templating.cmake_quote(executable_format)
+        lines.append(f'set(CMAKE_EXECUTABLE_FORMAT "{fmt}" CACHE INTERNAL "Executable file format")')
+    lines += [
+        *kept,
+        f"set(CMAKE_{lang}_COMPILER_ID_RUN 1)",
+        f"set(CMAKE_{lang}_COMPILER_FORCED TRUE)",
+        f"include(${{CMAKE_ROOT}}/Modules/CMakeDetermine{lang}Compiler.cmake)",
+    ]
     return "\n".join(lines) + "\n"
+
+
+def seeded_toolchain_text(toolchain_file: Path, module_dir: Path, written_by: str) -> str:
+    """A toolchain file that includes ``toolchain_file`` and puts ``module_dir`` (the
+    :func:`seed_module_text` files) on CMAKE_MODULE_PATH, where CMake looks for
+    ``CMakeDetermine<LANG>Compiler.cmake`` when a project enables a language. A project that sets
+    CMAKE_MODULE_PATH before project() finds its compilers itself, as without the seed."""
+    return "\n".join(
+        [
+            f"# Written by {templating.cmake_comment(written_by)}: "
+            f"{templating.cmake_comment(toolchain_file.name)} with the compiler facts CMake found for it",
+            "# once, so that each package's configure does not find them again.",
+            f'include("{templating.cmake_quote(str(toolchain_file))}")',
+            f'list(APPEND CMAKE_MODULE_PATH "{templating.cmake_quote(str(module_dir))}")',
+            "",
+        ]
+    )

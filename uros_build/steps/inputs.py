@@ -45,6 +45,7 @@ from uros_build.toolchain import (
     CLOCK_HEADER_TEXT,
     ToolchainRequest,
     render_toolchain,
+    seed_module_text,
     seeded_toolchain_text,
 )
 from uros_build.workspace import (
@@ -135,6 +136,9 @@ def _ccache(plan: BuildPlan, env: Mapping[str, str], runner: Runner) -> str | No
 
 
 SEED_SWITCH = "UROS_COMPILER_SEED"  # "off": every package's configure finds the compilers itself
+SEED_FORMAT = (
+    "2"  # 2: per-language CMakeDetermine<LANG>Compiler.cmake (1 put every language's facts in the toolchain)
+)
 
 
 def _seeded_toolchain(
@@ -147,11 +151,27 @@ def _seeded_toolchain(
         return toolchain_file
     seed = plan.target_dir / "toolchain-seeded.cmake"
     stamp = plan.target_dir / "toolchain-seeded.key"
+    modules = plan.target_dir / "compiler-seed"
     generator = colcon.generator(env)
     identity = (compiler_identity(facts), facts.cmake, facts.cmake_version, str(generator))
-    key = fp.digest(fp.file_sha256(toolchain_file), *identity)
+    key = fp.digest(SEED_FORMAT, fp.file_sha256(toolchain_file), *identity)
     if seed.is_file() and stamp.is_file() and stamp.read_text(encoding="utf-8").strip() == key:
         return seed
+    found = hosttools.cmake_compiler_facts(
+        runner, facts.cmake, toolchain_file, plan.target_dir / "compiler-facts", generator, env
+    )
+    if found is None:
+        console.info("CMake could not find the compilers' facts once: each package's configure finds them")
+        seed.unlink(missing_ok=True)
+        return toolchain_file
+    written_by = f"uros {__version__} build"
+    modules.mkdir(exist_ok=True)
+    for lang, text in found.languages.items():
+        module = seed_module_text(lang, text, found.executable_format, written_by)
+        write_if_changed(modules / f"CMakeDetermine{lang}Compiler.cmake", module)
+    write_if_changed(seed, seeded_toolchain_text(toolchain_file, modules, written_by))
+    write_if_changed(stamp, key + "\n")
+    return seed
     found = hosttools.cmake_compiler_facts(
         runner, facts.cmake, toolchain_file, plan.target_dir / "compiler-facts", generator, env
     )
@@ -164,9 +184,15 @@ def _seeded_toolchain(
     return seed
 
 
+SHARE_SWITCH = "UROS_GEN_CACHE"  # "off": every generator run and configure call runs as CMake asks
+
+
 def _python_shim(plan: BuildPlan) -> Path:
-    """The Python of the target's CMake builds: the real one, with rosidl's generator runs going
-    through the workspace's caches (shared by every target: pyshim.py)."""
+    """The Python of the target's CMake builds: the real one, with rosidl's generator runs and the
+    configures' Python calls going through the workspace's caches (shared by every target:
+    pyshim.py)."""
+    if os.environ.get(SHARE_SWITCH, "").lower() == "off":
+        return Path(colcon.host_python())
     shim = plan.target_dir / "uros-python"
     text = pyshim.shim_text(
         colcon.host_python(),
