@@ -26,6 +26,7 @@ def _cmake_writes(langs: tuple[str, ...]) -> Any:
         platform.mkdir(parents=True)
         for lang in langs:
             (platform / f"CMake{lang}Compiler.cmake").write_text(C_FACTS.replace("C_", f"{lang}_"))
+        (build / "CMakeCache.txt").write_text("CMAKE_EXECUTABLE_FORMAT:INTERNAL=ELF\n")
         return ""
 
     return answer
@@ -41,8 +42,9 @@ def test_the_compilers_facts_come_from_one_configure(tmp_path: Path) -> None:
         "Ninja",
         {},
     )
-    assert found is not None and set(found) == {"C", "CXX"}
-    assert 'set(CMAKE_CXX_COMPILER_ID "GNU")' in found["CXX"]
+    assert found is not None and set(found.languages) == {"C", "CXX"}
+    assert 'set(CMAKE_CXX_COMPILER_ID "GNU")' in found.languages["CXX"]
+    assert found.executable_format == "ELF"  # identification's cache entry, kept for the seed
     argv = runner.calls[0]
     assert f"-DCMAKE_TOOLCHAIN_FILE={tmp_path / 'toolchain.cmake'}" in argv and "-GNinja" in argv
     assert not (tmp_path / "scratch").exists()  # the probe project is gone afterwards

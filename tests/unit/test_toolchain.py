@@ -1,13 +1,20 @@
 from __future__ import annotations
 
 from dataclasses import replace
+from pathlib import Path
 
 from golden import check_golden
 
 from uros_build.espidf import IdfProject
 from uros_build.profiles import find_profile
 from uros_build.templating import cmake_flags
-from uros_build.toolchain import ToolchainRequest, microros_flags, render_toolchain
+from uros_build.toolchain import (
+    ToolchainRequest,
+    microros_flags,
+    render_toolchain,
+    seed_module_text,
+    seeded_toolchain_text,
+)
 
 
 def test_cortex_m7_micro_ros_toolchain_golden() -> None:
@@ -132,3 +139,30 @@ def test_platform_name_only_with_an_ip_transport() -> None:
     assert "set(PLATFORM_NAME" not in custom
     arm = render_toolchain(ToolchainRequest(find_profile("cortex-m7"), micro_ros=True, transport="udp"))
     assert "set(PLATFORM_NAME" not in arm
+
+
+def test_a_compiler_seed_is_one_language_and_leaves_binutils_to_cmake() -> None:
+    """The seed module of a language sets that language's facts only, then runs CMake's own module;
+    CMakeFindBinUtils still makes its cache entries (the lines that would pre-empt it are left out)."""
+    facts = "\n".join(
+        [
+            'set(CMAKE_C_COMPILER "/usr/bin/arm-none-eabi-gcc")',
+            'set(CMAKE_C_COMPILER_ID "GNU")',
+            'set(CMAKE_AR "/usr/bin/arm-none-eabi-ar")',
+            'set(CMAKE_C_COMPILER_AR "/usr/bin/arm-none-eabi-gcc-ar")',
+            'set(CMAKE_RANLIB "/usr/bin/arm-none-eabi-ranlib")',
+            'set(CMAKE_LINKER "/usr/bin/arm-none-eabi-ld")',
+        ]
+    )
+    text = seed_module_text("C", facts, "ELF", "uros 1 build")
+    assert text.startswith("# Written by uros 1 build")
+    assert 'set(CMAKE_C_COMPILER_ID "GNU")' in text and "CMAKE_AR" not in text and "LINKER" not in text
+    assert 'set(CMAKE_EXECUTABLE_FORMAT "ELF" CACHE INTERNAL "Executable file format")' in text
+    assert text.rstrip().endswith("include(${CMAKE_ROOT}/Modules/CMakeDetermineCCompiler.cmake)")
+    assert "set(CMAKE_C_COMPILER_ID_RUN 1)" in text and "set(CMAKE_C_COMPILER_FORCED TRUE)" in text
+    assert "CMAKE_EXECUTABLE_FORMAT" not in seed_module_text("C", facts, "", "uros 1 build")
+
+    toolchain = seeded_toolchain_text(Path('/w "q"/toolchain.cmake'), Path("/w/seed $x"), "uros 1 build")
+    assert 'include("/w \\"q\\"/toolchain.cmake")' in toolchain
+    assert 'list(APPEND CMAKE_MODULE_PATH "/w/seed \\$x")' in toolchain
+    assert "COMPILER_ID" not in toolchain  # no language's facts for every project
