@@ -5,3 +5,14 @@ from pathlib import Path
 
 # tests/ holds shared helpers (fixture_ws, uros_helpers) imported by both suites.
 sys.path.insert(0, str(Path(__file__).parent))
+
+
+def pytest_configure(config: object) -> None:
+    """Builds the tests start keep their generation cache (uros's, normally ~/.cache/uros/gen) in
+    a folder of this run's own, unless the caller chose one: a test run neither reads nor fills
+    the user's."""
+    import os
+    import tempfile
+
+    if not os.environ.get("UROS_GEN_CACHE_DIR"):
+        os.environ["UROS_GEN_CACHE_DIR"] = tempfile.mkdtemp(prefix="uros-test-gen-cache-")

@@ -100,16 +100,16 @@ def _scratch_argv(call: Call, scratch: Path) -> list[str]:
     return [where.get(a, a) for a in call.argv]
 
 
-def _first_key(call: Call, target_dir: Path) -> str:
-    top = str(target_dir)
+def _first_key(call: Call, target_dir: Path, workspace: Path) -> str:
+    top, ws = str(target_dir), str(workspace)
     outputs = {path for _, path in call.outputs}
     data = {
         "format": FORMAT,
         "kind": call.kind,
-        "argv": [OUT if a in outputs else gencache.normal(a, top) for a in call.argv],
-        "reads": {gencache.normal(p, top): gencache.sha(p) for p in call.reads},
+        "argv": [OUT if a in outputs else gencache.normal(a, top, ws) for a in call.argv],
+        "reads": {gencache.normal(p, top, ws): gencache.sha(p) for p in call.reads},
         "env": {name: os.environ.get(name) for name in call.env},
-        "path": [gencache.normal(p, top) for p in sys.path[1:]],  # [0] is the script's folder
+        "path": [gencache.normal(p, top, ws) for p in sys.path[1:]],  # [0] is the shim's
         "python": list(sys.version_info[:3]),
     }
     return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()
@@ -130,12 +130,12 @@ def _shadowed(path: str) -> bool:
     return False
 
 
-def _second_key(first: str, code: Sequence[str], target_dir: Path) -> str:
+def _second_key(first: str, code: Sequence[str], target_dir: Path, workspace: Path) -> str:
     """``first`` with the content of the Python files the call imported, found in this target's
     own folders (a module another folder now shadows makes a key no entry has)."""
     h = hashlib.sha256(first.encode())
     for path in code:
-        name = gencache.normal(path, str(target_dir))
+        name = gencache.normal(path, str(target_dir), str(workspace))
         h.update(f"\0{name}\0{gencache.sha(path)}\0{_shadowed(path)}".encode())
     return h.hexdigest()
 
@@ -184,14 +184,15 @@ def _run(argv: Sequence[str]) -> None:
         sys.argv = saved
 
 
-def _restore(files: Mapping[str, bytes], call: Call) -> None:
+def _restore(files: Mapping[str, bytes], call: Call, workspace: Path) -> None:
     """Write an entry's files where the call writes them, each output's own path put back where
-    the call named it (rosidl_adapter's list names its .idl folder)."""
+    the call named it (rosidl_adapter's list names its .idl folder), and this workspace's folder
+    where the answer named its workspace's (ament's templates live in dev_ws)."""
 
     def put_back(data: bytes) -> bytes:
         for name, path in call.outputs:
             data = data.replace(f"{OUT}/{name}".encode(), path.encode())
-        return data
+        return data.replace(f"{gencache.WORKSPACE}/".encode(), os.path.join(str(workspace), "").encode())
 
     for name, path in call.outputs:
         if name == "idl":
@@ -201,23 +202,23 @@ def _restore(files: Mapping[str, bytes], call: Call) -> None:
             gencache.write_changed({Path(path).name: put_back(files[name])}, Path(path).parent)
 
 
-def run(argv: Sequence[str], cache_dir: Path, target_dir: Path) -> str:
+def run(argv: Sequence[str], cache_dir: Path, target_dir: Path, workspace: Path) -> str:
     """One configure call through the cache: "hit", "miss" or "bypass" (run as CMake asked)."""
     call = recognise(argv)
     if call is None:
         _run(argv)
         return "bypass"
-    first = _first_key(call, target_dir)
+    first = _first_key(call, target_dir, workspace)
     manifest = cache_dir / first[:2] / f"{first}.code"
     try:
         listed = json.loads(manifest.read_text(encoding="utf-8"))
-        code = [str(p).replace(gencache.PLACEHOLDER, str(target_dir)) for p in listed]
-        entry = cache_dir / first[:2] / f"{_second_key(first, code, target_dir)}.tar"
+        code = [gencache.expand(str(p), str(target_dir), str(workspace)) for p in listed]
+        entry = cache_dir / first[:2] / f"{_second_key(first, code, target_dir, workspace)}.tar"
         files = gencache.unpack_files(entry.read_bytes())
     except (OSError, ValueError, TypeError):
         files = None
     if files is not None and {name for name, _ in call.outputs if name != "idl"} <= set(files):
-        _restore(files, call)
+        _restore(files, call, workspace)
         return "hit"
     import tempfile
 
@@ -233,17 +234,22 @@ def run(argv: Sequence[str], cache_dir: Path, target_dir: Path) -> str:
     if any(str(target_dir).encode() in v for v in files.values()):
         _run(argv)  # an answer that names the target's own folder is not the same for every target
         return "bypass"
+    ws = os.path.join(str(workspace), "").encode()
+    files = {k: v.replace(ws, f"{gencache.WORKSPACE}/".encode()) for k, v in files.items()}
     try:
-        entry = cache_dir / first[:2] / f"{_second_key(first, code, target_dir)}.tar"
+        entry = cache_dir / first[:2] / f"{_second_key(first, code, target_dir, workspace)}.tar"
         entry.parent.mkdir(parents=True, exist_ok=True)
         for path, content in (
             (entry, gencache.pack(files)),
-            (manifest, json.dumps([gencache.normal(p, str(target_dir)) for p in code]).encode()),
+            (
+                manifest,
+                json.dumps([gencache.normal(p, str(target_dir), str(workspace)) for p in code]).encode(),
+            ),
         ):
             part = path.with_name(f".{path.name}.{os.getpid()}")
             part.write_bytes(content)
             part.replace(path)
     except OSError:
         pass  # not kept: the next configure asks again
-    _restore(files, call)
+    _restore(files, call, workspace)
     return "miss"

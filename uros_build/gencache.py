@@ -44,6 +44,7 @@ ARGUMENTS_FLAG = "--generator-arguments-file"
 # third-party modules the generators import: their versions are part of the key
 GENERATOR_MODULES = ("empy", "lark", "lark-parser", "numpy")
 PLACEHOLDER = "<target>"
+WORKSPACE = "<workspace>"
 
 
 def is_generator_run(argv: Sequence[str]) -> bool:
@@ -51,8 +52,16 @@ def is_generator_run(argv: Sequence[str]) -> bool:
     return len(argv) >= 3 and argv[1] == ARGUMENTS_FLAG and not argv[0].startswith("-")
 
 
-def normal(text: str, target_dir: str) -> str:
-    return text.replace(target_dir, PLACEHOLDER)
+def normal(text: str, target_dir: str, workspace: str = "") -> str:
+    """``text`` with the target's folder, then the workspace's, taken out (the cache is shared by
+    every target of every workspace of the user)."""
+    text = text.replace(target_dir, PLACEHOLDER)
+    return text.replace(os.path.join(workspace, ""), WORKSPACE + "/") if workspace else text
+
+
+def expand(text: str, target_dir: str, workspace: str) -> str:
+    """:func:`normal` undone for this target and workspace."""
+    return text.replace(WORKSPACE + "/", os.path.join(workspace, "")).replace(PLACEHOLDER, target_dir)
 
 
 def _named_files(arguments: Mapping[str, Any]) -> list[str]:
@@ -115,15 +124,18 @@ def module_versions(names: Iterable[str] = GENERATOR_MODULES) -> dict[str, str]:
     return out
 
 
-def run_key(argv: Sequence[str], arguments_text: str, target_dir: Path, modules: Mapping[str, str]) -> str:
-    """The content of everything the generator run reads, with the target's folder taken out."""
-    top = str(target_dir)
+def run_key(
+    argv: Sequence[str], arguments_text: str, target_dir: Path, modules: Mapping[str, str], workspace: Path
+) -> str:
+    """The content of everything the generator run reads, with the target's and the workspace's
+    folders taken out."""
+    top, ws = str(target_dir), str(workspace)
     arguments = json.loads(arguments_text)
-    files = {normal(p, top): sha(p) for p in [argv[0], *_named_files(arguments)]}
+    files = {normal(p, top, ws): sha(p) for p in [argv[0], *_named_files(arguments)]}
     data = {
         "format": FORMAT,
-        "argv": [normal(a, top) for a in argv],
-        "arguments": normal(arguments_text, top),
+        "argv": [normal(a, top, ws) for a in argv],
+        "arguments": normal(arguments_text, top, ws),
         "files": files,
         "python": list(sys.version_info[:2]),
         "modules": dict(modules),
@@ -262,7 +274,9 @@ def _run_generator(argv: Sequence[str], memo: tuple[Path, Mapping[str, str]] | N
         undo()
 
 
-def generate(argv: Sequence[str], cache_dir: Path, target_dir: Path, modules: Mapping[str, str]) -> str:
+def generate(
+    argv: Sequence[str], cache_dir: Path, target_dir: Path, modules: Mapping[str, str], workspace: Path
+) -> str:
     """One generator run through the cache; returns "hit", "miss" or "bypass" (cache unusable:
     the generator ran as CMake asked). ``modules``: :func:`module_versions`."""
     arguments_path = Path(argv[2])
@@ -270,7 +284,7 @@ def generate(argv: Sequence[str], cache_dir: Path, target_dir: Path, modules: Ma
         arguments_text = arguments_path.read_text(encoding="utf-8")
         arguments = json.loads(arguments_text)
         output_dir = Path(arguments["output_dir"])
-        key = run_key(argv, arguments_text, target_dir, modules)
+        key = run_key(argv, arguments_text, target_dir, modules, workspace)
     except (OSError, ValueError, KeyError, TypeError):
         _run_generator(argv)
         return "bypass"
@@ -292,9 +306,10 @@ def generate(argv: Sequence[str], cache_dir: Path, target_dir: Path, modules: Ma
         _run_generator([argv[0], argv[1], str(private), *argv[3:]], (cache_dir / "idl", modules))
         files = read_folder(scratch)
         data = pack(files)
-    if any(str(target_dir).encode() in c or tmp.encode() in c for c in files.values()):
-        # a generator that writes folders into the code is not the same for every target: it runs
-        # again as CMake asked, and nothing is kept
+    named = [str(target_dir).encode(), tmp.encode(), os.path.join(str(workspace), "").encode()]
+    if any(folder in c for c in files.values() for folder in named):
+        # a generator that writes folders into the code is not the same for every target and
+        # workspace: it runs again as CMake asked, and nothing is kept
         _run_generator(argv)
         return "bypass"
     try:

@@ -10,7 +10,9 @@ interpreter, unchanged:
   the configure call cache (callcache.py);
 - CMake's FindPython probe, which gets the standard library's distutils (below).
 
-Both caches live in the workspace (``.uros/gen-cache``) and are shared by every target. Each run
+Both caches are the user's (``~/.cache/uros/gen``, or ``$UROS_GEN_CACHE_DIR``), shared by every
+target of every workspace: their keys and entries hold neither the target's folder nor the
+workspace's. Each run
 adds one line to the target's run log (:data:`RUNS`), which the build counts (:func:`count_runs`).
 """
 
@@ -40,6 +42,7 @@ def shim_text(
     python: str,
     cache_dir: Path,
     target_dir: Path,
+    workspace: Path,
     code_dir: Path,
     written_by: str,
     modules: Mapping[str, str],
@@ -55,7 +58,8 @@ def shim_text(
         "from uros_build.pyshim import main; sys.exit(main(sys.argv[1:]))"
     )
     versions = json.dumps(dict(modules), sort_keys=True)
-    to_uros = f'exec {q(python)} -c {q(entry)} {q(str(cache_dir))} {q(str(target_dir))} {q(versions)} "$@"'
+    folders = " ".join(q(str(p)) for p in (cache_dir, target_dir, workspace))
+    to_uros = f'exec {q(python)} -c {q(entry)} {folders} {q(versions)} "$@"'
     probe = (
         [
             f'if [ "$1" = -c ]; then case "$2" in *{q(FINDPYTHON_PROBE)}*)',
@@ -87,18 +91,19 @@ def shim_text(
 
 
 def main(args: Sequence[str]) -> int:
-    """``CACHE_DIR TARGET_DIR MODULES ARGV...`` (MODULES: module versions as JSON; ARGV: the call
-    without the interpreter)."""
-    cache_dir, target_dir, modules, *argv = args
+    """``CACHE_DIR TARGET_DIR WORKSPACE MODULES ARGV...`` (MODULES: module versions as JSON; ARGV:
+    the call without the interpreter)."""
+    cache, target, workspace = (Path(a) for a in args[:3])
+    modules, *argv = args[3:]
     if gencache.is_generator_run(argv):
-        result = gencache.generate(argv, Path(cache_dir), Path(target_dir), json.loads(modules))
+        result = gencache.generate(argv, cache, target, json.loads(modules), workspace)
         line = f"{result} {Path(argv[0]).name} {argv[2]}"
     else:
-        result = callcache.run(argv, Path(cache_dir) / "calls", Path(target_dir))
+        result = callcache.run(argv, cache / "calls", target, workspace)
         shown = argv[:4] if argv[:1] == ["-m"] else argv[:2]  # -m rosidl_adapter --package-name NAME
         line = f"call-{result} {' '.join(shown)}"
     try:  # one short line with O_APPEND: parallel runs do not mix their lines
-        with (Path(target_dir) / RUNS).open("a", encoding="utf-8") as f:
+        with (target / RUNS).open("a", encoding="utf-8") as f:
             f.write(line + "\n")
     except OSError:
         pass

@@ -35,6 +35,7 @@ def _shim(tmp_path: Path) -> Path:
             sys.executable,
             tmp_path / "cache",
             tmp_path / "target",
+            tmp_path,
             Path(__file__).parents[2],
             "test",
             {"empy": "-"},

@@ -2,7 +2,8 @@
 generated (rosidl's generators do not run again) and its configures' Python answers, and its library
 is byte for byte the one a workspace makes that never built another target and shares nothing
 (UROS_GEN_CACHE=off, UROS_COMPILER_SEED=off: every generator, configure call and compiler check
-runs as CMake asks). Needs UROS_MIRROR (see test_real_sources.py);
+runs as CMake asks). The cache is the user's: another checkout of the same sources at another
+path takes it all too. Needs UROS_MIRROR (see test_real_sources.py);
 about six minutes on 2 cores (three builds of std_msgs' closure)."""
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ MIRROR = os.environ.get("UROS_MIRROR")
 
 def _generation(stderr: str) -> tuple[int, int]:
     found = re.search(
-        r"interface code: (\d+) generator runs, (\d+) taken from the workspace's generation cache, (\d+) generated",
+        r"interface code: (\d+) generator runs, (\d+) taken from the generation cache, (\d+) generated",
         stderr,
     )
     assert found, stderr
@@ -40,22 +41,27 @@ def test_a_second_target_reuses_the_generated_code_and_builds_the_same_bytes(tmp
              *humble_mirror_args(MIRROR))  # fmt: skip
     alone = tmp_path / "alone"
     alone.mkdir()
+    checkout = tmp_path / "checkout two"
+    checkout.mkdir()
     for name in ("mcu_ws", "dev_ws", "uros.yaml", "uros.lock", "colcon.meta"):
-        if (shared / name).is_dir():
-            shutil.copytree(shared / name, alone / name, symlinks=True)
-        elif (shared / name).exists():
-            shutil.copy2(shared / name, alone / name)
+        for copy in (alone, checkout):
+            if (shared / name).is_dir():
+                shutil.copytree(shared / name, copy / name, symlinks=True)
+            elif (shared / name).exists():
+                shutil.copy2(shared / name, copy / name)
+
+    user_cache = {"UROS_GEN_CACHE_DIR": str(tmp_path / "user-cache")}  # this test's own, empty at first
 
     def build(ws: Path, target: str, env: dict[str, str] | None = None) -> tuple[int, int]:
         done = run_uros(
             "build", "--toolchain", target, "--packages", "std_msgs", "--workspace", str(ws), "--no-ccache",
-            env=None if env is None else {**os.environ, **env},
+            env={**os.environ, **user_cache, **(env or {})},
         )  # fmt: skip
         if env is not None:
             assert "interface code:" not in done.stderr and "configure:" not in done.stderr
             return 0, 0
         calls = re.search(
-            r"configure: (\d+) Python calls, (\d+) answered from the workspace's cache", done.stderr
+            r"configure: (\d+) Python calls, (\d+) answered from the generation cache", done.stderr
         )
         assert calls and int(calls[2]) > 0, (
             done.stderr
@@ -67,5 +73,8 @@ def test_a_second_target_reuses_the_generated_code_and_builds_the_same_bytes(tmp
     taken, generated = build(shared, "cortex-m4f")
     assert generated == 0 and taken > 0  # every generator run of the second target was a hit
     build(alone, "cortex-m4f", {"UROS_GEN_CACHE": "off", "UROS_COMPILER_SEED": "off"})
+    # another checkout of the same sources at another path: the user's cache answers it all
+    taken, generated = build(checkout, "cortex-m4f")
+    assert generated == 0 and taken > 0
     lib = Path("build") / "cortex-m4f" / "libmicroros.a"
-    assert (shared / lib).read_bytes() == (alone / lib).read_bytes()
+    assert (shared / lib).read_bytes() == (alone / lib).read_bytes() == (checkout / lib).read_bytes()

@@ -93,24 +93,24 @@ def test_package_xml_answered_once_for_every_target(setup: Path, monkeypatch: py
     call = callcache.recognise(argv7)
     assert call is not None and call.env == ("ROS_VERSION",)  # read from the package.xml's conditions
 
-    assert callcache.run(argv7, cache, ws / ".uros/targets/cortex-m7") == "miss"
-    assert callcache.run(argv4, cache, ws / ".uros/targets/cortex-m4f") == "hit"
+    assert callcache.run(argv7, cache, ws / ".uros/targets/cortex-m7", ws) == "miss"
+    assert callcache.run(argv4, cache, ws / ".uros/targets/cortex-m4f", ws) == "hit"
     assert counter.read_text() == "x"
     assert out4.read_text() == out7.read_text() == "set(NAME std_msgs) # 2\n"
 
     # what it reads: the package.xml, the variables its conditions name, the code it imported
     (ws / "mcu_ws/std_msgs/package.xml").write_text("<package><name>std_msgs2</name>")
-    assert callcache.run(argv4, cache, ws / ".uros/targets/cortex-m4f") == "miss"
+    assert callcache.run(argv4, cache, ws / ".uros/targets/cortex-m4f", ws) == "miss"
     assert out4.read_text() == "set(NAME std_msgs2) # 2\n"
     (ws / "mcu_ws/std_msgs/package.xml").write_text(XML)  # as it was: the first answer again
-    assert callcache.run(argv4, cache, ws / ".uros/targets/cortex-m4f") == "hit"
+    assert callcache.run(argv4, cache, ws / ".uros/targets/cortex-m4f", ws) == "hit"
     monkeypatch.setenv("ROS_VERSION", "1")
-    assert callcache.run(argv4, cache, ws / ".uros/targets/cortex-m4f") == "miss"
+    assert callcache.run(argv4, cache, ws / ".uros/targets/cortex-m4f", ws) == "miss"
     assert out4.read_text() == "set(NAME std_msgs) # 1\n"
     site = ws / "dev_ws/install/lib/python3.11/site-packages"
     (site / "uros_fake_catkin.py").write_text("def name(text):\n    return 'other'\n")
     monkeypatch.delitem(sys.modules, "uros_fake_catkin")
-    assert callcache.run(argv4, cache, ws / ".uros/targets/cortex-m4f") == "miss"
+    assert callcache.run(argv4, cache, ws / ".uros/targets/cortex-m4f", ws) == "miss"
     assert out4.read_text() == "set(NAME other) # 1\n"
     assert counter.read_text() == "xxxx"
 
@@ -120,15 +120,15 @@ def test_a_module_shadowed_by_a_new_one_is_a_miss(
 ) -> None:
     ws, cache = setup, setup / ".uros/gen-cache/calls"
     argv, _ = _xml_call(ws, "cortex-m7")
-    assert callcache.run(argv, cache, ws / ".uros/targets/cortex-m7") == "miss"
+    assert callcache.run(argv, cache, ws / ".uros/targets/cortex-m7", ws) == "miss"
     earlier = tmp_path / "earlier"
     earlier.mkdir()
     monkeypatch.setattr(sys, "path", [sys.path[0], str(earlier), *sys.path[1:]])
-    assert callcache.run(argv, cache, ws / ".uros/targets/cortex-m7") == "miss"  # another search path
-    assert callcache.run(argv, cache, ws / ".uros/targets/cortex-m7") == "hit"
+    assert callcache.run(argv, cache, ws / ".uros/targets/cortex-m7", ws) == "miss"  # another search path
+    assert callcache.run(argv, cache, ws / ".uros/targets/cortex-m7", ws) == "hit"
     (earlier / "uros_fake_catkin.py").write_text("def name(text):\n    return 'shadow'\n")
     monkeypatch.delitem(sys.modules, "uros_fake_catkin")
-    assert callcache.run(argv, cache, ws / ".uros/targets/cortex-m7") == "miss"
+    assert callcache.run(argv, cache, ws / ".uros/targets/cortex-m7", ws) == "miss"
 
 
 def _adapter_call(ws: Path, target: str) -> tuple[list[str], Path]:
@@ -148,8 +148,8 @@ def test_rosidl_adapter_answers_with_each_targets_own_folder(setup: Path) -> Non
     counter = ws.parent / "calls"
     argv7, b7 = _adapter_call(ws, "cortex-m7")
     argv4, b4 = _adapter_call(ws, "cortex-m4f")
-    assert callcache.run(argv7, cache, ws / ".uros/targets/cortex-m7") == "miss"
-    assert callcache.run(argv4, cache, ws / ".uros/targets/cortex-m4f") == "hit"
+    assert callcache.run(argv7, cache, ws / ".uros/targets/cortex-m7", ws) == "miss"
+    assert callcache.run(argv4, cache, ws / ".uros/targets/cortex-m4f", ws) == "hit"
     assert counter.read_text() == "a"
     for build in (b7, b4):  # as the adapter itself writes it: this target's folder
         assert (
@@ -157,10 +157,10 @@ def test_rosidl_adapter_answers_with_each_targets_own_folder(setup: Path) -> Non
         ).read_text() == f"{build}/rosidl_adapter/std_msgs:msg/Bool.idl\n"
         assert (build / "rosidl_adapter/std_msgs/msg/Bool.idl").read_text() == "struct bool data"
     before = (b4 / "rosidl_adapter/std_msgs/msg/Bool.idl").stat().st_mtime_ns
-    assert callcache.run(argv4, cache, ws / ".uros/targets/cortex-m4f") == "hit"
+    assert callcache.run(argv4, cache, ws / ".uros/targets/cortex-m4f", ws) == "hit"
     assert (b4 / "rosidl_adapter/std_msgs/msg/Bool.idl").stat().st_mtime_ns == before  # content already there
     (ws / "mcu_ws/std_msgs/msg/Bool.msg").write_text("int8 data")
-    assert callcache.run(argv4, cache, ws / ".uros/targets/cortex-m4f") == "miss"
+    assert callcache.run(argv4, cache, ws / ".uros/targets/cortex-m4f", ws) == "miss"
     assert (b4 / "rosidl_adapter/std_msgs/msg/Bool.idl").read_text() == "struct int8 data"
 
 
@@ -188,9 +188,43 @@ def test_the_code_checked_is_the_targets_own_copy(setup: Path, monkeypatch: pyte
         monkeypatch.setattr(sys, "path", [base[0], str(site), *base[1:]])
         monkeypatch.delitem(sys.modules, "uros_fake_own", raising=False)
         argv, _ = _xml_call(ws, target)
-        return callcache.run(argv, cache, ws / ".uros/targets" / target)
+        return callcache.run(argv, cache, ws / ".uros/targets" / target, ws)
 
     same = "def name(text):\n    return 'own'\n"
     assert call("cortex-m7", same) == "miss"
     assert call("cortex-m4f", same) == "hit"
     assert call("cortex-m3", same.replace("own", "changed")) == "miss"
+
+
+TEMPLATES_2_CMAKE = """
+import os, pathlib, sys
+counter = pathlib.Path(os.environ["CALL_COUNTER"])
+counter.write_text(counter.read_text() + "t")
+here = pathlib.Path(__file__).resolve().parent
+pathlib.Path(sys.argv[1]).write_text(f'set(HOOK "{here}/hook.sh")\\n')
+"""
+
+
+def test_another_workspace_gets_the_answer_with_its_own_folder(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """ament's templates answer names files in the workspace's dev_ws: a second checkout hits the
+    user's cache and gets its own folder in the answer, as the script would have written it."""
+    monkeypatch.setenv("CALL_COUNTER", str(tmp_path / "calls"))
+    (tmp_path / "calls").write_text("")
+    cache = tmp_path / "user-cache"
+    outs = []
+    for name in ("ws1", "checkout two"):
+        ws = tmp_path / name
+        script = ws / "dev_ws/install/share/ament_cmake_core/cmake/package_templates/templates_2_cmake.py"
+        script.parent.mkdir(parents=True)
+        script.write_text(TEMPLATES_2_CMAKE)
+        out = ws / ".uros/targets/cortex-m7/build/std_msgs/ament_cmake_package_templates/templates.cmake"
+        result = callcache.run([str(script), str(out)], cache, ws / ".uros/targets/cortex-m7", ws)
+        outs.append((result, out.read_text()))
+    assert outs[0] == (
+        "miss",
+        f'set(HOOK "{tmp_path}/ws1/dev_ws/install/share/ament_cmake_core/cmake/package_templates/hook.sh")\n',
+    )
+    assert outs[1] == ("hit", outs[0][1].replace("/ws1/", "/checkout two/"))
+    assert (tmp_path / "calls").read_text() == "t"

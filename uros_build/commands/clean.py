@@ -84,8 +84,8 @@ def clean(workspace: Path | None, toolchain: str | None, everything: bool) -> in
             else:
                 output.rmdir()
     if everything:
-        # the interface code every target shared: only --all drops it (one target's clean must not
-        # cost the others their next build's hits)
+        # the interface code cache older uros kept in the workspace (now the user's, like ccache's:
+        # ~/.cache/uros/gen, not the workspace's to drop)
         gen = ws.state_dir / "gen-cache"
         size = tree_bytes(gen) if gen.exists() else 0
         if size and outputs.remove_tree(gen) is None:

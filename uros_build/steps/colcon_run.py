@@ -76,12 +76,12 @@ def _say_generation(plan: BuildPlan) -> None:
         bypass = f", {runs['bypass']} not cacheable" if runs["bypass"] else ""
         console.info(
             f"interface code: {generator_runs} generator runs, {runs['hit']} taken from the "
-            f"workspace's generation cache, {runs['miss']} generated{bypass}"
+            f"generation cache, {runs['miss']} generated{bypass}"
         )
     calls = runs["call-hit"] + runs["call-miss"] + runs["call-bypass"]
     if calls:
         console.info(
-            f"configure: {calls} Python calls, {runs['call-hit']} answered from the workspace's cache"
+            f"configure: {calls} Python calls, {runs['call-hit']} answered from the generation cache"
         )
 
 

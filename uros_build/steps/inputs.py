@@ -185,6 +185,17 @@ def _seeded_toolchain(
 
 
 SHARE_SWITCH = "UROS_GEN_CACHE"  # "off": every generator run and configure call runs as CMake asks
+GEN_CACHE_DIR = "UROS_GEN_CACHE_DIR"
+
+
+def gen_cache_dir(env: Mapping[str, str]) -> Path:
+    """The user's generation and configure-call cache (pyshim.py): $UROS_GEN_CACHE_DIR, else
+    uros/gen in the XDG cache folder (~/.cache), beside ccache's own. Shared by every workspace:
+    no key or entry holds a workspace's folder."""
+    if env.get(GEN_CACHE_DIR):
+        return Path(env[GEN_CACHE_DIR]).expanduser()
+    base = env.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "uros" / "gen"
 
 
 def _python_shim(plan: BuildPlan) -> Path:
@@ -196,8 +207,9 @@ def _python_shim(plan: BuildPlan) -> Path:
     shim = plan.target_dir / "uros-python"
     text = pyshim.shim_text(
         colcon.host_python(),
-        plan.workspace.state_dir / "gen-cache",
+        gen_cache_dir(os.environ),
         plan.target_dir,
+        plan.workspace.root,
         Path(uros_build.__file__).resolve().parent.parent,
         f"uros {__version__} build",
         gencache.module_versions(),
