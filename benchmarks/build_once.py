@@ -1,12 +1,14 @@
 """Issue 19's rows, side by side in one invocation on real micro-ROS Humble: SET (micro_ros_setup's
 flow by hand, as benchmarks/side_by_side.py runs it) and uros for a cold build, a second target from
-the same workspace, a fresh workspace with a warm team cache, and a fresh workspace with only a
-warm ccache. Prints a Markdown table with uros/SET and checks that the libraries are the same bytes.
+the same workspace, a fresh workspace with a warm team cache, a fresh workspace with only a warm
+ccache, and one with a warm ccache and the user's warm generation cache (what a developer's second
+checkout has). Prints a Markdown table with uros/SET and checks that the libraries are the same bytes.
 
     python benchmarks/build_once.py --mirror /work/.mirror [--dir /tmp/empty-folder]
 
 The machine is shared and its speed moves 2-4x between runs: only the ratios within one invocation
-mean something. ccache gets its own empty folder (CCACHE_DIR under the work folder).
+mean something. ccache and uros's generation cache get their own empty folders under the work
+folder (CCACHE_DIR, UROS_GEN_CACHE_DIR); the cold rows each start with an empty generation cache.
 """
 
 from __future__ import annotations
@@ -39,6 +41,7 @@ GOALS = {
     "uros second target": ("set second target", 0.35),
     "uros fresh, warm team cache": ("set cold", 0.05),
     "uros fresh, warm ccache only": ("set cold", 0.4),
+    "uros fresh, warm ccache + generation cache": ("set cold", 0.4),
 }
 
 
@@ -67,6 +70,12 @@ def main() -> None:
     root = (args.dir or Path(tempfile.mkdtemp(prefix="uros-once-"))).resolve()
     root.mkdir(parents=True, exist_ok=True)
     os.environ["CCACHE_DIR"] = str(root / "ccache")
+    gen_cache = root / "gen-cache"  # the user's generation cache of every row but the two below
+
+    def with_gen_cache(folder: Path) -> None:
+        os.environ["UROS_GEN_CACHE_DIR"] = str(folder)
+
+    with_gen_cache(gen_cache)
     bench = Bench(root, args.mirror, SETUP_GIT)
     facts = machine_facts(SETUP_GIT)
     print("\n".join(facts), flush=True)
@@ -94,32 +103,46 @@ def main() -> None:
         ws = fresh_copy(bench.ws, root / folder)
         return bench.uros(name, "build", "--toolchain", TARGET, "--workspace", str(ws), *more)
 
-    # the same cold build without ccache (a cold ccache costs its misses), in a fresh checkout
+    # the same cold build without ccache (a cold ccache costs its misses), in a fresh checkout with
+    # an empty generation cache
+    with_gen_cache(root / "gen-cache no ccache")
     r["uros cold, --no-ccache"] = fresh_build("uros cold, --no-ccache", "no ccache", "--no-ccache")
+    with_gen_cache(gen_cache)
     r["set second target"] = bench.set_mcu("second target", SECOND_TARGET)
     r["uros second target"] = bench.uros_build("uros second target", target=SECOND_TARGET)
     store = (root / "team cache").as_uri()
     bench.uros_build("uros upload to the team cache", "--cache", store, "--cache-upload")
-    teammate, other = root / "teammate", root / "other checkout"
+    teammate, other, third = root / "teammate", root / "other checkout", root / "third checkout"
     r["uros fresh, warm team cache"] = fresh_build(
         "uros fresh, warm team cache", teammate.name, "--cache", store
     )
     took = bench.said("from the cache")
+    with_gen_cache(root / "gen-cache empty")
     r["uros fresh, warm ccache only"] = fresh_build(
         "uros fresh, warm ccache only", other.name, "--cache", "none"
     )
     ccache_line = next((ln for ln in bench.runs[-1].log.read_text().splitlines() if "ccache:" in ln), "")
+    with_gen_cache(gen_cache)
+    r["uros fresh, warm ccache + generation cache"] = fresh_build(
+        "uros fresh, warm ccache + generation cache", third.name, "--cache", "none"
+    )
+    gen_lines = [
+        ln.strip()
+        for ln in bench.runs[-1].log.read_text().splitlines()
+        if ln.startswith(("interface code:", "configure:"))
+    ]
 
     lib = Path("build") / TARGET / "libmicroros.a"
-    same = (bench.ws / lib).read_bytes() == (teammate / lib).read_bytes() == (other / lib).read_bytes()
+    libraries = [(ws / lib).read_bytes() for ws in (bench.ws, teammate, other, third, root / "no ccache")]
+    same = all(data == libraries[0] for data in libraries)
     print("\n| row | seconds | SET row | SET seconds | uros/SET | goal |")
     print("|---|---|---|---|---|---|")
     for row, (set_row, goal) in GOALS.items():
         ratio = r[row] / r[set_row]
         print(f"| {row} | {r[row]:.1f} | {set_row} | {r[set_row]:.1f} | {ratio:.2f} | <= {goal} "
               f"{'met' if ratio <= goal else 'NOT met'} |")  # fmt: skip
-    print(f"\nteam cache used: {took}; {ccache_line.strip()}")
-    print(f"libraries of the three {TARGET} workspaces byte-identical: {same}")
+    print(f"\nteam cache used: {took}; {ccache_line.strip()}; third checkout: {'; '.join(gen_lines)}")
+    print(f"libraries of the five {TARGET} workspaces byte-identical: {same}")
     loads = bench.loads or [0.0]
     print(f"load average during the run: min {min(loads):.1f}, max {max(loads):.1f}; work folder {root}")
 
