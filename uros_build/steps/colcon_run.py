@@ -26,8 +26,8 @@ from uros_build.errors import (
 from uros_build.hosttools import HostFacts
 from uros_build.plan import BuildPlan
 from uros_build.proc import Runner, disk_full_line, disk_full_path, first_error
-from uros_build.steps.inputs import CCACHE_STATS, ColconSetup, Inputs, _flags_fingerprint
-from uros_build.steps.prepare import _DISK_FULL_MARK, _drop_removed_packages
+from uros_build.steps.inputs import CCACHE_STATS, ColconSetup, Inputs, flags_fingerprint
+from uros_build.steps.prepare import DISK_FULL_MARK, drop_removed_packages
 from uros_build.workspace import (
     write_if_changed,
 )
@@ -93,7 +93,7 @@ def _run_colcon(
     built vouches for nothing."""
     if setup.skipped:
         console.info(f"not building {len(setup.skipped)} pure-Python packages: {', '.join(setup.skipped)}")
-    flags = _flags_fingerprint(parts)
+    flags = flags_fingerprint(parts)
     progress = colcon.BuildProgress(total=_expected_packages(plan, setup), started_at=time.monotonic())
     console.step("colcon build")
     view = console.ProgressView(progress.total, plain=plan.verbose)
@@ -128,7 +128,7 @@ def _run_colcon(
     # can be cut short by a full disk, and CMake writes them again only when it configures. A mark
     # written now, while there is room, and removed unless the disk filled up, makes the next build
     # configure every package afresh (the objects stay: ninja redoes only what differs).
-    mark = plan.target_dir / _DISK_FULL_MARK
+    mark = plan.target_dir / DISK_FULL_MARK
     with contextlib.suppress(OSError):
         mark.write_text("a colcon build that may run out of disk\n", encoding="utf-8")
     try:
@@ -175,7 +175,7 @@ def _check_built(
             "colcon reported no package built",
             f"check that colcon finds packages in {plan.workspace.source_dir}; the log is above",
         )
-    flags = _flags_fingerprint(parts)
+    flags = flags_fingerprint(parts)
     expected = {p: installtree.package_stamp(flags, p, plan.meta.names.get(p, {})) for p in built}
     stale = installtree.stale(setup.build_base, expected)
     if stale:
@@ -227,7 +227,7 @@ class Compiled:
 def compile_packages(plan: BuildPlan, facts: HostFacts, runner: Runner, inputs: Inputs) -> Compiled:
     """colcon over the workspace: packages it lost dropped first; then what the generation cache
     and ccache served, and the headers read outside the workspace (into ``inputs.parts``)."""
-    _drop_removed_packages(plan)
+    drop_removed_packages(plan)
     (plan.target_dir / pyshim.RUNS).unlink(missing_ok=True)
     (plan.target_dir / CCACHE_STATS).unlink(missing_ok=True)
     progress = _run_colcon(plan, facts, runner, inputs.setup, inputs.parts)

@@ -36,8 +36,8 @@ from uros_build.hosttools import HostFacts
 from uros_build.plan import BuildPlan, ProfileTarget, meta_transport
 from uros_build.proc import Runner
 from uros_build.steps.prepare import (
-    _drop_readers_of_changed_headers,
-    _forget_configured_flags,
+    drop_readers_of_changed_headers,
+    forget_configured_flags,
     compiler_identity,
 )
 from uros_build.toolchain import (
@@ -52,22 +52,6 @@ from uros_build.workspace import (
     DEV_MARKER,
     write_if_changed,
 )
-
-
-def _say_selection(plan: BuildPlan) -> None:
-    sel = plan.selection
-    if sel is None:
-        return
-    if sel.firmware is not None:
-        console.info(f"the firmware uses ({sel.firmware.scanned} files read): {sel.firmware.describe()}")
-    parts = [f"{', '.join(sel.wanted)} (asked for)"] if sel.wanted else []
-    if sel.firmware is not None:
-        parts.append(f"{', '.join(sorted(sel.firmware.packages))} (the firmware's)")
-    if sel.core:
-        parts.append(f"{', '.join(sel.core)} (core)")
-    if sel.extra:
-        parts.append(f"{', '.join(sel.extra)} (extra packages)")
-    console.info(f"building {'; '.join(parts)} and what they depend on")
 
 
 @dataclass(frozen=True)
@@ -340,7 +324,7 @@ def _output_intact(plan: BuildPlan, state: fp.BuildState) -> bool:
     return fp.output_intact(state, plan.output, info.library.file, info.library.sha256)
 
 
-def _flags_fingerprint(parts: Mapping[str, str]) -> str:
+def flags_fingerprint(parts: Mapping[str, str]) -> str:
     """What every package of the target is compiled with: the toolchain file, the compiler and
     colcon's CMake arguments (a package's own colcon.meta entry is added per package)."""
     return fp.digest(parts["toolchain file"], parts["compiler"], parts["colcon"])
@@ -352,7 +336,7 @@ def _prepare_toolchain(plan: BuildPlan, facts: HostFacts) -> Path:
         # The user's own file: its flags, too, reach the compiles only through a fresh configure.
         seen = plan.target_dir / "toolchain-file.sha256"
         if write_if_changed(seen, fp.file_sha256(target.toolchain_file) + "\n"):
-            _forget_configured_flags(plan.target_dir / "build")
+            forget_configured_flags(plan.target_dir / "build")
         return target.toolchain_file
     profile = target.profile
     header = plan.target_dir / CLOCK_HEADER_NAME
@@ -360,7 +344,7 @@ def _prepare_toolchain(plan: BuildPlan, facts: HostFacts) -> Path:
         write_if_changed(header, CLOCK_HEADER_TEXT)
     path = plan.target_dir / "toolchain.cmake"
     if write_if_changed(path, render_toolchain(_toolchain_request(plan, facts, plan.workspace.root))):
-        _forget_configured_flags(plan.target_dir / "build")
+        forget_configured_flags(plan.target_dir / "build")
     return path
 
 
@@ -405,7 +389,7 @@ def resolve(plan: BuildPlan, facts: HostFacts, runner: Runner) -> Inputs:
     meta_text = meta_mod.dump_meta(plan.meta, f"uros build --toolchain {plan.target.key}")
     write_if_changed(meta_path, meta_text)
     setup = _colcon_setup(plan, facts, toolchain_file, meta_path, runner)
-    outside_digest = _drop_readers_of_changed_headers(plan)
+    outside_digest = drop_readers_of_changed_headers(plan)
     parts = _input_parts(plan, facts, toolchain_file, meta_text, setup)
     parts["headers outside the workspace"] = outside_digest
     state_path = plan.target_dir / fp.STATE

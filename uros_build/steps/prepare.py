@@ -60,18 +60,18 @@ def _redo_what_must_be_redone(plan: BuildPlan, facts: HostFacts) -> None:
     write_if_changed(identity, now + "\n")
 
 
-_DISK_FULL_MARK = "disk-full"
+DISK_FULL_MARK = "disk-full"
 
 
 def _reconfigure_after_a_full_disk(plan: BuildPlan) -> None:
-    mark = plan.target_dir / _DISK_FULL_MARK
+    mark = plan.target_dir / DISK_FULL_MARK
     if mark.is_file():
         console.info("the last build ran out of disk space: configuring every package afresh")
-        _forget_configured_flags(plan.target_dir / "build")
+        forget_configured_flags(plan.target_dir / "build")
         mark.unlink()
 
 
-def _drop_readers_of_changed_headers(plan: BuildPlan) -> str:
+def drop_readers_of_changed_headers(plan: BuildPlan) -> str:
     """Packages that read a header outside the workspace whose content changed since their build
     (a C library upgrade, a profile's -I folder, an edit restored with an old mtime) are built
     afresh: ninja goes by mtimes, and such a header need not be newer than the objects. Returns
@@ -114,7 +114,7 @@ def _repair(plan: BuildPlan) -> bool:
     return repaired or bool(stopped)
 
 
-def _drop_removed_packages(plan: BuildPlan) -> None:
+def drop_removed_packages(plan: BuildPlan) -> None:
     """A package the workspace no longer has must leave the target's trees, or its archive and
     headers would ship in the next library."""
     build_base, install_base = plan.target_dir / "build", plan.target_dir / "install"
@@ -126,7 +126,7 @@ def _drop_removed_packages(plan: BuildPlan) -> None:
         console.info(f"dropped from the target's trees (no longer in the workspace): {', '.join(gone)}")
 
 
-def _forget_configured_flags(build_base: Path) -> None:
+def forget_configured_flags(build_base: Path) -> None:
     """A changed toolchain file must reach the compiles: CMake reads CMAKE_<LANG>_FLAGS_INIT only
     when it creates the CMAKE_<LANG>_FLAGS cache entry, on the first configure
     (https://cmake.org/cmake/help/latest/variable/CMAKE_LANG_FLAGS_INIT.html), so a reconfigure

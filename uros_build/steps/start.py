@@ -7,7 +7,6 @@ from uros_build import console, hosttools
 from uros_build.hosttools import HostFacts
 from uros_build.plan import BuildPlan
 from uros_build.proc import Runner
-from uros_build.steps.inputs import _say_selection
 
 
 def open_run(plan: BuildPlan) -> Runner:
@@ -47,3 +46,19 @@ def host_facts(plan: BuildPlan, runner: Runner) -> HostFacts:
             assert plan.distro is not None  # loaded with the config
             hosttools.build_dev_workspace(ws, plan.config, plan.distro, runner, plan.verbose, plan.jobs)
     return facts
+
+
+def _say_selection(plan: BuildPlan) -> None:
+    sel = plan.selection
+    if sel is None:
+        return
+    if sel.firmware is not None:
+        console.info(f"the firmware uses ({sel.firmware.scanned} files read): {sel.firmware.describe()}")
+    parts = [f"{', '.join(sel.wanted)} (asked for)"] if sel.wanted else []
+    if sel.firmware is not None:
+        parts.append(f"{', '.join(sorted(sel.firmware.packages))} (the firmware's)")
+    if sel.core:
+        parts.append(f"{', '.join(sel.core)} (core)")
+    if sel.extra:
+        parts.append(f"{', '.join(sel.extra)} (extra packages)")
+    console.info(f"building {'; '.join(parts)} and what they depend on")
