@@ -36,9 +36,9 @@ from uros_build.hosttools import HostFacts
 from uros_build.plan import BuildPlan, ProfileTarget, meta_transport
 from uros_build.proc import Runner
 from uros_build.steps.prepare import (
+    compiler_identity,
     drop_readers_of_changed_headers,
     forget_configured_flags,
-    compiler_identity,
 )
 from uros_build.toolchain import (
     CLOCK_HEADER_NAME,
