@@ -45,7 +45,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
         ),
     ),
     ("workspace model", ("workspace", "outputs", "clones")),
-    ("plans and probes", ("plan", "hosttools")),
+    ("plans and probes", ("settings", "plan", "sourceplan", "hosttools")),
     ("build steps", ("steps",)),
     ("commands", ("commands",)),
     ("cli", ("cli", "__main__")),

@@ -35,7 +35,8 @@ from uros_build.commands import probe as probe_cmd
 from uros_build.commands import size as size_cmd
 from uros_build.commands import update as update_cmd
 from uros_build.errors import DiskFull, Signalled, UrosError, did_you_mean, interrupted
-from uros_build.plan import BuildArgs, CreateArgs, UpdateArgs
+from uros_build.settings import BuildArgs
+from uros_build.sourceplan import CreateArgs, UpdateArgs
 
 _PATH = click.Path(path_type=Path)
 _Decorator = Callable[[Callable[..., Any]], Callable[..., Any]]

@@ -1,25 +1,25 @@
-"""Raw command-line arguments → frozen, validated plans (pypa/cibuildwheel's options.py idea).
+"""Settings → frozen, validated plans (pypa/cibuildwheel's options.py idea).
 
-Every input is read and checked here, before any process starts: the target, the profile, the
-metas, the workspace's uros.yaml and distro, the output folder. What comes out is a frozen value
-that the commands execute; the mapping itself is unit-tested without running anything.
+settings.py decides who wins (command line, uros.yaml, defaults); here every setting is checked
+without starting a process: the target, the profile, the metas, the distro, the packages asked for,
+the output folder. What comes out is a frozen value the commands execute; the mapping is
+unit-tested without running anything. Checked later, because a process must run first: the extra
+packages' clones (`uros build` syncs them before its lock), the host tools, the compilers.
 """
 
 from __future__ import annotations
 
-import datetime
-from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
 
 from uros_build import cache as cache_mod
-from uros_build import defaults, espidf, firmware_scan, loader
+from uros_build import defaults, espidf, firmware_scan
 from uros_build import distros as distros_mod
 from uros_build import meta as meta_mod
 from uros_build import options as options_mod
 from uros_build import packages as packages_mod
 from uros_build.cache import CacheSettings
-from uros_build.distros import Distro, Mirror, Source
+from uros_build.distros import Distro
 from uros_build.errors import ConfigError, did_you_mean
 from uros_build.espidf import IdfProject
 from uros_build.outputs import check_output_dir, check_output_owner, is_uros_output, target_keys
@@ -31,49 +31,24 @@ from uros_build.profiles import (
     load_profile_file,
     shipped_profiles,
 )
+from uros_build.settings import (
+    BuildArgs,
+    Chosen,
+    build_settings,
+    open_workspace,
+    resolve_workspace,
+)
 from uros_build.workspace import (
     CONFIG,
-    LOCK,
-    PENDING,
-    Lock,
     Workspace,
     WorkspaceConfig,
-    check_build_folder,
-    check_extra_package,
     check_folder_target,
-    find_workspace,
     load_config,
-    parse_config,
-    read_lock,
     target_key,
 )
 
 # ---------------------------------------------------------------------------------------------
 # the workspace: one default for every command
-
-
-def resolve_workspace(given: Path | None, cwd: Path | None = None) -> Path:
-    """-w/--workspace as given, else the nearest folder upward with a uros.yaml, else ./firmware."""
-    if given is not None:
-        return given
-    here = cwd if cwd is not None else Path.cwd()
-    found = find_workspace(here)
-    return found if found is not None else here / defaults.FIRMWARE_DIR
-
-
-def open_workspace(given: Path | None, cwd: Path | None = None) -> Workspace:
-    """The workspace a build runs in. Without -w, a folder that is no uros workspace is refused
-    before anything is written: run in the wrong folder, a build would crawl every project below
-    it for packages and leave .uros/ and build/ behind."""
-    path = resolve_workspace(given, cwd)
-    if given is None and not path.exists():
-        here = cwd if cwd is not None else Path.cwd()
-        raise ConfigError(
-            f"no uros workspace here: no {CONFIG} in {here} or above it, and no ./{defaults.FIRMWARE_DIR}",
-            "cd into a firmware workspace, create one with `uros create-firmware generate_lib` "
-            "(makes ./firmware), or pass -w DIR (a colcon workspace with packages works too)",
-        )
-    return Workspace.open(path)
 
 
 def resolve_output(output: Path | None, workspace: Path | None, toolchain: str | None) -> Path:
@@ -209,74 +184,6 @@ def meta_transport(meta: meta_mod.Meta) -> str | None:
 
 
 @dataclass(frozen=True)
-class BuildArgs:
-    """What the command line said, unvalidated."""
-
-    workspace: Path | None = None  # None: resolve_workspace's default
-    toolchain: str | None = None
-    toolchains: tuple[str, ...] = ()  # --toolchain given several times: one build each
-    profile: Path | None = None
-    metas: tuple[Path, ...] = ()
-    sets: tuple[str, ...] = ()
-    preset: str = defaults.PRESET
-    transport: str | None = None
-    output: Path | None = None
-    verbose: bool = False
-    force: bool = False
-    packages_up_to: tuple[str, ...] = ()
-    jobs: int | None = None
-    compiler_prefix: str | None = None
-    cflags: tuple[str, ...] = ()
-    rebuild: bool = False  # run every step even when no input changed
-    packages: tuple[str, ...] = ()  # --packages: what the firmware wants (the core is added)
-    for_firmware: Path | None = None  # --for-firmware: read what it wants from its sources
-    toolchain_from: str = "--toolchain"  # where toolchain came from (uros.yaml's target), for messages
-    idf_build: Path | None = None  # an ESP-IDF project's build folder to compile micro-ROS against
-    cache: str | None = None  # --cache URL: a team cache of outputs (default: uros.yaml's cache:)
-    cache_upload: bool = False  # --cache-upload: write this build's output to the cache
-    ccache: bool | None = None  # --ccache/--no-ccache (None: ccache when it is installed)
-
-    def names_a_target(self) -> bool:
-        return bool(self.toolchain or self.toolchains or self.profile or self.compiler_prefix or self.cflags)
-
-
-def expand_targets(args: BuildArgs) -> tuple[BuildArgs, ...]:
-    """One BuildArgs per target to build: the command line's, else the workspace uros.yaml's
-    target or targets (the command line wins), else the command line's as it is (and plan_build
-    says that no target was given)."""
-    names = tuple(dict.fromkeys(args.toolchains))
-    if len(names) > 1:
-        if args.output is not None:
-            raise ConfigError(
-                f"--output with {len(names)} targets ({', '.join(names)})",
-                "each target has its own output (<workspace>/build/<target>): leave --output out",
-            )
-        if args.profile is not None:
-            raise ConfigError(
-                f"--profile with {len(names)} --toolchain targets", "give --toolchain or --profile, once"
-            )
-        return tuple(replace(args, toolchain=n, toolchains=(n,)) for n in names)
-    if names:
-        args = replace(args, toolchain=names[0])
-    if args.names_a_target():
-        return (args,)
-    root = resolve_workspace(args.workspace)
-    cfg = load_config(root) if root.is_dir() else None
-    if cfg is None:
-        return (args,)
-    names = cfg.targets or ((cfg.target,) if cfg.target else ())
-    if len(names) > 1 and args.output is not None:
-        raise ConfigError(
-            f"--output with {len(names)} targets ({', '.join(names)} from {root / CONFIG})",
-            "pass --toolchain NAME to build one of them into --output, or leave --output out",
-        )
-    key = "targets" if cfg.targets else "target"
-    where = f"{root / CONFIG}: {key}"
-    expanded = tuple(replace(args, workspace=root, toolchain=n, toolchain_from=where) for n in names)
-    return expanded or (args,)
-
-
-@dataclass(frozen=True)
 class Selection:
     """The packages `uros build` asks colcon for (--packages-up-to), and why each."""
 
@@ -345,17 +252,13 @@ def unknown_packages(metas: list[meta_mod.Meta], sets: tuple[str, ...], names: s
     return out
 
 
-def idf_project(
-    args: BuildArgs, ws: Workspace, cfg: WorkspaceConfig | None, target: Target
-) -> IdfProject | None:
-    """The ESP-IDF build folder of --idf-build, else uros.yaml's idf_build for an ESP-IDF target
-    (a workspace may name several targets; the IDF project is for its ESP-IDF one), read and
-    checked against the target."""
+def idf_project(chosen: Chosen[Path | None], target: Target) -> IdfProject | None:
+    """The ESP-IDF build folder settings.py chose (--idf-build, else uros.yaml's idf_build, which
+    applies to an ESP-IDF target only: a workspace may name several targets), read and checked
+    against the target."""
     profile = target_profile(target)
-    folder, flag = args.idf_build, "--idf-build"
-    if folder is None and cfg is not None and cfg.idf_build and profile is not None and profile.idf_target:
-        folder, flag = ws.root / cfg.idf_build, f"{ws.root / CONFIG}: idf_build"
-    if folder is None:
+    folder, flag = chosen.value, chosen.source
+    if folder is None or (flag != "--idf-build" and (profile is None or not profile.idf_target)):
         return None
     if profile is None:
         raise ConfigError(
@@ -383,11 +286,15 @@ def idf_platform(target: Target, idf: IdfProject | None) -> Target:
 
 
 def _select(
-    args: BuildArgs, cfg: WorkspaceConfig | None, ws: Workspace, packages: list[PackageInfo], names: set[str]
+    args: BuildArgs,
+    chosen: Chosen[tuple[str, ...]],
+    ws: Workspace,
+    packages: list[PackageInfo],
+    names: set[str],
 ) -> Selection | None:
     """What --packages, --for-firmware or uros.yaml's packages: ask for, plus the core and the
     extra packages; None when none of them is given (every package is built)."""
-    wanted = args.packages or (cfg.packages if cfg and args.for_firmware is None else ())
+    wanted = chosen.value
     use = None
     if args.for_firmware is not None:
         folder = args.for_firmware
@@ -410,7 +317,7 @@ def _select(
             "use one: --packages adds the core and the extra packages, "
             "--packages-up-to takes exactly what it names",
         )
-    flag = "--packages" if args.packages else f"{ws.root / CONFIG}: packages"
+    flag = chosen.source
     for pkg in wanted:
         if pkg not in names:
             raise ConfigError(
@@ -447,10 +354,9 @@ def plan_build(args: BuildArgs) -> BuildPlan:
     user_metas = list(args.metas)
     if cfg is not None and ws.user_meta.is_file():
         user_metas.insert(0, ws.user_meta)
-    # uros.yaml's transport and set, under the command line's (a later --set of an option wins)
-    transport = args.transport or (cfg.transport if cfg else None)
-    sets = (*(cfg.set if cfg else ()), *args.sets)
-    idf = idf_project(args, ws, cfg, target)
+    settings = build_settings(args, cfg, ws.root)
+    transport, sets = settings.transport.value, settings.sets
+    idf = idf_project(settings.idf_build, target)
     target = idf_platform(target, idf)
     meta = meta_for(args.preset, target, transport, user_metas, list(sets), distro.preset if distro else None)
     if args.jobs is not None and args.jobs < 1:
@@ -470,7 +376,7 @@ def plan_build(args: BuildArgs) -> BuildPlan:
             )
     warnings = unknown_packages(given_metas, sets, names)
     warnings += options_mod.check_sets(sets, options_mod.by_package(options_mod.known_options()))
-    selection = _select(args, cfg, ws, packages, names)
+    selection = _select(args, settings.packages, ws, packages, names)
     out = (args.output or ws.default_output(target.key)).resolve()
     flag = "--output" if args.output else "the output folder"
     check_folder_target(out, flag)
@@ -494,267 +400,22 @@ def plan_build(args: BuildArgs) -> BuildPlan:
         selection=selection,
         force=args.force,
         output_flag=flag,
-        cache=_cache_settings(args, cfg, ws.root / CONFIG),
+        cache=_cache_settings(settings.cache, args.cache_upload, ws.root / CONFIG),
         ccache=args.ccache,
     )
 
 
-def _cache_settings(args: BuildArgs, cfg: WorkspaceConfig | None, config_path: Path) -> CacheSettings | None:
-    """--cache, else uros.yaml's cache: (the command line wins); --cache-upload needs one of them."""
-    if args.cache is not None:
-        text, where = args.cache, "--cache"
-    elif cfg is not None and cfg.cache is not None:
-        text, where = cfg.cache, f"{config_path}: cache"
-    elif args.cache_upload:
-        raise ConfigError(
-            "--cache-upload without a cache", f"add --cache URL or a cache: line to {config_path}"
-        )
-    else:
+def _cache_settings(chosen: Chosen[str | None], upload: bool, config_path: Path) -> CacheSettings | None:
+    """The team cache the settings name (settings.py); --cache-upload needs one."""
+    text, where = chosen.value, chosen.source
+    if text is None:
+        if upload:
+            raise ConfigError(
+                "--cache-upload without a cache", f"add --cache URL or a cache: line to {config_path}"
+            )
         return None
     if text in ("", "none"):  # --cache none: this build without the workspace's cache
-        if args.cache_upload:
+        if upload:
             raise ConfigError("--cache-upload with --cache none", "give the cache's URL to upload to")
         return None
-    return CacheSettings(cache_mod.parse_url(text, where), upload=args.cache_upload)
-
-
-# ---------------------------------------------------------------------------------------------
-# uros create-firmware
-
-
-@dataclass(frozen=True)
-class CreateArgs:
-    directory: Path | None = None  # None: resolve_workspace's default
-    distro: str = defaults.DISTRO
-    platform: str = defaults.PLATFORM
-    mirrors: tuple[str, ...] = ()
-    overrides: tuple[str, ...] = ()
-    config: Path | None = None
-    locked: bool = False
-    lock_file: Path | None = None
-    extra_packages: tuple[Path, ...] = ()
-    force: bool = False
-    keep_partial: bool = False
-    build_dev: bool = True
-    toolchain: str | None = None  # a target whose prerequisites are checked first
-    jobs: int = defaults.CLONE_JOBS
-    verbose: bool = False
-
-
-@dataclass(frozen=True)
-class CreatePlan:
-    root: Path
-    existed: bool  # the folder was there (empty, or a workspace re-created with --force)
-    existing: WorkspaceConfig | None
-    previous: Lock | None  # the lock of the workspace re-created with --force: what uros cloned
-    distro: Distro
-    mirror: Mirror
-    sources: Mapping[str, Source]  # workspace path (dev_ws/..., mcu_ws/...) -> what to clone
-    extra_packages: tuple[tuple[Path, str], ...]  # (folder, package name)
-    probe: TargetProfile | None  # check this target's compiler and C library before cloning
-    args: CreateArgs
-
-
-def plan_sources(distro: Distro, mirror: Mirror, locked: Mapping[str, str] | None) -> dict[str, Source]:
-    """Workspace path (dev_ws/..., mcu_ws/...) -> what to clone (pure)."""
-    sources = {}
-    for ws, repos in (("dev_ws", distro.dev), ("mcu_ws", distro.mcu)):
-        for repo in repos:
-            sources[f"{ws}/{repo.path}"] = distros_mod.resolve(repo, mirror, locked, prefix=f"{ws}/")
-    return sources
-
-
-def _mirror_from(args: CreateArgs, existing: WorkspaceConfig | None) -> Mirror:
-    parts: list[Mirror] = []
-    if existing is not None:
-        parts.append(existing.mirror)
-    if args.config is not None:
-        given = parse_config(
-            loader.load_yaml(args.config, "--config"), f"--config {args.config}", partial=True
-        )
-        parts.append(given.mirror)
-    parts.append(
-        Mirror(
-            tuple(distros_mod.parse_rule(s) for s in args.mirrors),
-            tuple(distros_mod.parse_override(s) for s in args.overrides),
-        )
-    )
-    return distros_mod.combine(*parts)
-
-
-def _check_sources(sources: Mapping[str, Source], where: str = "--mirror") -> None:
-    for path, source in sources.items():
-        if distros_mod.is_local(source.url) and not distros_mod.local_path(source.url).exists():
-            raise ConfigError(
-                f"{where}: {source.url} (for {path}, upstream {source.repo.url}) does not exist",
-                "fix the mirror rule, or point this repository elsewhere: "
-                + (
-                    f"--mirror-override {source.repo.path}=URL"
-                    if where == "--mirror"
-                    else f"an override '{source.repo.path}=URL' in that file's mirror: section"
-                ),
-            )
-
-
-def _existing(root: Path, force: bool) -> tuple[bool, WorkspaceConfig | None, Lock | None]:
-    """(existed, its config, its lock). An existing, non-empty folder needs --force, and --force
-    needs a workspace uros made: only what its uros.lock lists is ever replaced."""
-    if not root.exists():
-        return False, None, None
-    if not root.is_dir():
-        raise ConfigError(f"--workspace {root}: is a file", "pass a new or empty folder")
-    if not any(p.name != ".uros" for p in root.iterdir()) and not (root / PENDING).is_file():
-        return True, None, None  # empty, or only uros's own .uros/ (logs of a run that cloned nothing)
-    if not force and (root / PENDING).is_file() and not (root / CONFIG).is_file():
-        raise ConfigError(
-            f"--workspace {root}: a create-firmware that was stopped before it finished left this folder",
-            "pass --force to finish it (only the clones it was making are made again)",
-        )
-    if not force:
-        raise ConfigError(
-            f"--workspace {root}: already exists",
-            "use another --workspace, or pass --force to re-clone the repositories its uros.lock "
-            "lists (everything else is kept: colcon.meta, uros.yaml, your packages)",
-        )
-    cfg = load_config(root)
-    lock = read_lock(root / LOCK, "--workspace") if (root / LOCK).is_file() else None
-    if cfg is None and lock is None and (root / PENDING).is_file():
-        # a create-firmware killed before it wrote uros.yaml and uros.lock: the record it wrote
-        # first names the clones it was making, all of them uros's
-        pending = read_lock(root / PENDING, "--workspace")
-        return True, None, pending
-    if cfg is None and lock is None:
-        raise ConfigError(
-            f"--workspace {root}: not a workspace made by uros create-firmware (no {CONFIG}, no {LOCK})",
-            "--force re-creates only uros's own clones: use a new or empty folder",
-        )
-    return True, cfg, lock
-
-
-def _check_destinations(root: Path, sources: Mapping[str, Source], previous: Lock | None) -> None:
-    """Every folder about to be cloned into is free, or a clone the previous lock lists."""
-    ours = set(previous.repositories) if previous else set()
-    for path in sorted(sources):
-        if (root / path).exists() and path not in ours:
-            raise ConfigError(
-                f"--workspace {root}: {path} exists and is not in {LOCK}, so uros did not clone it",
-                "move it away (uros never replaces what it did not write), or use a new folder",
-            )
-
-
-# ---------------------------------------------------------------------------------------------
-# uros update
-
-
-@dataclass(frozen=True)
-class UpdateArgs:
-    directory: Path | None = None
-    distro: str | None = None  # None: the workspace's own (uros.yaml)
-    before: str | None = None  # YYYY-MM-DD: the newest commits before this day, not the newest
-    dry_run: bool = False
-    jobs: int = defaults.CLONE_JOBS
-    verbose: bool = False
-
-
-@dataclass(frozen=True)
-class UpdatePlan:
-    root: Path
-    config: WorkspaceConfig
-    lock: Lock  # what the workspace holds now
-    distro: Distro  # the distro to move to (the workspace's own, or --distro)
-    sources: Mapping[str, Source]  # workspace path -> the branch to move to (uros.yaml's mirror rules)
-    kept: tuple[str, ...]  # clones in the lock and in the distro: fetched and moved
-    added: tuple[str, ...]  # in the distro, not in the lock: cloned
-    removed: tuple[str, ...]  # in the lock, not in the distro: removed (uros cloned them)
-    args: UpdateArgs
-
-
-def check_day(text: str, flag: str) -> str:
-    """A calendar day as YYYY-MM-DD (git reads many date forms; uros takes one, so a lock says
-    plainly what it was moved to)."""
-    try:
-        if len(text) != 10:
-            raise ValueError(text)
-        day = datetime.date.fromisoformat(text)
-    except ValueError:
-        raise ConfigError(f"{flag} {text!r}: not a day", "write it as YYYY-MM-DD, e.g. 2024-06-30") from None
-    # git's date parser silently matches nothing from 2100 on (`git rev-list --before=2100-01-01`)
-    if not 1970 <= day.year <= 2099:
-        raise ConfigError(f"{flag} {text}: outside the years git reads (1970-2099)", "pick a day in them")
-    return text
-
-
-def plan_update(args: UpdateArgs) -> UpdatePlan:
-    """Every input of `uros update` checked before git runs: a firmware workspace with its lock, a
-    known distro, mirrors that exist, and new clones' folders free."""
-    if args.jobs < 1:
-        raise ConfigError(f"--git-jobs {args.jobs}: must be 1 or more")
-    if args.before is not None:
-        check_day(args.before, "--before")
-    ws, cfg = Workspace.open_firmware(resolve_workspace(args.directory))
-    if not ws.lock_path.is_file():
-        raise ConfigError(
-            f"--workspace {ws.root}: no {LOCK}, so uros does not know which clones it made",
-            "re-create the workspace with `uros create-firmware --force`",
-        )
-    lock = read_lock(ws.lock_path, "--workspace")
-    distro = distros_mod.load_distro(args.distro if args.distro is not None else cfg.distro)
-    sources = plan_sources(distro, cfg.mirror, None)
-    _check_sources(sources, f"{ws.root / CONFIG}: mirror")
-    kept = tuple(sorted(set(sources) & set(lock.repositories)))
-    added = tuple(sorted(set(sources) - set(lock.repositories)))
-    removed = tuple(sorted(set(lock.repositories) - set(sources)))
-    for path in added:
-        if (ws.root / path).exists():
-            raise ConfigError(
-                f"--workspace {ws.root}: {path} exists and is not in {LOCK}, so uros did not clone it",
-                "move it away (uros never replaces what it did not write), then run `uros update` again",
-            )
-    return UpdatePlan(ws.root, cfg, lock, distro, sources, kept, added, removed, args)
-
-
-def _check_lock_covers(lock: Lock, distro: Distro, where: str) -> None:
-    """A lock pins every repository of this distro, or it would be silently ignored for the ones
-    it lacks (they would be cloned at their branches' newest commits, from the network)."""
-    if lock.distro and lock.distro != distro.name:
-        raise ConfigError(
-            f"{where}: locks micro-ROS {lock.distro}, not {distro.name}",
-            f"pass --distro {lock.distro}, or a lock written for {distro.name}",
-        )
-    wanted = {
-        f"{ws}/{r.path}" for ws, repos in (("dev_ws", distro.dev), ("mcu_ws", distro.mcu)) for r in repos
-    }
-    missing = sorted(wanted - set(lock.repositories))
-    if missing:
-        raise ConfigError(
-            f"{where}: has no commit for {len(missing)} of the {len(wanted)} repositories of {distro.name} "
-            f"({', '.join(missing[:3])}{', ...' if len(missing) > 3 else ''})",
-            "pass the uros.lock that `uros create-firmware` wrote for this distro",
-        )
-
-
-def plan_create(args: CreateArgs) -> CreatePlan:
-    if args.platform != defaults.PLATFORM:
-        raise ConfigError(
-            f"create-firmware: unknown platform {args.platform!r}", "uros supports `generate_lib` (any MCU)"
-        )
-    if args.jobs < 1:
-        raise ConfigError(f"--git-jobs {args.jobs}: must be 1 or more")
-    distro = distros_mod.load_distro(args.distro)
-    root = resolve_workspace(args.directory).resolve()
-    check_build_folder(root, "--workspace")
-    extras = tuple((p, check_extra_package(p, "--extra-package")) for p in args.extra_packages)
-    locked: dict[str, str] | None = None
-    if args.locked or args.lock_file:
-        lock_path = args.lock_file or root / "uros.lock"
-        lock_flag = "--lock-file" if args.lock_file else "--locked"
-        lock = read_lock(lock_path, lock_flag)
-        _check_lock_covers(lock, distro, f"{lock_flag} {lock_path}")
-        locked = lock.commits()
-    existed, existing, previous = _existing(root, args.force)
-    mirror = _mirror_from(args, existing)
-    sources = plan_sources(distro, mirror, locked)
-    _check_sources(sources)
-    _check_destinations(root, sources, previous)
-    probe = find_profile(args.toolchain, alternative="") if args.toolchain is not None else None
-    return CreatePlan(root, existed, existing, previous, distro, mirror, sources, extras, probe, args)
+    return CacheSettings(cache_mod.parse_url(text, where), upload=upload)

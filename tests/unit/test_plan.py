@@ -12,17 +12,9 @@ from uros_build import defaults
 from uros_build.distros import Distro, Mirror, MirrorRule, Override, Repo
 from uros_build.errors import ConfigError
 from uros_build.meta import Meta
-from uros_build.plan import (
-    BuildArgs,
-    CreateArgs,
-    ProfileTarget,
-    ToolchainFileTarget,
-    meta_transport,
-    plan_build,
-    plan_create,
-    plan_sources,
-    resolve_target,
-)
+from uros_build.plan import ProfileTarget, ToolchainFileTarget, meta_transport, plan_build, resolve_target
+from uros_build.settings import BuildArgs
+from uros_build.sourceplan import CreateArgs, plan_create, plan_sources
 
 
 def _ws(tmp_path: Path) -> Path:
@@ -151,7 +143,7 @@ def test_plan_build_reads_the_workspace_config(tmp_path: Path) -> None:
 
 
 def test_uros_yaml_names_the_targets_and_the_command_line_wins(tmp_path: Path) -> None:
-    from uros_build.plan import expand_targets
+    from uros_build.settings import expand_targets
 
     ws = _ws(tmp_path)
     (ws / "uros.yaml").write_text("distro: humble\ntargets: [cortex-m7, rp2040]\n", encoding="utf-8")
@@ -313,7 +305,7 @@ def test_plan_create_refuses_a_bad_config_file(tmp_path: Path, text: str, messag
 
 
 def test_workspace_default_is_the_nearest_uros_yaml_upward(tmp_path: Path) -> None:
-    from uros_build.plan import resolve_workspace
+    from uros_build.settings import resolve_workspace
 
     (tmp_path / "fw" / "mcu_ws" / "src").mkdir(parents=True)
     (tmp_path / "fw" / "uros.yaml").write_text("distro: humble\n")

@@ -8,8 +8,8 @@ from pathlib import Path
 from uros_build import console
 from uros_build import packages as packages_mod
 from uros_build.errors import ConfigError, StepFailed
-from uros_build.plan import resolve_workspace
 from uros_build.proc import Runner
+from uros_build.settings import resolve_workspace
 from uros_build.workspace import (
     CONFIG,
     Workspace,

@@ -19,7 +19,8 @@ from uros_build.errors import (
     Interrupted,
     UrosError,
 )
-from uros_build.plan import BuildArgs, BuildPlan, expand_targets, plan_build
+from uros_build.plan import BuildPlan, plan_build
+from uros_build.settings import BuildArgs, expand_targets
 from uros_build.steps import colcon_run, inputs, prepare, stage, start, team_cache
 from uros_build.workspace import locked
 

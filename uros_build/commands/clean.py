@@ -11,7 +11,7 @@ from pathlib import Path
 
 from uros_build import console, outputs
 from uros_build.errors import ConfigError, did_you_mean
-from uros_build.plan import BuildArgs, expand_targets, resolve_workspace
+from uros_build.settings import BuildArgs, expand_targets, resolve_workspace
 from uros_build.workspace import Workspace, locked, target_key, tree_bytes
 
 

@@ -15,8 +15,8 @@ from uros_build import clones, console, hosttools
 from uros_build import meta as meta_mod
 from uros_build.distros import Source
 from uros_build.errors import StepFailed, UrosError
-from uros_build.plan import CreateArgs, CreatePlan, plan_create
 from uros_build.proc import Runner, new_run_log, user_log_dir
+from uros_build.sourceplan import CreateArgs, CreatePlan, plan_create
 from uros_build.workspace import (
     CONFIG,
     EXTRA,

@@ -23,9 +23,10 @@ from uros_build import colcon, hosttools, outputs
 from uros_build import fingerprint as fp
 from uros_build.buildinfo import BUILD_INFO
 from uros_build.errors import MissingToolError, StepFailed, UrosError, VerifyError
-from uros_build.plan import BuildArgs, expand_targets, resolve_target, resolve_workspace
+from uros_build.plan import resolve_target
 from uros_build.proc import Runner, new_run_log, user_log_dir
 from uros_build.profiles import TargetProfile
+from uros_build.settings import BuildArgs, expand_targets, resolve_workspace
 from uros_build.workspace import CONFIG, Lock, Workspace, load_config, read_lock
 
 OK, WARN, FAIL, SKIP = "ok", "warn", "FAIL", "skip"

@@ -13,8 +13,9 @@ from uros_build import meta as meta_mod
 from uros_build import options as options_mod
 from uros_build import packages as packages_mod
 from uros_build.errors import ConfigError
-from uros_build.plan import meta_for, resolve_target, resolve_workspace
+from uros_build.plan import meta_for, resolve_target
 from uros_build.profiles import OR_PROFILE_FILE, find_profile, load_profile_file, shipped_profiles
+from uros_build.settings import resolve_workspace
 from uros_build.toolchain import CLOCK_HEADER_NAME, CLOCK_HEADER_TEXT, ToolchainRequest, render_toolchain
 from uros_build.workspace import check_file_target, write_if_changed
 

@@ -14,8 +14,8 @@ from dataclasses import dataclass
 from uros_build import clones, console, distros
 from uros_build.distros import Source
 from uros_build.errors import ConfigError, StepFailed, UrosError
-from uros_build.plan import UpdateArgs, UpdatePlan, plan_update
 from uros_build.proc import Runner, new_run_log
+from uros_build.sourceplan import UpdateArgs, UpdatePlan, plan_update
 from uros_build.workspace import CONFIG, LOCK, Lock, LockedRepo, with_distro, write_if_changed
 
 
