@@ -1,4 +1,4 @@
-"""What a built library offers, read from its output folder (pure but for reading files): the ROS 2
+"""What a built library offers, read from its output folder (pure): the ROS 2
 interface types its include tree declares and the CMake options its colcon.meta put in force.
 
 The type names come from rosidl's generated C structs, not from the header file names: rosidl

@@ -1,5 +1,4 @@
-"""Which interface packages a firmware uses, read from its C/C++ sources (pure but for reading
-files).
+"""Which interface packages a firmware uses, read from its C/C++ sources (pure).
 
 A micro-ROS firmware names every message, service and action type it uses twice over: the
 generated header it includes (``#include <std_msgs/msg/int32.h>``, ``<pkg/srv/...>``,

@@ -1,7 +1,9 @@
 """What the host and the target's tools are: compiler location and version, C library and C++
 headers, CMake's version, the colcon program, the archiver CMake chose, and the environment colcon
-runs in. Probes run tools through the runner and return frozen facts; nothing here decides what
-to build.
+runs in. Probes run tools through the runner and return frozen facts. Two things here act
+rather than look, because a probe needs them first: the host tools workspace (dev_ws) is built
+when it is missing or out of date (build_dev_workspace), and CMake's compiler facts are found by
+configuring a tiny project (cmake_compiler_facts).
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""ROS 2 interface packages: check .msg/.srv files and scaffold a package (pure but for file reads).
+"""ROS 2 interface packages: check .msg/.srv files and scaffold a package (pure).
 
 rosidl's own errors surface deep in a CMake stack; checking the files' shape first gives the file,
 the line and the rule. The rules follow rosidl_adapter's parser

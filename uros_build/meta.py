@@ -1,4 +1,4 @@
-"""colcon.meta: strict loading, merging and deterministic writing (pure but for reading files).
+"""colcon.meta: strict loading, merging and deterministic writing (pure).
 
 colcon itself reads ``names`` and ``paths`` and silently ignores anything else it does not
 understand, and a ``--metas`` path that does not exist. uros refuses both, naming file and line.

@@ -48,7 +48,7 @@ def test_a_source_restored_with_its_old_mtime_is_rebuilt(tmp_path: Path) -> None
     _build(ws)
     assert "fx_core_v2" not in defined_globals(lib)
     assert (
-        "stale: inputs changed since the last build (the sources' content)" in doctor.stdout + doctor.stderr
+        "stale: inputs changed since the last build: sources" in doctor.stdout + doctor.stderr
     )
     assert defined_globals(lib)["fx_core_add"] == 1
     assert core.read_text() == original  # uros changed its mtime, never its content

@@ -57,9 +57,14 @@ def test_workspace_state() -> None:
     assert (
         d.eval_dev_ws(True, True, True).status == d.OK and d.eval_dev_ws(False, False, False).status == d.SKIP
     )
-    assert d.eval_output("cortex-m7", 100.0, 50.0).status == d.OK
-    assert "stale" in d.eval_output("cortex-m7", 100.0, 150.0).detail
-    assert d.eval_output("cortex-m7", None, 0.0).status == d.WARN
+    assert d.eval_output("cortex-m7", True, []).detail == "built and up to date"
+    stale = d.eval_output("cortex-m7", True, ["sources", "workspace settings"])
+    assert (
+        stale.status == d.WARN
+        and stale.detail == "stale: inputs changed since the last build: sources, workspace settings"
+    )
+    assert d.eval_output("cortex-m7", False, None).status == d.WARN
+    assert d.eval_output("cortex-m7", True, None).detail == "built (no record to compare)"
 
 
 def test_render_one_line_per_check_with_the_fix() -> None:

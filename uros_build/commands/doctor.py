@@ -27,6 +27,7 @@ from uros_build.plan import resolve_target
 from uros_build.proc import Runner, new_run_log, user_log_dir
 from uros_build.profiles import TargetProfile
 from uros_build.settings import BuildArgs, expand_targets, resolve_workspace
+from uros_build.steps import inputs as inputs_step
 from uros_build.workspace import CONFIG, Lock, Workspace, load_config, read_lock
 
 OK, WARN, FAIL, SKIP = "ok", "warn", "FAIL", "skip"
@@ -207,41 +208,38 @@ def eval_dev_ws(built: bool, same_lock: bool, has_dev: bool) -> Check:
     return Check("dev_ws", OK, "built")
 
 
-def eval_output(key: str, output_time: float | None, newest_input: float, sources_same: bool = True) -> Check:
-    """``sources_same``: the workspace's sources hold the content the last build was made from
-    (compared by content: an edit restored with an old mtime is a change too)."""
+def eval_output(key: str, built: bool, changed: Sequence[str] | None) -> Check:
+    """``built``: the output holds the build's build-info.json; ``changed``: what differs from the
+    target's last good build (steps.inputs.changes over the workspace's own inputs: the sources'
+    content and its settings files; None: no record to compare with)."""
     name = f"target {key}"
-    if output_time is None:
+    if not built:
         return Check(
             name,
             WARN,
             "trees but no output (a build failed or was interrupted)",
             f"uros build --toolchain {key}",
         )
-    if not sources_same:
+    if changed:
         return Check(
             name,
             WARN,
-            "stale: inputs changed since the last build (the sources' content)",
+            f"stale: inputs changed since the last build: {', '.join(changed)}",
             f"uros build --toolchain {key}",
         )
-    if newest_input > output_time:
-        return Check(
-            name, WARN, "stale: inputs changed since the last build", f"uros build --toolchain {key}"
-        )
-    return Check(name, OK, "built and up to date")
+    return Check(name, OK, "built and up to date" if changed is not None else "built (no record to compare)")
 
 
-def sources_as_built(ws: Workspace, key: str) -> bool:
-    """The sources' content (names and sha256) equals what the target's last good build recorded.
-    Reads the build's stat cache to hash only what changed; writes nothing and touches no mtime."""
+def output_changes(ws: Workspace, key: str) -> list[str] | None:
+    """What changed since the target's last good build among the inputs that are the workspace's
+    alone, judged as `uros build` judges them (steps.inputs.changes), by content. Reads the build's
+    stat cache to hash only what changed; writes nothing and touches no mtime."""
     state = fp.read_state(ws.target_dir(key) / fp.STATE)
-    if state is None or "sources" not in state.parts:
-        return True  # no record to compare with: the output's own time decides
-    out = Path(state.output)
-    cached = fp.load_sources_cache(ws.target_dir(key) / fp.SOURCES_CACHE)
-    records = fp.scan_tree(ws.source_dir, cached, (str(out), str(out.parent / f".{out.name}.")))
-    return fp.tree_digest(records) == state.parts["sources"]
+    if state is None:
+        return None
+    sources, _ = inputs_step.scan_sources(ws, ws.target_dir(key), Path(state.output))
+    parts = inputs_step.workspace_parts(ws, fp.tree_digest(sources))
+    return inputs_step.changes(state, parts, complete=False)
 
 
 def failed(checks: Iterable[Check]) -> list[Check]:
@@ -308,16 +306,6 @@ def _head(runner: Runner, clone: Path) -> str | None:
         return None
 
 
-def _newest(paths: Iterable[Path], tree: Path) -> float:
-    """The newest modification time among ``paths`` and the files under ``tree`` (not .git)."""
-    newest = max((p.stat().st_mtime for p in paths if p.is_file()), default=0.0)
-    for dirpath, dirnames, filenames in os.walk(tree):
-        dirnames[:] = [d for d in dirnames if not d.startswith(".")]
-        for name in filenames:
-            newest = max(newest, os.lstat(os.path.join(dirpath, name)).st_mtime)
-    return newest
-
-
 def probe_workspace(runner: Runner, ws: Workspace) -> list[Check]:
     checks = []
     lock_path = ws.lock_path
@@ -329,12 +317,9 @@ def probe_workspace(runner: Runner, ws: Workspace) -> list[Check]:
             lock_path.read_text(encoding="utf-8")
         )
         checks.append(eval_dev_ws(ws.dev_built(), same, ws.dev_dir.is_dir()))
-    inputs = [ws.root / CONFIG, ws.user_meta]
-    newest = _newest(inputs, ws.source_dir) if outputs.target_keys(ws) else 0.0
     for key in outputs.target_keys(ws):
-        info = ws.default_output(key) / BUILD_INFO
-        when = info.stat().st_mtime if info.is_file() else None
-        checks.append(eval_output(key, when, newest, sources_as_built(ws, key)))
+        built = (ws.default_output(key) / BUILD_INFO).is_file()
+        checks.append(eval_output(key, built, output_changes(ws, key) if built else None))
     if not outputs.target_keys(ws):
         checks.append(Check("targets", OK, "none built yet"))
     return checks

@@ -49,7 +49,9 @@ from uros_build.toolchain import (
     seeded_toolchain_text,
 )
 from uros_build.workspace import (
+    CONFIG,
     DEV_MARKER,
+    Workspace,
     write_if_changed,
 )
 
@@ -258,21 +260,69 @@ def _versions(*distributions: str) -> str:
 _ENV_THAT_MATTERS = ("CMAKE_GENERATOR", "CMAKE_POLICY_VERSION_MINIMUM", "PYTHONPATH", "AMENT_PREFIX_PATH")
 
 
+def scan_sources(
+    ws: Workspace, target_dir: Path, out: Path
+) -> tuple[dict[str, fp.FileRecord], dict[str, fp.FileRecord]]:
+    """The workspace's sources as they are now, and as the target's stat cache last saw them
+    (which lets the scan hash only files whose stat changed). Reads only."""
+    cached = fp.load_sources_cache(target_dir / fp.SOURCES_CACHE)
+    # An --output inside a plain workspace (and its staging folders beside it) is not a source.
+    sources = fp.scan_tree(ws.source_dir, cached, (str(out), str(out.parent / f".{out.name}.")))
+    return sources, cached
+
+
+def meta_text(plan: BuildPlan) -> str:
+    """The merged colcon.meta as the build writes it."""
+    return meta_mod.dump_meta(plan.meta, f"uros build --toolchain {plan.target.key}")
+
+
+def workspace_parts(ws: Workspace, sources_digest: str) -> dict[str, str]:
+    """The inputs that are the workspace's alone, whatever the command line said: the sources'
+    content and the workspace's settings files (uros.yaml, its colcon.meta). `uros doctor` judges
+    a target by these (it does not know the last build's command line); a build has them too."""
+    settings = [p.read_bytes() if p.is_file() else b"" for p in (ws.root / CONFIG, ws.user_meta)]
+    return {"sources": sources_digest, "workspace settings": fp.digest(*settings)}
+
+
+def content_parts(plan: BuildPlan, sources_digest: str) -> dict[str, str]:
+    """The inputs known without running a tool or writing a file: :func:`workspace_parts`, the
+    merged colcon.meta, the profile, the ESP-IDF project, the packages and the output; a build adds
+    the rest (:func:`_input_parts`)."""
+    skipped = packages_mod.host_only(list(plan.packages))
+    return {
+        **workspace_parts(plan.workspace, sources_digest),
+        "colcon.meta": fp.digest(meta_text(plan)),
+        "profile": fp.digest(repr(plan.profile)),
+        # the ESP-IDF project's version, target, include folders, flags and sdkconfig.h hash
+        "ESP-IDF project": fp.digest(repr(plan.idf)),
+        "packages": fp.digest_json([list(plan.requested), list(skipped)]),
+        "output": fp.digest(str(plan.output)),
+    }
+
+
+def changes(previous: fp.BuildState, parts: Mapping[str, str], complete: bool) -> list[str]:
+    """What differs from the target's last good build: the parts of ``parts`` whose digest is
+    another (``complete``: ``parts`` is every input, so a part the last build had and this one
+    lacks counts too), and the output folder when it is not as that build wrote it. [] means up to
+    date. The one judgement of `uros build` (every input) and `uros doctor` (:func:`content_parts`)."""
+    before = previous.parts if complete else {k: v for k, v in previous.parts.items() if k in parts}
+    changed = fp.differing(before, parts)
+    if not _output_intact(Path(previous.output), previous):
+        changed.append("the output folder")
+    return changed
+
+
 def _input_parts(
-    plan: BuildPlan, facts: HostFacts, toolchain_file: Path, meta_text: str, setup: ColconSetup
+    plan: BuildPlan, facts: HostFacts, toolchain_file: Path, setup: ColconSetup
 ) -> dict[str, str]:
     """Every input of the build, each as a digest: equal parts, equal build."""
     ws = plan.workspace
-    cache_path = plan.target_dir / fp.SOURCES_CACHE
-    cached = fp.load_sources_cache(cache_path)
-    # An --output inside a plain workspace (and its staging folders beside it) is not a source.
-    out = plan.output
-    sources = fp.scan_tree(ws.source_dir, cached, (str(out), str(out.parent / f".{out.name}.")))
+    sources, cached = scan_sources(ws, plan.target_dir, plan.output)
     newer = fp.content_changed(cached, sources)
     if newer:
         fp.make_newer(ws.source_dir, newer, sources)
     if sources != cached:
-        fp.save_sources_cache(cache_path, sources)
+        fp.save_sources_cache(plan.target_dir / fp.SOURCES_CACHE, sources)
     # The colcon command without what does not change its result (progress output, workers).
     stable = colcon.colcon_argv(
         dataclasses.replace(setup.plan, verbose=False, parallel_workers=None), facts.colcon
@@ -286,13 +336,10 @@ def _input_parts(
     }
     marker = ws.dev_install / DEV_MARKER
     ninja = colcon.ninja_program(setup.env)
+    parts = content_parts(plan, fp.tree_digest(sources))
     return {
-        "sources": fp.tree_digest(sources),
-        "colcon.meta": fp.digest(meta_text),
+        **parts,
         "toolchain file": fp.file_sha256(toolchain_file),
-        "profile": fp.digest(repr(plan.profile)),
-        # the ESP-IDF project's version, target, include folders, flags and sdkconfig.h hash
-        "ESP-IDF project": fp.digest(repr(plan.idf)),
         "compiler": compiler_identity(facts),
         "tools": fp.digest(
             facts.cmake,
@@ -308,20 +355,18 @@ def _input_parts(
         "dev_ws": fp.digest(
             marker.read_text(encoding="utf-8") if marker.is_file() else "", fp.stat_key(marker)
         ),
-        "packages": fp.digest_json([list(plan.requested), list(setup.skipped)]),
         "colcon": fp.digest_json([stable, sorted(env.items())]),
-        "output": fp.digest(str(plan.output)),
     }
 
 
-def _output_intact(plan: BuildPlan, state: fp.BuildState) -> bool:
+def _output_intact(output: Path, state: fp.BuildState) -> bool:
     """The output folder is what the recorded build wrote (its build-info.json names the
     library's sha256, and every file is as written)."""
     try:
-        info = read_build_info(plan.output)
+        info = read_build_info(output)
     except ConfigError:
         return False
-    return fp.output_intact(state, plan.output, info.library.file, info.library.sha256)
+    return fp.output_intact(state, output, info.library.file, info.library.sha256)
 
 
 def flags_fingerprint(parts: Mapping[str, str]) -> str:
@@ -386,11 +431,10 @@ def resolve(plan: BuildPlan, facts: HostFacts, runner: Runner) -> Inputs:
     every input as a digest, the last good build's state, the build key."""
     toolchain_file = _prepare_toolchain(plan, facts)
     meta_path = plan.target_dir / "colcon.meta"
-    meta_text = meta_mod.dump_meta(plan.meta, f"uros build --toolchain {plan.target.key}")
-    write_if_changed(meta_path, meta_text)
+    write_if_changed(meta_path, meta_text(plan))
     setup = _colcon_setup(plan, facts, toolchain_file, meta_path, runner)
     outside_digest = drop_readers_of_changed_headers(plan)
-    parts = _input_parts(plan, facts, toolchain_file, meta_text, setup)
+    parts = _input_parts(plan, facts, toolchain_file, setup)
     parts["headers outside the workspace"] = outside_digest
     state_path = plan.target_dir / fp.STATE
     key = build_key(plan, facts, toolchain_file, parts)
@@ -403,9 +447,9 @@ def up_to_date(plan: BuildPlan, inputs: Inputs, repaired: bool) -> bool:
     previous = inputs.previous
     if previous is None or plan.rebuild or repaired:
         return False
-    if previous.fingerprint == fp.combine(inputs.parts) and _output_intact(plan, previous):
+    changed = changes(previous, inputs.parts, complete=True)
+    if not changed and previous.fingerprint == fp.combine(inputs.parts):
         console.step(f"up to date: {plan.output} (no input changed since its build; --rebuild forces one)")
         return True
-    changed = fp.differing(previous.parts, inputs.parts) or ["the output folder"]
     console.info(f"changed since the last build: {', '.join(changed)}")
     return False
