@@ -26,7 +26,8 @@ from uros_build.packages import PackageInfo
 from uros_build.proc import Runner
 from uros_build.profiles import TargetProfile
 from uros_build.toolchain import tool_paths
-from uros_build.workspace import Workspace, WorkspaceConfig, dev_env
+from uros_build.workspace import Workspace, dev_env
+from uros_build.wsfiles import WorkspaceConfig
 
 
 @dataclass(frozen=True)

@@ -38,14 +38,8 @@ from uros_build.settings import (
     open_workspace,
     resolve_workspace,
 )
-from uros_build.workspace import (
-    CONFIG,
-    Workspace,
-    WorkspaceConfig,
-    check_folder_target,
-    load_config,
-    target_key,
-)
+from uros_build.workspace import Workspace, check_folder_target, target_key
+from uros_build.wsfiles import CONFIG, WorkspaceConfig, load_config
 
 # ---------------------------------------------------------------------------------------------
 # the workspace: one default for every command

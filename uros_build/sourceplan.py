@@ -21,19 +21,8 @@ from uros_build.profiles import (
 from uros_build.settings import (
     resolve_workspace,
 )
-from uros_build.workspace import (
-    CONFIG,
-    LOCK,
-    PENDING,
-    Lock,
-    Workspace,
-    WorkspaceConfig,
-    check_build_folder,
-    check_extra_package,
-    load_config,
-    parse_config,
-    read_lock,
-)
+from uros_build.workspace import PENDING, Workspace, check_build_folder, check_extra_package
+from uros_build.wsfiles import CONFIG, LOCK, Lock, WorkspaceConfig, load_config, parse_config, read_lock
 
 # ---------------------------------------------------------------------------------------------
 # uros create-firmware

@@ -47,9 +47,7 @@ def test_a_source_restored_with_its_old_mtime_is_rebuilt(tmp_path: Path) -> None
     doctor = run_uros("doctor", "-w", str(ws), check=False)
     _build(ws)
     assert "fx_core_v2" not in defined_globals(lib)
-    assert (
-        "stale: inputs changed since the last build: sources" in doctor.stdout + doctor.stderr
-    )
+    assert "stale: inputs changed since the last build: sources" in doctor.stdout + doctor.stderr
     assert defined_globals(lib)["fx_core_add"] == 1
     assert core.read_text() == original  # uros changed its mtime, never its content
     doctor = run_uros("doctor", "-w", str(ws), check=False)

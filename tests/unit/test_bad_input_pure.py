@@ -14,7 +14,8 @@ from uros_build.errors import ConfigError
 from uros_build.meta import Meta, parse_meta
 from uros_build.plan import unknown_packages
 from uros_build.proc import first_error
-from uros_build.workspace import check_file_target, check_folder_target, parse_config
+from uros_build.workspace import check_file_target, check_folder_target
+from uros_build.wsfiles import parse_config
 
 
 def test_a_cmake_error_carries_its_message() -> None:

@@ -6,7 +6,7 @@ from pathlib import Path
 
 from uros_build.commands import doctor as d
 from uros_build.profiles import find_profile
-from uros_build.workspace import Lock, LockedRepo
+from uros_build.wsfiles import Lock, LockedRepo
 
 
 def test_versions_and_tools() -> None:

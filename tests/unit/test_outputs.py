@@ -13,11 +13,12 @@ from pathlib import Path
 import pytest
 
 from uros_build import outputs
+from uros_build.damage import archive_damage, configure_damage
 from uros_build.errors import ConfigError, HungUp, Interrupted, Signalled, Terminated, disk_full_message
 from uros_build.errors import interrupted as interrupted_error
 from uros_build.outputs import Journal, Move, recovery_actions
 from uros_build.proc import disk_full_line, disk_full_path, environ_has
-from uros_build.workspace import Workspace, archive_damage, configure_damage, lock_holder, target_key
+from uros_build.workspace import Workspace, lock_holder, target_key
 
 DEAD = 2**22 + 1000  # above the largest pid_max Linux allows: never a live process
 

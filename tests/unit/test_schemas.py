@@ -11,7 +11,7 @@ import jsonschema
 import pytest
 import yaml
 
-from uros_build import distros, resources, workspace
+from uros_build import distros, resources, wsfiles
 from uros_build.errors import ConfigError
 from uros_build.profiles import ElfFacts, MicroRosFlags, TargetProfile, parse_profile
 
@@ -157,18 +157,18 @@ idf_build: ../my-idf-project/build
 def test_sample_uros_yaml_validates() -> None:
     data = yaml.safe_load(SAMPLE_UROS_YAML)
     assert _errors("uros.schema.json", data) == []
-    cfg = workspace.parse_config(data, "uros.yaml")  # and uros reads it
+    cfg = wsfiles.parse_config(data, "uros.yaml")  # and uros reads it
     assert cfg.distro == "humble" and len(cfg.mirror.rules) == 1 and len(cfg.mirror.overrides) == 2
     assert cfg.targets == ("cortex-m7", "rp2040") and cfg.transport == "udp" and len(cfg.set) == 1
     assert cfg.idf_build == "../my-idf-project/build"
     # what create-firmware writes validates too
-    assert _errors("uros.schema.json", yaml.safe_load(workspace.config_text(cfg))) == []
+    assert _errors("uros.schema.json", yaml.safe_load(wsfiles.config_text(cfg))) == []
     assert _errors("uros.schema.json", {"distro": "iron"}) == []
 
 
 def test_uros_schema_equals_the_workspace_config() -> None:
     schema = _schema("uros.schema.json")
-    assert set(schema["properties"]) == {f.name for f in fields(workspace.WorkspaceConfig)}
+    assert set(schema["properties"]) == {f.name for f in fields(wsfiles.WorkspaceConfig)}
     assert set(schema["properties"]["mirror"]["properties"]) == set(
         distros.mirror_to_config(distros.Mirror())
     )
@@ -200,14 +200,14 @@ def test_bad_uros_yaml_fails_the_schema(data: dict[str, Any], expected: str) -> 
     if expected.startswith("'distro'"):
         return
     with pytest.raises(ConfigError):  # and uros refuses it too
-        workspace.parse_config(data, "uros.yaml")
+        wsfiles.parse_config(data, "uros.yaml")
 
 
 def test_unknown_uros_yaml_key_names_file_and_line(tmp_path: Path) -> None:
     (tmp_path / "uros.yaml").write_text("distro: humble\ntarget: cortex-m7\ntargte: rp2040\n")
     with pytest.raises(ConfigError, match=r"uros.yaml:3: targte: unknown key") as info:
-        workspace.load_config(tmp_path)
+        wsfiles.load_config(tmp_path)
     assert info.value.hint == "did you mean target or targets?"
     (tmp_path / "uros.yaml").write_text("distro: humble\nmirror:\n  rule: []\n")
     with pytest.raises(ConfigError, match=r"uros.yaml:3: mirror: rule: unknown key"):
-        workspace.load_config(tmp_path)
+        wsfiles.load_config(tmp_path)

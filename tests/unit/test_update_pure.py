@@ -10,7 +10,7 @@ from uros_build.clones import UPDATE_REFS, checkout_argv, fetch_argv, fetched_co
 from uros_build.commands.update import Move, describe
 from uros_build.distros import Repo, Source
 from uros_build.errors import ConfigError
-from uros_build.workspace import with_distro
+from uros_build.wsfiles import with_distro
 
 _REPO = Repo("uros/rcl", "https://github.com/micro-ROS/rcl", "humble")
 

@@ -10,17 +10,16 @@ import pytest
 from uros_build.clones import clone_argv
 from uros_build.distros import Repo, Source
 from uros_build.errors import ConfigError
-from uros_build.workspace import (
+from uros_build.workspace import dev_env, sync_tree
+from uros_build.wsfiles import (
     Lock,
     WorkspaceConfig,
     config_text,
-    dev_env,
     load_config,
     parse_config,
     parse_lock,
     read_lock,
     save_config,
-    sync_tree,
 )
 
 
@@ -101,7 +100,7 @@ def test_parse_lock_keeps_every_field() -> None:
 
 
 def test_clone_state_reads_head_and_changes() -> None:
-    from uros_build.workspace import clone_state
+    from uros_build.wsfiles import clone_state
 
     clean = "# branch.oid 0123abc\n# branch.head humble\n"
     assert clone_state(clean) == ("0123abc", 0)
@@ -199,13 +198,13 @@ def test_clean_counts_and_recognises_only_uros_outputs(tmp_path: Path) -> None:
     ],
 )
 def test_with_extra_package_is_a_line_edit(text: str, expected: str) -> None:
-    from uros_build.workspace import with_extra_package
+    from uros_build.wsfiles import with_extra_package
 
     assert with_extra_package(text, "/p q", "uros.yaml") == expected
 
 
 def test_with_extra_package_refuses_what_a_line_edit_cannot_extend() -> None:
-    from uros_build.workspace import with_extra_package
+    from uros_build.wsfiles import with_extra_package
 
     with pytest.raises(ConfigError, match="cannot add /p to this list"):
         with_extra_package("distro: humble\nextra_packages: [\n  /x]\n", "/p", "uros.yaml")

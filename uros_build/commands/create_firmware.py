@@ -17,18 +17,8 @@ from uros_build.distros import Source
 from uros_build.errors import StepFailed, UrosError
 from uros_build.proc import Runner, new_run_log, user_log_dir
 from uros_build.sourceplan import CreateArgs, CreatePlan, plan_create
-from uros_build.workspace import (
-    CONFIG,
-    EXTRA,
-    LOCK,
-    PENDING,
-    USER_META,
-    Lock,
-    Workspace,
-    WorkspaceConfig,
-    save_config,
-    sync_tree,
-)
+from uros_build.workspace import PENDING, USER_META, Workspace, sync_tree
+from uros_build.wsfiles import CONFIG, EXTRA, LOCK, Lock, WorkspaceConfig, save_config
 
 
 def _clone_all(

@@ -28,7 +28,8 @@ from uros_build.proc import Runner, new_run_log, user_log_dir
 from uros_build.profiles import TargetProfile
 from uros_build.settings import BuildArgs, expand_targets, resolve_workspace
 from uros_build.steps import inputs as inputs_step
-from uros_build.workspace import CONFIG, Lock, Workspace, load_config, read_lock
+from uros_build.workspace import Workspace
+from uros_build.wsfiles import CONFIG, Lock, load_config, read_lock
 
 OK, WARN, FAIL, SKIP = "ok", "warn", "FAIL", "skip"
 

@@ -17,7 +17,8 @@ from uros_build.plan import meta_for, resolve_target
 from uros_build.profiles import OR_PROFILE_FILE, find_profile, load_profile_file, shipped_profiles
 from uros_build.settings import resolve_workspace
 from uros_build.toolchain import CLOCK_HEADER_NAME, CLOCK_HEADER_TEXT, ToolchainRequest, render_toolchain
-from uros_build.workspace import check_file_target, write_if_changed
+from uros_build.workspace import check_file_target
+from uros_build.wsfiles import write_if_changed
 
 
 def targets_table() -> list[dict[str, Any]]:

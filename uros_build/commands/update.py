@@ -16,7 +16,7 @@ from uros_build.distros import Source
 from uros_build.errors import ConfigError, StepFailed, UrosError
 from uros_build.proc import Runner, new_run_log
 from uros_build.sourceplan import UpdateArgs, UpdatePlan, plan_update
-from uros_build.workspace import CONFIG, LOCK, Lock, LockedRepo, with_distro, write_if_changed
+from uros_build.wsfiles import CONFIG, LOCK, Lock, LockedRepo, with_distro, write_if_changed
 
 
 @dataclass(frozen=True)

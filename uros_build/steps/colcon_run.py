@@ -28,9 +28,7 @@ from uros_build.plan import BuildPlan
 from uros_build.proc import Runner, disk_full_line, disk_full_path, first_error
 from uros_build.steps.inputs import CCACHE_STATS, ColconSetup, Inputs, flags_fingerprint
 from uros_build.steps.prepare import DISK_FULL_MARK, drop_removed_packages
-from uros_build.workspace import (
-    write_if_changed,
-)
+from uros_build.wsfiles import write_if_changed
 
 
 def _record_outside_headers(plan: BuildPlan, runner: Runner, setup: ColconSetup) -> str:

@@ -48,12 +48,8 @@ from uros_build.toolchain import (
     seed_module_text,
     seeded_toolchain_text,
 )
-from uros_build.workspace import (
-    CONFIG,
-    DEV_MARKER,
-    Workspace,
-    write_if_changed,
-)
+from uros_build.workspace import DEV_MARKER, Workspace
+from uros_build.wsfiles import CONFIG, write_if_changed
 
 
 @dataclass(frozen=True)

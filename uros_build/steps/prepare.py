@@ -16,14 +16,11 @@ from uros_build import (
 )
 from uros_build import fingerprint as fp
 from uros_build import packages as packages_mod
+from uros_build.damage import damaged_archives, damaged_configures
 from uros_build.hosttools import HostFacts
 from uros_build.plan import BuildPlan
 from uros_build.proc import stop_leftovers
-from uros_build.workspace import (
-    damaged_archives,
-    damaged_configures,
-    write_if_changed,
-)
+from uros_build.wsfiles import write_if_changed
 
 
 def compiler_identity(facts: HostFacts) -> str:

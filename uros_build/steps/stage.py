@@ -58,10 +58,8 @@ from uros_build.toolchain import (
     render_toolchain,
     tool_paths,
 )
-from uros_build.workspace import (
-    locked,
-    read_lock,
-)
+from uros_build.workspace import locked
+from uros_build.wsfiles import read_lock
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,97 @@
+"""What a full disk leaves behind in colcon's trees, found by content: configure files cut short
+(a `<pkg>Config.cmake` ending mid-line) and archives whose member table does not reach their end.
+A build that ran out of disk marks its target; the next one drops what these find. Pure.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+# What CMake's configure writes into a package's build folder and reads back at every build. A
+# write that fails on a full disk leaves it empty or cut short, and every later build fails
+# (ninja: "unknown build rule", CMake: "Parse error in cache file") until the folder is dropped.
+CONFIGURE_FILES = (
+    "CMakeCache.txt",
+    "build.ninja",
+    "CMakeFiles/rules.ninja",
+    "Makefile",
+    "CMakeFiles/Makefile2",
+)
+_TAIL = 4096
+
+
+def configure_damage(name: str, size: int, tail: bytes) -> str | None:
+    """Why a configure file is damaged, from its size and its last bytes, or None (pure). Each is
+    a text file CMake writes whole, ending in a line break; the cache ends with its INTERNAL
+    entries."""
+    if size == 0:
+        return f"{name} is empty"
+    if b"\0" in tail:
+        return f"{name} holds NUL bytes"
+    if not tail.endswith(b"\n"):
+        return f"{name} is cut short"
+    if name == "CMakeCache.txt" and b":INTERNAL=" not in tail:
+        return f"{name} is cut short (no INTERNAL entries at its end)"
+    return None
+
+
+_AR_MAGIC = b"!<arch>\n"
+_AR_HEADER = 60  # https://en.wikipedia.org/wiki/Ar_(Unix)#File_header: size at 48..58, "`\n" at 58
+
+
+def archive_damage(size: int, read_at: Callable[[int, int], bytes]) -> str | None:
+    """Why an ar archive of ``size`` bytes is cut short or broken, or None: its member headers,
+    read with ``read_at(offset, length)``, must chain exactly to its end (pure over the reader)."""
+    if read_at(0, len(_AR_MAGIC)) != _AR_MAGIC:
+        return "is not an ar archive (a write cut short?)"
+    offset = len(_AR_MAGIC)
+    while offset < size:
+        header = read_at(offset, _AR_HEADER)
+        if len(header) < _AR_HEADER or header[58:60] != b"`\n" or not header[48:58].strip().isdigit():
+            return f"is cut short or broken at byte {offset}"
+        offset += _AR_HEADER + int(header[48:58]) + int(header[48:58]) % 2
+    return None if offset in (size, size + 1) else f"is cut short (a member ends at byte {offset} of {size})"
+
+
+def damaged_archives(folders: list[Path]) -> list[tuple[Path, str]]:
+    """The static libraries (``*.a``) in ``folders`` that are cut short or broken, with why."""
+    found = []
+    for folder in folders:
+        for path in sorted(folder.glob("*.a")) if folder.is_dir() else []:
+            try:
+                with path.open("rb") as handle:
+
+                    def read_at(offset: int, length: int, handle: Any = handle) -> bytes:
+                        handle.seek(offset)
+                        return bytes(handle.read(length))
+
+                    why = archive_damage(os.fstat(handle.fileno()).st_size, read_at)
+            except OSError as exc:
+                why = f"cannot be read ({exc.strerror})"
+            if why is not None:
+                found.append((path, why))
+    return found
+
+
+def damaged_configures(build_base: Path) -> list[tuple[Path, str]]:
+    """The package build folders under ``build_base`` whose configure files are damaged, with why."""
+    found = []
+    for folder in sorted(p for p in build_base.iterdir() if p.is_dir()) if build_base.is_dir() else []:
+        for name in CONFIGURE_FILES:
+            path = folder / name
+            try:
+                with path.open("rb") as handle:
+                    size = os.fstat(handle.fileno()).st_size
+                    handle.seek(max(0, size - _TAIL))
+                    why = configure_damage(name, size, handle.read())
+            except FileNotFoundError:
+                continue
+            except OSError as exc:
+                why = f"{name} cannot be read ({exc.strerror})"
+            if why is not None:
+                found.append((folder, why))
+                break
+    return found
