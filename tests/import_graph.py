@@ -44,7 +44,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
             "pyshim",
         ),
     ),
-    ("workspace model", ("wsfiles", "damage", "workspace", "outputs", "clones")),
+    ("workspace model", ("wsfiles", "damage", "workspace", "outputs", "swap", "clones")),
     ("plans and probes", ("settings", "plan", "sourceplan", "hosttools")),
     ("build steps", ("steps",)),
     ("commands", ("commands",)),

@@ -12,12 +12,12 @@ from pathlib import Path
 
 import pytest
 
-from uros_build import outputs
+from uros_build import outputs, swap
 from uros_build.damage import archive_damage, configure_damage
 from uros_build.errors import ConfigError, HungUp, Interrupted, Signalled, Terminated, disk_full_message
 from uros_build.errors import interrupted as interrupted_error
-from uros_build.outputs import Journal, Move, recovery_actions
 from uros_build.proc import disk_full_line, disk_full_path, environ_has
+from uros_build.swap import Journal, Move, recovery_actions
 from uros_build.workspace import Workspace, lock_holder, target_key
 
 DEAD = 2**22 + 1000  # above the largest pid_max Linux allows: never a live process
@@ -165,7 +165,7 @@ def _tree(folder: Path) -> list[str]:
 
 def test_a_swap_replaces_the_whole_output_and_leaves_nothing_beside_it(tmp_path: Path) -> None:
     out = _output(tmp_path / "out")
-    assert outputs.install_output(_staging(out), out) == []
+    assert swap.install_output(_staging(out), out) == []
     assert (out / "libmicroros.a").read_text() == "new"
     assert not (out / "include" / "pkg" / "a.h").exists()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
@@ -175,7 +175,7 @@ def test_a_swap_keeps_the_users_files(tmp_path: Path) -> None:
     out = _output(tmp_path / "out", "notes.txt")
     (out / "toolchain.cmake").write_text("an earlier build's")
     outputs.add_to_marker(out, ["toolchain.cmake"])
-    outputs.install_output(_staging(out), out)
+    swap.install_output(_staging(out), out)
     assert (out / "notes.txt").read_text() == "mine\n"
     assert (out / "libmicroros.a").read_text() == "new"
     assert not (out / "toolchain.cmake").exists()  # uros's, and this build wrote none
@@ -191,7 +191,7 @@ def test_force_into_a_users_folder_replaces_only_uros_files(tmp_path: Path) -> N
     (proj / "src").mkdir(parents=True)
     (proj / "src" / "main.c").write_text("int main(void) { return 0; }\n")
     (proj / "build-info.json").write_text("{}\n")
-    outputs.install_output(_staging(proj), proj)
+    swap.install_output(_staging(proj), proj)
     assert (proj / "src" / "main.c").read_text() == "int main(void) { return 0; }\n"
     assert outputs.owned_entries(proj) == {"include", "libmicroros.a", "build-info.json", ".uros-output"}
 
@@ -200,7 +200,7 @@ def test_a_read_only_previous_output_is_removed(tmp_path: Path) -> None:
     out = _output(tmp_path / "out")
     (out / "include" / "pkg").chmod(0o555)
     (out / "include").chmod(0o555)
-    assert outputs.install_output(_staging(out), out) == []
+    assert swap.install_output(_staging(out), out) == []
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
 
 
@@ -261,10 +261,10 @@ def test_recovery_finishes_or_rolls_back(
 
 
 def test_a_journal_reads_back_and_refuses_paths_outside_its_folder() -> None:
-    assert outputs.parse_journal(ENTRY_SWAP.to_json()) == ENTRY_SWAP
+    assert swap.parse_journal(ENTRY_SWAP.to_json()) == ENTRY_SWAP
     bad = json.dumps({"pid": 1, "moves": [{"dest": "../../home", "new": None, "old": "x"}]})
     with pytest.raises(ValueError, match="not a path inside the folder"):
-        outputs.parse_journal(bad)
+        swap.parse_journal(bad)
 
 
 # -- recovery on disk ---------------------------------------------------------------------------
@@ -277,7 +277,7 @@ def test_recover_puts_back_an_output_a_killed_swap_moved_aside(tmp_path: Path) -
     out.rename(old)
     journal = Journal(DEAD, (Move("cortex-m7", staging.name, old.name),))
     (tmp_path / ".cortex-m7.swap").write_text(journal.to_json())
-    done = outputs.recover(out)
+    done = swap.recover(out)
     assert "rolled back the swap" in done[0] and "the previous output is back" in done[0]
     assert (out / "include" / "pkg" / "a.h").is_file()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["cortex-m7"]
@@ -289,7 +289,7 @@ def test_recover_without_a_journal_puts_back_the_old_folder(tmp_path: Path) -> N
     out.rename(tmp_path / f".cortex-m7.old-{DEAD}")
     (tmp_path / f".cortex-m7.staging-{DEAD}").mkdir()
     (tmp_path / ".cortex-m7.staging-1").mkdir()  # pid 1 is alive: another run's, left alone
-    done = outputs.recover(out)
+    done = swap.recover(out)
     assert any("put back the previous output" in line for line in done), done
     assert (out / "include" / "pkg" / "a.h").is_file()
     assert sorted(p.name for p in tmp_path.iterdir()) == [".cortex-m7.staging-1", "cortex-m7"]
@@ -299,7 +299,7 @@ def test_recover_removes_what_runs_that_are_gone_left_inside_an_output(tmp_path:
     out = _output(tmp_path / "out", "notes.txt")
     (out / f".uros-staging-{DEAD}").mkdir()
     (out / f".uros-old-{DEAD}").mkdir()
-    outputs.recover(out)
+    swap.recover(out)
     assert sorted(p.name for p in out.iterdir()) == [
         ".uros-output", "build-info.json", "include", "libmicroros.a", "notes.txt",
     ]  # fmt: skip
@@ -401,5 +401,5 @@ def test_mount_points_read_octal_escapes() -> None:
 def test_recover_leaves_a_file_and_a_missing_folder_alone(tmp_path: Path) -> None:
     notes = tmp_path / "notes.txt"
     notes.write_text("mine")
-    assert outputs.recover(notes) == [] and notes.read_text() == "mine"
-    assert outputs.recover(tmp_path / "none" / "out") == []
+    assert swap.recover(notes) == [] and notes.read_text() == "mine"
+    assert swap.recover(tmp_path / "none" / "out") == []

@@ -9,7 +9,7 @@ from __future__ import annotations
 import shutil
 from pathlib import Path
 
-from uros_build import console, outputs
+from uros_build import console, outputs, swap
 from uros_build.errors import ConfigError, did_you_mean
 from uros_build.settings import BuildArgs, expand_targets, resolve_workspace
 from uros_build.workspace import Workspace, locked, target_key, tree_bytes
@@ -68,7 +68,7 @@ def clean(workspace: Path | None, toolchain: str | None, everything: bool) -> in
         sizes = [tree_bytes(path) if path.exists() else 0 for path in paths]
         with locked(tree, key):  # never under a running build of the same target
             for path, size in zip(paths, sizes, strict=True):
-                why = outputs.remove_tree(path)
+                why = swap.remove_tree(path)
                 if why is not None:
                     console.warn(f"could not remove all of {path}: {why}")
                     continue
@@ -88,7 +88,7 @@ def clean(workspace: Path | None, toolchain: str | None, everything: bool) -> in
         # ~/.cache/uros/gen, not the workspace's to drop)
         gen = ws.state_dir / "gen-cache"
         size = tree_bytes(gen) if gen.exists() else 0
-        if size and outputs.remove_tree(gen) is None:
+        if size and swap.remove_tree(gen) is None:
             freed += size
             console.info(f"removed {gen} ({human(size)})")
     console.step(f"freed {human(freed)} ({freed:,} bytes) in {ws.root}")

@@ -7,7 +7,7 @@ import shutil
 from collections.abc import Callable
 from pathlib import Path
 
-from uros_build import console, export, outputs
+from uros_build import console, export, outputs, swap
 from uros_build.buildinfo import BuildInfo, read_build_info
 from uros_build.errors import ConfigError
 from uros_build.workspace import check_folder_target
@@ -31,7 +31,7 @@ def _prepare(source: Path | None, output: Path) -> tuple[BuildInfo, Path]:
     src = (source or output).resolve()
     out = output.resolve()
     for folder in {src, out}:  # a swap a killed build left half-way is finished or undone first
-        for line in outputs.recover(folder):
+        for line in swap.recover(folder):
             console.info(line)
     info = read_build_info(src, "--from" if source else "--output")
     _check_complete(src, info, "--from" if source else "--output")

@@ -12,7 +12,7 @@ from uros_build import (
     console,
     depfiles,
     installtree,
-    outputs,
+    swap,
 )
 from uros_build import fingerprint as fp
 from uros_build import packages as packages_mod
@@ -53,7 +53,7 @@ def _redo_what_must_be_redone(plan: BuildPlan, facts: HostFacts) -> None:
     if why is not None and any(t.exists() for t in trees):
         console.info(f"{why}: building every package afresh (dropping the target's colcon trees)")
         for tree in trees:
-            outputs.remove_tree(tree)
+            swap.remove_tree(tree)
     write_if_changed(identity, now + "\n")
 
 
@@ -80,7 +80,7 @@ def drop_readers_of_changed_headers(plan: BuildPlan) -> str:
         names = ", ".join(existing)
         console.info(f"headers outside the workspace changed since the last build: building {names} afresh")
         for package in existing:
-            outputs.remove_tree(plan.target_dir / "build" / package)
+            swap.remove_tree(plan.target_dir / "build" / package)
     return digest
 
 
@@ -95,18 +95,18 @@ def _repair(plan: BuildPlan) -> bool:
             f"stopped {len(stopped)} processes left running by an earlier uros build of {plan.target.key} "
             f"that was killed (pids {' '.join(map(str, stopped))})"
         )
-    for line in outputs.recover(plan.output):
+    for line in swap.recover(plan.output):
         console.info(line)
         repaired = True
     trees = plan.target_dir
     for path, why in damaged_archives([trees / "install" / "lib", *sorted((trees / "build").glob("*/"))]):
         # ninja builds it again, colcon's install step copies it again
         console.warn(f"{path.name} {why} (a full disk or a crash?): removing {path}")
-        outputs.remove_tree(path)
+        swap.remove_tree(path)
         repaired = True
     for folder, why in damaged_configures(plan.target_dir / "build"):
         console.warn(f"{folder.name}: {why} (a full disk or a crash?): configuring it afresh in {folder}")
-        outputs.remove_tree(folder)
+        swap.remove_tree(folder)
         repaired = True
     return repaired or bool(stopped)
 

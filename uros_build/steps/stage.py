@@ -26,6 +26,7 @@ from uros_build import (
     includes,
     installtree,
     outputs,
+    swap,
 )
 from uros_build import fingerprint as fp
 from uros_build.archive import BinTools, MergeReport, merge_archives
@@ -90,7 +91,7 @@ def _deliver(plan: BuildPlan, staged: Staged) -> list[str]:
         with locked(writers, f"the output {plan.output}"):
             outputs.check_output_owner(plan.output, plan.target.key, plan.force, plan.output_flag)
             try:
-                return outputs.install_output(staging, plan.output)
+                return swap.install_output(staging, plan.output)
             except OSError as exc:
                 # the output's disk, not the workspace's (where the log is): a mount point is
                 # filled in place, so its own disk can be the full one
@@ -98,7 +99,7 @@ def _deliver(plan: BuildPlan, staged: Staged) -> list[str]:
                     raise
                 raise DiskFull.at(plan.output, f"writing the output {plan.output}: {exc.strerror}") from exc
     except BaseException:
-        outputs.remove_tree(staging)
+        swap.remove_tree(staging)
         raise
 
 
@@ -329,7 +330,7 @@ def merge_and_verify(
             runner, plan, facts, staging, inputs.setup, compiled.packages, compiled.progress, inputs.previous
         )
     except OSError as exc:
-        outputs.remove_tree(staging)
+        swap.remove_tree(staging)
         # Python names no file for a failed write(): the disk of the step's folders with the
         # least room is the full one (not the log's, which the catch-all would name)
         if exc.errno not in (errno.ENOSPC, errno.EDQUOT) or exc.filename:
@@ -337,7 +338,7 @@ def merge_and_verify(
         fullest = min((plan.target_dir, staging.parent), key=_free_bytes)
         raise DiskFull.at(fullest, f"merging the library in {fullest}: {exc.strerror}") from exc
     except BaseException:
-        outputs.remove_tree(staging)
+        swap.remove_tree(staging)
         raise
     return Staged(staging, dataclasses.replace(info, build_key=inputs.key, ccache=compiled.ccache)), merge_key
 

@@ -13,6 +13,7 @@ from uros_build import (
     console,
     depfiles,
     outputs,
+    swap,
 )
 from uros_build import cache as cache_mod
 from uros_build import fingerprint as fp
@@ -56,18 +57,18 @@ def _from_cache(runner: Runner, plan: BuildPlan, settings: CacheSettings, key: s
         data = store.get(cache_mod.archive_name(key))
         if data is None:
             raise CacheUnusable(f"the entry {key[:16]} has a manifest and no tarball")
-        outputs.remove_tree(staging)
+        swap.remove_tree(staging)
         console.step(f"cache: entry {key[:16]} found in {shown} ({len(data):,} bytes): checking it")
         cache_mod.unpack(data, manifest, staging)
         info = _check_cached(runner, plan, staging, key)
         origin = {"url": shown, "key": key, "archive_sha256": manifest.archive_sha256}
         return Staged(staging, dataclasses.replace(info, from_cache=origin))
     except CacheUnusable as exc:
-        outputs.remove_tree(staging)
+        swap.remove_tree(staging)
         console.warn(f"cache {shown}: {exc}: building instead")
         return None
     except BaseException:
-        outputs.remove_tree(staging)
+        swap.remove_tree(staging)
         raise
 
 
