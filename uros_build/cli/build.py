@@ -1,0 +1,221 @@
+"""`uros build` and the commands about its outputs and trees: check, clean, doctor, info, size."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from uros_build.cli.common import (
+    JSON,
+    METAS,
+    PATH_ARG,
+    PRESET,
+    SETS,
+    TRANSPORT,
+    VERBOSE,
+    Option,
+    complete_packages,
+    complete_targets,
+    output_option,
+    toolchain_option,
+    workspace_option,
+)
+from uros_build.commands import build as build_cmd
+from uros_build.commands import check as check_cmd
+from uros_build.commands import clean as clean_cmd
+from uros_build.commands import doctor as doctor_cmd
+from uros_build.commands import info as info_cmd
+from uros_build.commands import size as size_cmd
+from uros_build.settings import BuildArgs
+
+
+@click.command()
+@click.option(
+    "--toolchain", "--target", "toolchains", cls=Option, aliases=("--target",), multiple=True,
+    help="A target name (see `uros targets`) or your own CMake toolchain file; repeat it to build "
+    "several targets in one run (default: uros.yaml's target or targets).",
+    shell_complete=complete_targets,
+)  # fmt: skip
+@click.option(
+    "--profile",
+    type=PATH_ARG,
+    help="Your own target profile (.yaml; `uros targets show NAME` prints one to start from).",
+)
+@workspace_option("The firmware workspace.")
+@METAS
+@SETS
+@PRESET
+@TRANSPORT
+@output_option("Output folder (default: <workspace>/build/<target>).")
+@click.option(
+    "--packages",
+    "packages",
+    multiple=True,
+    metavar="PKG",
+    help="The packages the firmware wants (repeatable); the core and the extra packages are added, "
+    "and only their closure is built (default: uros.yaml's packages:, else every package).",
+    shell_complete=complete_packages,
+)
+@click.option(
+    "--for-firmware",
+    type=PATH_ARG,
+    metavar="DIR",
+    help="Build what the firmware in DIR uses: the interface packages its C/C++ sources include "
+    "(<pkg/msg/...>) or take type support of, plus the core and the extra packages.",
+)
+@click.option(
+    "--packages-up-to",
+    multiple=True,
+    help="Build exactly these packages and their dependencies (colcon's).",
+    shell_complete=complete_packages,
+)
+@click.option("-j", "--jobs", type=int, help="Packages built in parallel (colcon --parallel-workers).")
+@click.option(
+    "--compiler-prefix",
+    help="Derive a target: this compiler prefix (e.g. arm-none-eabi-) instead of the profile's.",
+)
+@click.option(
+    "--cflags", multiple=True, metavar="FLAG",
+    help="Derive a target: one more compiler flag (repeatable; one flag each, never split).",
+)  # fmt: skip
+@click.option(
+    "--idf-build", type=PATH_ARG, metavar="DIR",
+    help="An ESP-IDF project's build folder (after idf.py reconfigure): compile micro-ROS against "
+    "its components, sdkconfig.h and C flags (default: uros.yaml's idf_build).",
+)  # fmt: skip
+@click.option(
+    "--cache", metavar="URL",
+    help="A team cache of outputs: file:///DIR or http(s)://HOST/PATH (GET/PUT: nginx WebDAV, "
+    "bazel-remote, Artifactory...). An output built elsewhere with the same build key is taken "
+    "from it, checked, instead of building (default: uros.yaml's cache:; none: no cache).",
+)  # fmt: skip
+@click.option(
+    "--cache-upload", is_flag=True,
+    help="Upload this build's output to the cache (CI); without it the cache is only read. "
+    "Credentials: $UROS_CACHE_TOKEN or ~/.netrc, never in the URL.",
+)  # fmt: skip
+@click.option(
+    "--ccache/--no-ccache", default=None,
+    help="Compile through ccache (default: when it is installed); the library is the same either way.",
+)  # fmt: skip
+@click.option("--force", is_flag=True, help="Write into an --output folder holding other files (kept).")
+@click.option(
+    "--rebuild", is_flag=True, help="Run every step even when no input changed (the cache is not read)."
+)
+@VERBOSE
+def build(
+    toolchains: tuple[str, ...],
+    profile: Path | None,
+    workspace: Path | None,
+    metas: tuple[Path, ...],
+    sets: tuple[str, ...],
+    preset: str,
+    transport: str | None,
+    output: Path | None,
+    packages: tuple[str, ...],
+    for_firmware: Path | None,
+    packages_up_to: tuple[str, ...],
+    jobs: int | None,
+    compiler_prefix: str | None,
+    cflags: tuple[str, ...],
+    idf_build: Path | None,
+    cache: str | None,
+    cache_upload: bool,
+    ccache: bool | None,
+    force: bool,
+    rebuild: bool,
+    verbose: bool,
+) -> None:
+    """Build libmicroros.a, its include tree and a CMake package for a target (default: the
+    target or targets in the workspace's uros.yaml)."""
+    build_cmd.build_all(
+        BuildArgs(
+            workspace=workspace,
+            toolchain=toolchains[0] if len(toolchains) == 1 else None,
+            toolchains=toolchains,
+            profile=profile,
+            metas=metas,
+            sets=sets,
+            preset=preset,
+            transport=transport,
+            output=output,
+            verbose=verbose,
+            force=force,
+            packages_up_to=packages_up_to,
+            jobs=jobs,
+            compiler_prefix=compiler_prefix,
+            cflags=cflags,
+            idf_build=idf_build,
+            rebuild=rebuild,
+            packages=packages,
+            for_firmware=for_firmware,
+            cache=cache,
+            cache_upload=cache_upload,
+            ccache=ccache,
+        )
+    )
+
+
+@click.command()
+@click.argument("library", type=PATH_ARG)
+@toolchain_option("The target the library must fit (see `uros targets`).")
+@click.option("--profile", type=PATH_ARG, help="Or your own target profile (.yaml).")
+@VERBOSE
+@click.option("--json", "as_json", is_flag=True, help="Print the verdict as JSON.")
+def check(library: Path, toolchain: str | None, profile: Path | None, verbose: bool, as_json: bool) -> None:
+    """Check that every object in LIBRARY has the ELF facts of a target (exit 5 if not)."""
+    check_cmd.check_library(library, toolchain, profile, verbose, as_json)
+
+
+@click.command()
+@toolchain_option("The target whose trees and output to remove (default: uros.yaml's target).")
+@click.option("--all", "everything", is_flag=True, help="Every target built in the workspace.")
+@workspace_option("The workspace to clean.")
+def clean(toolchain: str | None, everything: bool, workspace: Path | None) -> None:
+    """Remove uros's per-target trees (.uros/targets/<target>) and outputs (build/<target>), never
+    anything uros did not write, and say how much that freed."""
+    clean_cmd.clean(workspace, toolchain, everything)
+
+
+@click.command()
+@toolchain_option("Also check this target's compiler, C library and C++ headers (default: uros.yaml's).")
+@workspace_option("The workspace whose state to check.")
+@click.option("--json", "as_json", is_flag=True, help="Print the checks as JSON.")
+def doctor(toolchain: str | None, workspace: Path | None, as_json: bool) -> None:
+    """Check that this host can build (tools, target compiler, disk) and the workspace's state;
+    one line per check with its fix, exit 5 when a build would fail."""
+    doctor_cmd.doctor(workspace, toolchain, as_json)
+
+
+@click.command()
+@click.argument("output", type=PATH_ARG, required=False)
+@toolchain_option("Or the output of this target in the workspace (default: uros.yaml's target).")
+@workspace_option("The workspace whose output to read.")
+@JSON
+def info(output: Path | None, toolchain: str | None, workspace: Path | None, as_json: bool) -> None:
+    """What a built library contains: ROS 2 types, packages and their commits, options in force,
+    flags, sizes (OUTPUT: a `uros build` output folder)."""
+    info_cmd.show_info(output, workspace, toolchain, as_json)
+
+
+@click.command()
+@click.argument("library", type=PATH_ARG, required=False)
+@toolchain_option("Or the library built for this target in the workspace (default: uros.yaml's).")
+@workspace_option("The workspace whose library to measure.")
+@click.option("--elf", type=PATH_ARG, help="The firmware ELF linked against the library (with --map).")
+@click.option("--map", "map_file", type=PATH_ARG, help="The firmware's GNU ld map file (-Wl,-Map=app.map).")
+@click.option("--objects", is_flag=True, help="Also list every object of the library.")
+@JSON
+def size(
+    library: Path | None,
+    toolchain: str | None,
+    workspace: Path | None,
+    elf: Path | None,
+    map_file: Path | None,
+    objects: bool,
+    as_json: bool,
+) -> None:
+    """text/data/bss of libmicroros.a per package (LIBRARY: the .a or its output folder), and with
+    the firmware's map file what each package costs once linked (after --gc-sections)."""
+    size_cmd.show_size(library, workspace, toolchain, elf, map_file, objects, as_json)

@@ -1,0 +1,198 @@
+"""The commands about uros's data and exports: targets, distros, toolchain render, meta write and
+options, export, probe, interface new."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+
+import click
+
+from uros_build.cli.common import (
+    FROM,
+    JSON,
+    METAS,
+    PATH_ARG,
+    PRESET,
+    SETS,
+    TRANSPORT,
+    VERBOSE,
+    Group,
+    complete_targets,
+    output_option,
+    table,
+    toolchain_option,
+    workspace_option,
+)
+from uros_build.commands import export as export_cmd
+from uros_build.commands import interface as interface_cmd
+from uros_build.commands import listings
+from uros_build.commands import probe as probe_cmd
+
+
+@click.group(cls=Group, invoke_without_command=True, subcommand_metavar="[show NAME]")
+@JSON
+@click.pass_context
+def targets(ctx: click.Context, as_json: bool) -> None:
+    """List the shipped target profiles (`uros targets show NAME` prints one)."""
+    if ctx.invoked_subcommand is None:
+        columns = (("name", "TARGET"), ("compiler", "COMPILER"), ("transport", "TRANSPORT"))
+        table(listings.targets_table(), as_json, (*columns, ("description", "DESCRIPTION")))
+
+
+@click.command("show")
+@click.argument("name", shell_complete=complete_targets)
+def targets_show(name: str) -> None:
+    """Print the profile of target NAME, to copy and edit: uros targets show cortex-m7 > my-board.yaml"""
+    click.echo(listings.target_profile_text(name), nl=False)
+
+
+@click.command()
+@JSON
+def distros(as_json: bool) -> None:
+    """List the micro-ROS distro manifests (meta/distros/)."""
+    columns = (("name", "DISTRO"), ("status", "STATUS"), ("dev_repositories", "DEV REPOS"))
+    table(listings.distros_table(), as_json, (*columns, ("mcu_repositories", "MCU REPOS")))
+
+
+@click.group(cls=Group)
+def toolchain() -> None:
+    """CMake toolchain files."""
+
+
+@click.command("render")
+@click.argument("target", shell_complete=complete_targets)
+@output_option("Write here instead of standard output.")
+@click.option(
+    "--for", "purpose", type=click.Choice(["firmware", "micro-ros"]), default="firmware", show_default=True,
+    help="firmware: no micro-ROS-only flags; micro-ros: with them (what `uros build` uses).",
+)  # fmt: skip
+@click.option("--gcc-major", type=int, help="The cross GCC's major version (decides GCC<6 workarounds).")
+def toolchain_render(target: str, output: Path | None, purpose: str, gcc_major: int | None) -> None:
+    """Render the CMake toolchain file of TARGET (a target name or a profile .yaml)."""
+    listings.render_toolchain_file(target, output, micro_ros=purpose == "micro-ros", gcc_major=gcc_major)
+
+
+@click.group(cls=Group)
+def meta() -> None:
+    """colcon.meta files."""
+
+
+@click.command("write")
+@PRESET
+@toolchain_option("Add what this target needs (transport, atomics).")
+@TRANSPORT
+@METAS
+@SETS
+@output_option("Write here instead of standard output.")
+def meta_write(
+    preset: str,
+    toolchain: str | None,
+    transport: str | None,
+    metas: tuple[Path, ...],
+    sets: tuple[str, ...],
+    output: Path | None,
+) -> None:
+    """Write a colcon.meta (JSON, sorted keys)."""
+    listings.write_meta(preset, toolchain, transport, metas, sets, output)
+
+
+@click.command("options")
+@JSON
+def meta_options(as_json: bool) -> None:
+    """The memory and entity options per package (RMW_UXRCE_MAX_*, history, MTU): upstream default,
+    what uros's default preset builds with, and what a larger value costs; --set is checked
+    against them."""
+    columns = (("package", "PACKAGE"), ("option", "OPTION"), ("default", "DEFAULT"), ("preset", "PRESET"))
+    table(listings.options_table(), as_json, (*columns, ("cost", "COST")))
+
+
+@click.group(cls=Group)
+def export() -> None:
+    """Packages for firmware build systems."""
+
+
+def _export_command(
+    name: str, what: str, output_help: str, run: Callable[[Path | None, Path], Path]
+) -> click.Command:
+    """One `uros export KIND --output DIR [--from DIR]` command: every kind but arduino has this shape."""
+
+    @click.command(name, help=what)
+    @output_option(output_help, required=True)
+    @FROM
+    def command(output: Path, source: Path | None) -> None:
+        run(source, output)
+
+    return command
+
+
+# kind, what it writes (its --help), where (--output's help), the command
+_EXPORTS = (
+    ("cmake", "Write microrosConfig.cmake (find_package) and microros.cmake (include) for a build output.",
+     "Folder of the CMake package.", export_cmd.export_cmake),
+    ("esp-idf", "Write an ESP-IDF component (CMakeLists.txt, idf_component.yml, the library) for ESP32.",
+     "Folder of the ESP-IDF component.", export_cmd.export_esp_idf),
+    ("make", "Write microros.mk (MICROROS_CFLAGS, MICROROS_LIBS, MICROROS_CPU_FLAGS) for a Make firmware.",
+     "Folder of microros.mk (and a copy of the output with --from).", export_cmd.export_make),
+    ("pkg-config", "Write microros.pc (relocatable) for pkg-config.", "Folder of microros.pc.",
+     export_cmd.export_pkg_config),
+    ("meson", "Write a Meson cross file (compiler, CPU flags) and microros.pc for dependency('microros').",
+     "Folder of microros-cross.ini and microros.pc.", export_cmd.export_meson),
+    ("platformio", "Write library.json: the output as a PlatformIO library for lib_deps = file://...",
+     "Folder of the PlatformIO library (library.json).", export_cmd.export_platformio),
+    ("zephyr", "Write a Zephyr module (zephyr/module.yml, CMakeLists.txt, Kconfig) around the library.",
+     "Folder of the Zephyr module.", export_cmd.export_zephyr),
+)  # fmt: skip
+EXPORT_COMMANDS = tuple(_export_command(*row) for row in _EXPORTS)
+
+
+@click.command("arduino")
+@output_option("Folder of the Arduino library.", required=True)
+@click.option(
+    "--from", "sources", type=PATH_ARG, multiple=True, required=True,
+    help="A `uros build` output (repeat: one per board, e.g. cortex-m4f and cortex-m7).",
+)  # fmt: skip
+def export_arduino(output: Path, sources: tuple[Path, ...]) -> None:
+    """Write a precompiled Arduino library (library.properties, src/<mcu>/<fpu>-<abi>/libmicroros.a)."""
+    export_cmd.export_arduino(sources, output)
+
+
+@click.command("probe")
+@click.argument("output", required=False, type=PATH_ARG)
+@workspace_option("Firmware workspace (its output of --toolchain, or its only one).")
+@toolchain_option("The target whose output to probe.")
+@click.option("--agent", help="A MicroXRCEAgent program (default: $UROS_AGENT).")
+@click.option(
+    "--timeout", type=float, default=60.0, show_default=True, help="Seconds the firmware may take in QEMU."
+)
+@click.option("--json", "as_json", is_flag=True, help="The result as JSON on stdout.")
+@VERBOSE
+def probe(
+    output: Path | None,
+    workspace: Path | None,
+    toolchain: str | None,
+    agent: str | None,
+    timeout: float,
+    as_json: bool,
+    verbose: bool,
+) -> None:
+    """Run a built library: boot a probe firmware in QEMU against a real Micro XRCE-DDS Agent."""
+    probe_cmd.probe(output, workspace, toolchain, agent, timeout, as_json, verbose)
+
+
+@click.group(cls=Group)
+def interface() -> None:
+    """Custom interface packages (.msg, .srv)."""
+
+
+@click.command("new")
+@click.argument("name")
+@click.option("--msg", "msgs", multiple=True, type=PATH_ARG, help="A .msg file (repeatable).")
+@click.option("--srv", "srvs", multiple=True, type=PATH_ARG, help="A .srv file (repeatable).")
+@output_option("Package folder (default: ./NAME).")
+@click.option("--force", is_flag=True, help="Write into an existing folder.")
+def interface_new(
+    name: str, msgs: tuple[Path, ...], srvs: tuple[Path, ...], output: Path | None, force: bool
+) -> None:
+    """Scaffold an interface package NAME from .msg/.srv files (package.xml, CMakeLists.txt)."""
+    interface_cmd.interface_new(name, list(msgs), list(srvs), output, force)
