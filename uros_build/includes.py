@@ -30,18 +30,7 @@ def _copy_headers(src: Path, dst: Path, origin: dict[Path, Path], only: frozense
             continue
         if only is not None and path not in only:
             continue
-        rel = path.relative_to(src)
-        target = dst / rel
-        if target in origin:
-            if target.read_bytes() != path.read_bytes():
-                raise VerifyError(
-                    f"two different headers flatten to {target}: {origin[target]} and {path}",
-                    "rename one of the headers, or keep that package's headers nested",
-                )
-            continue
-        target.parent.mkdir(parents=True, exist_ok=True)
-        shutil.copy2(path, target)
-        origin[target] = path
+        _copy_headers_file(path, dst / path.relative_to(src), origin)
 
 
 def flatten_includes(install_include: Path, out: Path, only: frozenset[Path] | None = None) -> IncludeReport:
@@ -75,7 +64,14 @@ def flatten_includes(install_include: Path, out: Path, only: frozenset[Path] | N
 
 
 def _copy_headers_file(path: Path, target: Path, origin: dict[Path, Path]) -> None:
+    """One header to its flattened place; the same place from another header is an error unless
+    the two are the same bytes (a library whose headers silently lost one would lie)."""
     if target in origin:
+        if target.read_bytes() != path.read_bytes():
+            raise VerifyError(
+                f"two different headers flatten to {target}: {origin[target]} and {path}",
+                "rename one of the headers, or keep that package's headers nested",
+            )
         return
     target.parent.mkdir(parents=True, exist_ok=True)
     shutil.copy2(path, target)

@@ -8,10 +8,12 @@ from pathlib import Path
 from types import SimpleNamespace
 from typing import Any
 
+import pytest
 from fake_runner import FakeRunner
 
 from uros_build import fingerprint as fp
 from uros_build import hosttools, includes
+from uros_build.errors import VerifyError
 from uros_build.steps import inputs, team_cache
 
 C_FACTS = 'set(CMAKE_C_COMPILER "/usr/bin/arm-none-eabi-gcc")\nset(CMAKE_C_COMPILER_ID "GNU")\n'
@@ -121,3 +123,16 @@ def test_the_include_tree_is_flattened_and_limited_to_the_build(tmp_path: Path) 
     assert (tmp_path / "out" / "std_msgs" / "msg" / "bool.h").is_file()
     assert not (tmp_path / "out" / "other" / "o.h").exists()
     assert (report.files, report.packages) == (2, 2)
+
+
+def test_two_different_headers_for_one_place_are_an_error(tmp_path: Path) -> None:
+    """include/pkg/pkg/x.h and a sibling include/pkg/x.h both flatten to include/pkg/x.h: the same
+    bytes are one header; different bytes would leave one of them out of the library's tree."""
+    inc = tmp_path / "install" / "include"
+    (inc / "pkg" / "pkg").mkdir(parents=True)
+    (inc / "pkg" / "pkg" / "x.h").write_text("/* nested */\n")
+    (inc / "pkg" / "x.h").write_text("/* nested */\n")
+    assert includes.flatten_includes(inc, tmp_path / "same").files == 1
+    (inc / "pkg" / "x.h").write_text("/* another */\n")
+    with pytest.raises(VerifyError, match=r"two different headers flatten to .*/x\.h"):
+        includes.flatten_includes(inc, tmp_path / "other")
