@@ -100,6 +100,19 @@ def _scratch_argv(call: Call, scratch: Path) -> list[str]:
     return [where.get(a, a) for a in call.argv]
 
 
+def _content(path: str, top: str, ws: str) -> str:
+    """The sha256 of a file the call reads, the target's and the workspace's folders taken out of
+    it (rosidl_adapter's arguments file lists the .msg files by absolute path: another checkout
+    of the same sources asks the same question)."""
+    try:
+        data = Path(path).read_bytes()
+    except OSError:
+        return "missing"
+    data = data.replace(top.encode(), gencache.PLACEHOLDER.encode())
+    data = data.replace(os.path.join(ws, "").encode(), f"{gencache.WORKSPACE}/".encode())
+    return hashlib.sha256(data).hexdigest()
+
+
 def _first_key(call: Call, target_dir: Path, workspace: Path) -> str:
     top, ws = str(target_dir), str(workspace)
     outputs = {path for _, path in call.outputs}
@@ -107,7 +120,7 @@ def _first_key(call: Call, target_dir: Path, workspace: Path) -> str:
         "format": FORMAT,
         "kind": call.kind,
         "argv": [OUT if a in outputs else gencache.normal(a, top, ws) for a in call.argv],
-        "reads": {gencache.normal(p, top, ws): gencache.sha(p) for p in call.reads},
+        "reads": {gencache.normal(p, top, ws): _content(p, top, ws) for p in call.reads},
         "env": {name: os.environ.get(name) for name in call.env},
         "path": [gencache.normal(p, top, ws) for p in sys.path[1:]],  # [0] is the shim's
         "python": list(sys.version_info[:3]),

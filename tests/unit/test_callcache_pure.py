@@ -228,3 +228,27 @@ def test_another_workspace_gets_the_answer_with_its_own_folder(
     )
     assert outs[1] == ("hit", outs[0][1].replace("/ws1/", "/checkout two/"))
     assert (tmp_path / "calls").read_text() == "t"
+
+
+def test_rosidl_adapter_in_another_checkout_hits(
+    setup: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The adapter's arguments file names the .msg files by absolute path: a second checkout of
+    the same sources (another folder) asks the same question and gets its own folders back."""
+    import shutil
+
+    cache = tmp_path / "user-cache"
+    other = tmp_path / "checkout two"
+    shutil.copytree(setup, other)
+    base = [p for p in sys.path if not p.startswith(str(setup))]
+    results = []
+    for ws in (setup, other):
+        site = ws / "dev_ws/install/lib/python3.11/site-packages"  # this checkout's PYTHONPATH
+        monkeypatch.setattr(sys, "path", [base[0], str(site), *base[1:]])
+        for name in ("rosidl_adapter", "rosidl_adapter.__main__"):
+            monkeypatch.delitem(sys.modules, name, raising=False)
+        argv, build = _adapter_call(ws, "cortex-m7")
+        results.append(callcache.run(argv, cache, ws / ".uros/targets/cortex-m7", ws))
+        idls = (build / "rosidl_adapter/std_msgs.idls").read_text()
+        assert idls == f"{build}/rosidl_adapter/std_msgs:msg/Bool.idl\n"
+    assert results == ["miss", "hit"]
