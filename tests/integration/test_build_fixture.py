@@ -5,6 +5,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -227,7 +228,11 @@ def test_output_folder_of_the_user_is_not_replaced(m7_build: Path, tmp_path: Pat
 
 
 def test_export_cmake_rewrites_and_copies(m7_build: Path, tmp_path: Path) -> None:
-    out = m7_build / "build" / "cortex-m7"
+    # on a copy: a rewritten output is no longer the one its build recorded (doctor and the next
+    # build see that), and the other tests share m7_build
+    ws = tmp_path / "ws"
+    shutil.copytree(m7_build, ws, symlinks=True)
+    out = ws / "build" / "cortex-m7"
     (out / "microros.cmake").unlink()
     run_uros("export", "cmake", "--output", str(out))
     assert (out / "microros.cmake").is_file()
