@@ -24,32 +24,43 @@ https://github.com/ros2/rosidl/blob/humble/rosidl_adapter/cmake/rosidl_adapt_int
 
 from __future__ import annotations
 
+# Imported on every configure call: only what a hit needs (gencache.py says why). json imports
+# re itself.
 import hashlib
 import json
 import os
 import re
 import sys
-from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass
-from pathlib import Path
 
 from uros_build import gencache
 
-FORMAT = 1
+TYPE_CHECKING = False
+if TYPE_CHECKING:
+    from collections.abc import Iterable, Mapping, Sequence
+
+    from uros_build.gencache import StrPath
+
+FORMAT = 2
 ADAPTER_FLAGS = {"--package-name", "--arguments-file", "--output-dir", "--output-file"}
 OUT = "<out>"  # the scratch folder of a miss, in a kept output
 
 
-@dataclass(frozen=True)
 class Call:
     """A recognised configure call: what it reads and writes. ``outputs``: the name of each output
-    in a cache entry and where the call writes it (a folder for rosidl_adapter's .idl files)."""
+    in a cache entry and where the call writes it (a folder for rosidl_adapter's .idl files).
+    A plain class, not a dataclass: importing dataclasses costs a hit a third of its time."""
 
-    kind: str
-    argv: tuple[str, ...]  # as CMake runs it (without the interpreter)
-    reads: tuple[str, ...]  # files whose content the answer depends on
-    env: tuple[str, ...]  # environment variables it reads
-    outputs: tuple[tuple[str, str], ...]
+    __slots__ = ("argv", "env", "kind", "outputs", "reads")
+
+    def __init__(
+        self,
+        kind: str,
+        argv: tuple[str, ...],  # as CMake runs it (without the interpreter)
+        reads: tuple[str, ...],  # files whose content the answer depends on
+        env: tuple[str, ...],  # environment variables it reads
+        outputs: tuple[tuple[str, str], ...],
+    ) -> None:
+        self.kind, self.argv, self.reads, self.env, self.outputs = kind, argv, reads, env, outputs
 
 
 def _flags(argv: Sequence[str]) -> dict[str, str] | None:
@@ -70,7 +81,8 @@ def recognise(argv: Sequence[str]) -> Call | None:
         return Call("templates", tuple(argv), (argv[0],), (), (("out", argv[1]),))
     if len(argv) == 3 and argv[0].endswith("/core/package_xml_2_cmake.py"):
         try:
-            text = Path(argv[1]).read_text(encoding="utf-8", errors="replace")
+            with open(argv[1], encoding="utf-8", errors="replace") as f:
+                text = f.read()
         except OSError:
             return None
         env = tuple(sorted(set(_CONDITION_VARIABLE.findall(text))))
@@ -85,7 +97,8 @@ def recognise(argv: Sequence[str]) -> Call | None:
         }:
             return None
         try:
-            arguments = json.loads(Path(flags["--arguments-file"]).read_text(encoding="utf-8"))
+            with open(flags["--arguments-file"], encoding="utf-8") as f:
+                arguments = json.loads(f.read())
             named = [os.path.join(*str(t).rsplit(":", 1)) for t in arguments["non_idl_tuples"]]
         except (OSError, ValueError, KeyError, TypeError):
             return None
@@ -94,9 +107,9 @@ def recognise(argv: Sequence[str]) -> Call | None:
     return None
 
 
-def _scratch_argv(call: Call, scratch: Path) -> list[str]:
+def _scratch_argv(call: Call, scratch: str) -> list[str]:
     """The call's command line with each output moved into ``scratch``."""
-    where = {path: str(scratch / name) for name, path in call.outputs}
+    where = {path: os.path.join(scratch, name) for name, path in call.outputs}
     return [where.get(a, a) for a in call.argv]
 
 
@@ -105,7 +118,8 @@ def _content(path: str, top: str, ws: str) -> str:
     it (rosidl_adapter's arguments file lists the .msg files by absolute path: another checkout
     of the same sources asks the same question)."""
     try:
-        data = Path(path).read_bytes()
+        with open(path, "rb") as f:
+            data = f.read()
     except OSError:
         return "missing"
     data = data.replace(top.encode(), gencache.PLACEHOLDER.encode())
@@ -113,8 +127,8 @@ def _content(path: str, top: str, ws: str) -> str:
     return hashlib.sha256(data).hexdigest()
 
 
-def _first_key(call: Call, target_dir: Path, workspace: Path) -> str:
-    top, ws = str(target_dir), str(workspace)
+def _first_key(call: Call, target_dir: StrPath, workspace: StrPath) -> str:
+    top, ws = os.fspath(target_dir), os.fspath(workspace)
     outputs = {path for _, path in call.outputs}
     data = {
         "format": FORMAT,
@@ -143,12 +157,12 @@ def _shadowed(path: str) -> bool:
     return False
 
 
-def _second_key(first: str, code: Sequence[str], target_dir: Path, workspace: Path) -> str:
+def _second_key(first: str, code: Sequence[str], target_dir: StrPath, workspace: StrPath) -> str:
     """``first`` with the content of the Python files the call imported, found in this target's
     own folders (a module another folder now shadows makes a key no entry has)."""
     h = hashlib.sha256(first.encode())
     for path in code:
-        name = gencache.normal(path, str(target_dir), str(workspace))
+        name = gencache.normal(path, os.fspath(target_dir), os.fspath(workspace))
         h.update(f"\0{name}\0{gencache.sha(path)}\0{_shadowed(path)}".encode())
     return h.hexdigest()
 
@@ -167,7 +181,7 @@ def _module_files() -> list[str]:
     paths = sysconfig.get_paths()
     stdlib = _folders([paths["stdlib"], paths["platstdlib"]])
     installed = _folders([paths["purelib"], paths["platlib"], *site.getsitepackages()])
-    own = _folders([str(Path(__file__).parent)])
+    own = _folders([os.path.dirname(os.path.abspath(__file__))])
     files = set()
     for module in list(sys.modules.values()):
         path = getattr(module, "__file__", None)
@@ -197,7 +211,7 @@ def _run(argv: Sequence[str]) -> None:
         sys.argv = saved
 
 
-def _restore(files: Mapping[str, bytes], call: Call, workspace: Path) -> None:
+def _restore(files: Mapping[str, bytes], call: Call, workspace: StrPath) -> None:
     """Write an entry's files where the call writes them, each output's own path put back where
     the call named it (rosidl_adapter's list names its .idl folder), and this workspace's folder
     where the answer named its workspace's (ament's templates live in dev_ws)."""
@@ -205,64 +219,61 @@ def _restore(files: Mapping[str, bytes], call: Call, workspace: Path) -> None:
     def put_back(data: bytes) -> bytes:
         for name, path in call.outputs:
             data = data.replace(f"{OUT}/{name}".encode(), path.encode())
-        return data.replace(f"{gencache.WORKSPACE}/".encode(), os.path.join(str(workspace), "").encode())
+        return data.replace(
+            f"{gencache.WORKSPACE}/".encode(), os.path.join(os.fspath(workspace), "").encode()
+        )
 
     for name, path in call.outputs:
         if name == "idl":
             idl = {k.removeprefix("idl/"): put_back(v) for k, v in files.items() if k.startswith("idl/")}
-            gencache.write_changed(idl, Path(path))
+            gencache.write_changed(idl, path)
         else:
-            gencache.write_changed({Path(path).name: put_back(files[name])}, Path(path).parent)
+            folder, base = os.path.split(path)
+            gencache.write_changed({base: put_back(files[name])}, folder)
 
 
-def run(argv: Sequence[str], cache_dir: Path, target_dir: Path, workspace: Path) -> str:
+def run(argv: Sequence[str], cache_dir: StrPath, target_dir: StrPath, workspace: StrPath) -> str:
     """One configure call through the cache: "hit", "miss" or "bypass" (run as CMake asked)."""
     call = recognise(argv)
     if call is None:
         _run(argv)
         return "bypass"
-    first = _first_key(call, target_dir, workspace)
-    manifest = cache_dir / first[:2] / f"{first}.code"
+    top, ws = os.fspath(target_dir), os.fspath(workspace)
+    first = _first_key(call, top, ws)
+    manifest = os.path.join(cache_dir, first[:2], f"{first}.code")
     try:
-        listed = json.loads(manifest.read_text(encoding="utf-8"))
-        code = [gencache.expand(str(p), str(target_dir), str(workspace)) for p in listed]
-        entry = cache_dir / first[:2] / f"{_second_key(first, code, target_dir, workspace)}.tar"
-        files = gencache.unpack_files(entry.read_bytes())
+        with open(manifest, encoding="utf-8") as f:
+            listed = json.loads(f.read())
+        code = [gencache.expand(str(p), top, ws) for p in listed]
+        with open(
+            os.path.join(cache_dir, first[:2], f"{_second_key(first, code, top, ws)}.entry"), "rb"
+        ) as f:
+            files: dict[str, bytes] | None = gencache.unpack_files(f.read())
     except (OSError, ValueError, TypeError):
         files = None
     if files is not None and {name for name, _ in call.outputs if name != "idl"} <= set(files):
-        _restore(files, call, workspace)
+        _restore(files, call, ws)
         return "hit"
     import tempfile
 
     with tempfile.TemporaryDirectory(prefix="uros-call-") as tmp:
-        scratch = Path(tmp)
         try:
-            _run(_scratch_argv(call, scratch))
+            _run(_scratch_argv(call, tmp))
         except BaseException:
             _run(argv)  # fails as CMake asked it, naming its own files (or succeeds: then it is done)
             return "bypass"
         code = _module_files()
-        files = {k: v.replace(tmp.encode(), OUT.encode()) for k, v in gencache.read_folder(scratch).items()}
-    if any(str(target_dir).encode() in v for v in files.values()):
+        files = {k: v.replace(tmp.encode(), OUT.encode()) for k, v in gencache.read_folder(tmp).items()}
+    if any(top.encode() in v for v in files.values()):
         _run(argv)  # an answer that names the target's own folder is not the same for every target
         return "bypass"
-    ws = os.path.join(str(workspace), "").encode()
-    files = {k: v.replace(ws, f"{gencache.WORKSPACE}/".encode()) for k, v in files.items()}
+    ws_bytes = os.path.join(ws, "").encode()
+    files = {k: v.replace(ws_bytes, f"{gencache.WORKSPACE}/".encode()) for k, v in files.items()}
     try:
-        entry = cache_dir / first[:2] / f"{_second_key(first, code, target_dir, workspace)}.tar"
-        entry.parent.mkdir(parents=True, exist_ok=True)
-        for path, content in (
-            (entry, gencache.pack(files)),
-            (
-                manifest,
-                json.dumps([gencache.normal(p, str(target_dir), str(workspace)) for p in code]).encode(),
-            ),
-        ):
-            part = path.with_name(f".{path.name}.{os.getpid()}")
-            part.write_bytes(content)
-            part.replace(path)
+        entry = os.path.join(cache_dir, first[:2], f"{_second_key(first, code, top, ws)}.entry")
+        gencache.store(entry, gencache.pack(files))
+        gencache.store(manifest, json.dumps([gencache.normal(p, top, ws) for p in code]).encode())
     except OSError:
         pass  # not kept: the next configure asks again
-    _restore(files, call, workspace)
+    _restore(files, call, ws)
     return "miss"

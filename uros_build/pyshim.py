@@ -18,13 +18,18 @@ adds one line to the target's run log (:data:`RUNS`), which the build counts (:f
 
 from __future__ import annotations
 
+# The shim imports this module on every call it sends to uros: only what a call needs, here and in
+# the caches' modules (gencache.py says why).
 import json
-import shlex
+import os
 import sys
-from collections.abc import Mapping, Sequence
-from pathlib import Path
 
 from uros_build import callcache, gencache
+
+TYPE_CHECKING = False
+if TYPE_CHECKING:
+    from collections.abc import Mapping, Sequence
+    from pathlib import Path
 
 RUNS = "gen-runs.log"  # in the target's folder: one line per generator run or configure call of its build
 
@@ -37,6 +42,54 @@ RUNS = "gen-runs.log"  # in the target's folder: one line per generator run or c
 # there the probe is left as it is.
 FINDPYTHON_PROBE = "from distutils import sysconfig"
 
+# FindPython also asks the interpreter the same three questions on every find_package(Python3),
+# nine runs of it in each configure of an interface package at ~17 ms each (measured: std_msgs,
+# CMake 3.25.1, 0.16 s of its 1.0 s configure). Their answers are the interpreter's alone, so uros
+# asks it once per build (:func:`print_answers`) and the shim answers with that text; any other
+# program, or these under another CMake that spells them otherwise, runs as asked. Verbatim from
+# https://gitlab.kitware.com/cmake/cmake/-/blob/v3.25.1/Modules/FindPython/Support.cmake#L1847
+# (and #L1894, #L1948).
+FINDPYTHON_QUESTIONS = (
+    "import sys; sys.stdout.write('.'.join([str(x) for x in sys.version_info[:3]]))",
+    "import sys; sys.stdout.write(sys.abiflags)",
+    "import sys; sys.stdout.write(sys.copyright)",
+)
+
+
+def print_answers() -> None:
+    """Print, as JSON, what each of FINDPYTHON_QUESTIONS writes when this interpreter runs it, and
+    whether it has a distutils of its own (before 3.12). Run by uros once per build with the
+    shim's interpreter."""
+    import io
+
+    answers: dict[str, object] = {"distutils": sys.version_info < (3, 12)}
+    for code in FINDPYTHON_QUESTIONS:
+        saved, sys.stdout = sys.stdout, io.StringIO()
+        try:
+            exec(code, {})  # the constant programs above, as ``python -c`` runs them
+            answers[code] = sys.stdout.getvalue()
+        finally:
+            sys.stdout = saved
+    print(json.dumps(answers, sort_keys=True))
+
+
+def answers_argv(python: str, code_dir: Path) -> list[str]:
+    """The command line that runs :func:`print_answers` with ``python``."""
+    entry = (
+        f"import sys; sys.path.append({str(code_dir)!r}); "
+        "from uros_build.pyshim import print_answers; print_answers()"
+    )
+    return [python, "-c", entry]
+
+
+def parse_answers(text: str) -> tuple[dict[str, str], bool]:
+    """:func:`print_answers`' output: the answers, and whether the interpreter has distutils."""
+    data = json.loads(text)
+    if not isinstance(data, dict) or not isinstance(data.get("distutils"), bool):
+        raise ValueError(f"not an answer: {text[:80]!r}")
+    answers = {code: data[code] for code in FINDPYTHON_QUESTIONS if isinstance(data.get(code), str)}
+    return answers, data["distutils"]
+
 
 def shim_text(
     python: str,
@@ -47,11 +100,15 @@ def shim_text(
     written_by: str,
     modules: Mapping[str, str],
     stdlib_distutils: bool,
+    answers: Mapping[str, str] | None = None,
 ) -> str:
     """The ``Python3_EXECUTABLE`` of a target's CMake builds. ``code_dir``: the folder holding
     uros_build (appended to the path: the calls' own imports resolve as before). ``modules``:
     :func:`gencache.module_versions` of ``python``, found once by uros rather than on every run.
-    ``stdlib_distutils``: ``python`` has a distutils of its own (before 3.12)."""
+    ``stdlib_distutils``: ``python`` has a distutils of its own (before 3.12). ``answers``: what
+    ``python`` wrote for each of FINDPYTHON_QUESTIONS (:func:`parse_answers`)."""
+    import shlex
+
     q = shlex.quote
     entry = (
         f"import sys; sys.path.append({str(code_dir)!r}); "
@@ -68,12 +125,20 @@ def shim_text(
         if stdlib_distutils
         else []
     )
+    known = [
+        f"  {q(code)}) printf %s {q(answer)}; exit 0;;"
+        for code, answer in sorted((answers or {}).items())
+        if code in FINDPYTHON_QUESTIONS
+    ]
+    answered = ['if [ "$1" = -c ] && [ $# -eq 2 ]; then case "$2" in', *known, "esac; fi"] if known else []
     return "\n".join(
         [
             "#!/bin/sh",
             f"# Written by {written_by}: the Python of this target's CMake builds. rosidl generator",
             "# runs and ament's and rosidl_adapter's configure calls go through uros's caches",
-            "# (uros_build/pyshim.py); all else is the real Python.",
+            "# (uros_build/pyshim.py); FindPython's questions about the interpreter itself are",
+            "# answered with what it answered once for this build; all else is the real Python.",
+            *answered,
             f'if [ "$2" = {gencache.ARGUMENTS_FLAG} ] && [ -n "$3" ]; then',
             f"  {to_uros}",
             "fi",
@@ -93,17 +158,17 @@ def shim_text(
 def main(args: Sequence[str]) -> int:
     """``CACHE_DIR TARGET_DIR WORKSPACE MODULES ARGV...`` (MODULES: module versions as JSON; ARGV:
     the call without the interpreter)."""
-    cache, target, workspace = (Path(a) for a in args[:3])
+    cache, target, workspace = args[:3]
     modules, *argv = args[3:]
     if gencache.is_generator_run(argv):
         result = gencache.generate(argv, cache, target, json.loads(modules), workspace)
-        line = f"{result} {Path(argv[0]).name} {argv[2]}"
+        line = f"{result} {os.path.basename(argv[0])} {argv[2]}"
     else:
-        result = callcache.run(argv, cache / "calls", target, workspace)
+        result = callcache.run(argv, os.path.join(cache, "calls"), target, workspace)
         shown = argv[:4] if argv[:1] == ["-m"] else argv[:2]  # -m rosidl_adapter --package-name NAME
         line = f"call-{result} {' '.join(shown)}"
     try:  # one short line with O_APPEND: parallel runs do not mix their lines
-        with (target / RUNS).open("a", encoding="utf-8") as f:
+        with open(os.path.join(target, RUNS), "a", encoding="utf-8") as f:
             f.write(line + "\n")
     except OSError:
         pass

@@ -58,7 +58,7 @@ def test_clean_all_from_inside_the_workspace(m7_build: Path, tmp_path: Path) -> 
     shutil.copytree(m7_build, ws, symlinks=True)
     (ws / "uros.yaml").write_text("distro: humble\ntarget: cortex-m7\n")
     sources = _files(ws / "mcu_ws")
-    entry = ws / ".uros" / "gen-cache" / "ab" / ("ab" + "0" * 62 + ".tar")
+    entry = ws / ".uros" / "gen-cache" / "ab" / ("ab" + "0" * 62 + ".entry")
     entry.parent.mkdir(parents=True, exist_ok=True)
     entry.write_bytes(b"x" * 100)
     run_uros("clean", cwd=ws / "mcu_ws")  # the default: uros.yaml's target, in the nearest workspace

@@ -1,6 +1,7 @@
-"""The uros-python shim a target's CMake builds run Python through (gencache.shim_text), run by a
+"""The uros-python shim a target's CMake builds run Python through (pyshim.shim_text), run by a
 real shell with this interpreter: CMake's FindPython probe gets the standard library's distutils and
-prints the same folders as the interpreter itself does; every other call is the interpreter,
+prints the same folders as the interpreter itself does; its questions about the interpreter get the
+interpreter's own answers; every other call is the interpreter,
 unchanged (arguments, exit status, environment)."""
 
 from __future__ import annotations
@@ -30,6 +31,14 @@ ENV = "import os, sys; print(os.environ.get('SETUPTOOLS_USE_DISTUTILS', '-')); s
 
 def _shim(tmp_path: Path) -> Path:
     shim = tmp_path / "uros-python"
+    asked = subprocess.run(
+        pyshim.answers_argv(sys.executable, Path(__file__).parents[2]),
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    answers, has_distutils = pyshim.parse_answers(asked.stdout)
+    assert has_distutils == (sys.version_info < (3, 12))
     shim.write_text(
         pyshim.shim_text(
             sys.executable,
@@ -39,7 +48,8 @@ def _shim(tmp_path: Path) -> Path:
             Path(__file__).parents[2],
             "test",
             {"empy": "-"},
-            stdlib_distutils=sys.version_info < (3, 12),
+            stdlib_distutils=has_distutils,
+            answers=answers,
         )
     )
     shim.chmod(0o755)
@@ -61,3 +71,24 @@ def test_the_findpython_probe_answers_the_same_and_nothing_else_changes(tmp_path
         capture_output=True, text=True, env=env, check=True,
     )  # fmt: skip
     assert json.loads(args.stdout) == ["a b", "$HOME", "--x"]
+
+
+def test_findpythons_questions_get_the_interpreters_own_answers_without_running_it(tmp_path: Path) -> None:
+    shim = _shim(tmp_path)
+    for code in pyshim.FINDPYTHON_QUESTIONS:
+        real = subprocess.run([sys.executable, "-c", code], capture_output=True, check=True)
+        through = subprocess.run([str(shim), "-c", code], capture_output=True, check=True)
+        assert through.stdout == real.stdout and through.stderr == b""
+    assert "sys.copyright" in shim.read_text()  # answered by the shell, not by a Python run
+    # the same program with one more argument, or one character more, is run as asked
+    extra = subprocess.run(
+        [str(shim), "-c", pyshim.FINDPYTHON_QUESTIONS[0], "x"], capture_output=True, check=True
+    )
+    assert (
+        extra.stdout
+        == subprocess.run([sys.executable, "-c", pyshim.FINDPYTHON_QUESTIONS[0]], capture_output=True).stdout
+    )
+    other = subprocess.run(
+        [str(shim), "-c", pyshim.FINDPYTHON_QUESTIONS[1] + ";print(7)"], capture_output=True, text=True
+    )
+    assert other.stdout.endswith("7\n")

@@ -112,7 +112,7 @@ def test_code_that_names_its_folder_is_not_shared(tmp_path: Path, counter: Path)
     argv, m7 = _target(tmp_path / "ws", "cortex-m7", idl="EMBED")
     assert gencache.generate(argv, cache, m7, MODULES, WS) == "bypass"
     assert str(_header(m7).parent.parent) in _header(m7).read_text()  # as CMake asked, its own folder
-    assert not list(cache.rglob("*.tar"))
+    assert not list(cache.rglob("*.entry"))
 
 
 def test_the_shim_sends_only_generator_runs_to_the_cache(tmp_path: Path) -> None:
@@ -228,3 +228,25 @@ def test_another_workspace_takes_the_same_code(tmp_path: Path, counter: Path) ->
     assert gencache.generate(argv2, cache, t2, MODULES, tmp_path / "checkout two") == "hit"
     assert counter.read_text() == "x"
     assert _header(t2).read_bytes() == _header(t1).read_bytes()
+
+
+def test_an_entry_holds_its_files_and_a_cut_or_foreign_one_is_refused(tmp_path: Path, counter: Path) -> None:
+    files = {"a/b.h": b"#pragma once\n", "c.c": b"", "d/e/f.c": b"\x00\xff"}
+    data = gencache.pack(files)
+    assert gencache.unpack_files(data) == files
+    assert gencache.pack(dict(reversed(list(files.items())))) == data  # in name order
+    for bad in (data[:-1], data + b"x", b"x" + data, data.replace(b"a/b.h", b"../.h"), b""):
+        with pytest.raises(ValueError):
+            gencache.unpack_files(bad)
+    for name in ("/abs", "a//b", "a/../b", ""):
+        with pytest.raises(ValueError):
+            gencache.unpack_files(gencache.pack({name: b"x"}))
+    # a cut entry in the cache is a miss: the generator runs and the entry is written whole again
+    cache = tmp_path / "cache"
+    argv, m7 = _target(tmp_path / "ws", "cortex-m7")
+    assert gencache.generate(argv, cache, m7, MODULES, WS) == "miss"
+    (entry,) = cache.rglob("*.entry")
+    whole = entry.read_bytes()
+    entry.write_bytes(whole[:-2])
+    assert gencache.generate(argv, cache, m7, MODULES, WS) == "miss"
+    assert entry.read_bytes() == whole

@@ -93,7 +93,7 @@ def _colcon_setup(
         log_base=plan.target_dir / "log",
         metas=(meta_path,),
         toolchain_file=_seeded_toolchain(plan, facts, toolchain_file, runner, env),
-        python=str(_python_shim(plan)),
+        python=str(_python_shim(plan, runner)),
         generator=colcon.generator(env),
         verbose=plan.verbose,
         packages_up_to=plan.packages_up_to,
@@ -180,23 +180,31 @@ def gen_cache_dir(env: Mapping[str, str]) -> Path:
     return Path(base) / "uros" / "gen"
 
 
-def _python_shim(plan: BuildPlan) -> Path:
+def _python_shim(plan: BuildPlan, runner: Runner) -> Path:
     """The Python of the target's CMake builds: the real one, with rosidl's generator runs and the
     configures' Python calls going through the workspace's caches (shared by every target:
-    pyshim.py)."""
+    pyshim.py), and FindPython's questions about the interpreter answered as it answered them once
+    for this build."""
     if os.environ.get(SHARE_SWITCH, "").lower() == "off":
         return Path(colcon.host_python())
     shim = plan.target_dir / "uros-python"
+    python, code_dir = colcon.host_python(), Path(uros_build.__file__).resolve().parent.parent
+    try:
+        answers, has_distutils = pyshim.parse_answers(
+            runner.query(pyshim.answers_argv(python, code_dir), step="ask Python what CMake will ask it")
+        )
+    except ValueError:  # not what print_answers prints: every question goes to the interpreter
+        answers, has_distutils = {}, False
     text = pyshim.shim_text(
-        colcon.host_python(),
+        python,
         gen_cache_dir(os.environ),
         plan.target_dir,
         plan.workspace.root,
-        Path(uros_build.__file__).resolve().parent.parent,
+        code_dir,
         f"uros {__version__} build",
         gencache.module_versions(),
-        # host_python() is this interpreter (colcon.py): its version says whether it has distutils
-        stdlib_distutils=sys.version_info < (3, 12),
+        stdlib_distutils=has_distutils,
+        answers=answers,
     )
     write_if_changed(shim, text)
     shim.chmod(0o755)
