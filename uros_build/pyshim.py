@@ -41,29 +41,52 @@ RUNS = "gen-runs.log"  # in the target's folder: one line per generator run or c
 # own distutils answers the same question at once. Python 3.12 has no distutils of its own, so
 # there the probe is left as it is.
 FINDPYTHON_PROBE = "from distutils import sysconfig"
+FINDPYTHON_FOLDERS = (  # the whole program, verbatim
+    "import sys\ntry:\n   from distutils import sysconfig\n   sys.stdout.write(';'.join(["
+    "sysconfig.get_python_lib(plat_specific=False,standard_lib=True),"
+    "sysconfig.get_python_lib(plat_specific=True,standard_lib=True),"
+    "sysconfig.get_python_lib(plat_specific=False,standard_lib=False),"
+    "sysconfig.get_python_lib(plat_specific=True,standard_lib=False)]))\n"
+    "except Exception:\n   import sysconfig\n   sys.stdout.write(';'.join(["
+    "sysconfig.get_path('stdlib'),sysconfig.get_path('platstdlib'),"
+    "sysconfig.get_path('purelib'),sysconfig.get_path('platlib')]))"
+)
+VERSION_FLAG = "-V"  # ``python -V``, which FindPython also runs once per configure (#L1932)
 
-# FindPython also asks the interpreter the same three questions on every find_package(Python3),
-# nine runs of it in each configure of an interface package at ~17 ms each (measured: std_msgs,
-# CMake 3.25.1, 0.16 s of its 1.0 s configure). Their answers are the interpreter's alone, so uros
-# asks it once per build (:func:`print_answers`) and the shim answers with that text; any other
-# program, or these under another CMake that spells them otherwise, runs as asked. Verbatim from
+# FindPython also asks the interpreter the same questions on every find_package(Python3): eleven
+# runs of it in each configure of an interface package at ~17 ms each (measured: std_msgs, CMake
+# 3.25.1, 0.2 s of its 1.0 s configure). Their answers are the interpreter's alone, so uros asks it
+# once per build (:func:`print_answers`) and the shim answers with that text; any other program,
+# or these under another CMake that spells them otherwise, runs as asked. Verbatim from
 # https://gitlab.kitware.com/cmake/cmake/-/blob/v3.25.1/Modules/FindPython/Support.cmake#L1847
-# (and #L1894, #L1948).
+# (and #L1894, #L1948; the folders: #L1963, answered only with the standard library's distutils,
+# as the shim gives it).
 FINDPYTHON_QUESTIONS = (
     "import sys; sys.stdout.write('.'.join([str(x) for x in sys.version_info[:3]]))",
     "import sys; sys.stdout.write(sys.abiflags)",
     "import sys; sys.stdout.write(sys.copyright)",
+    FINDPYTHON_FOLDERS,
 )
+STDLIB_DISTUTILS = {"SETUPTOOLS_USE_DISTUTILS": "stdlib"}  # setuptools' switch to the stdlib's own
 
 
 def print_answers() -> None:
-    """Print, as JSON, what each of FINDPYTHON_QUESTIONS writes when this interpreter runs it, and
-    whether it has a distutils of its own (before 3.12). Run by uros once per build with the
-    shim's interpreter."""
+    """Print, as JSON, what each of FINDPYTHON_QUESTIONS writes when this interpreter runs it (the
+    folders only when it has a distutils of its own, before 3.12, and runs with STDLIB_DISTUTILS),
+    what ``-V`` prints, and whether it has distutils. Run by uros once per build with the shim's
+    interpreter."""
     import io
 
-    answers: dict[str, object] = {"distutils": sys.version_info < (3, 12)}
+    has_distutils = sys.version_info < (3, 12)
+    # -V prints the version as Py_GetVersion() spells it, up to its first space (sys.version is that)
+    answers: dict[str, object] = {
+        "distutils": has_distutils,
+        VERSION_FLAG: f"Python {sys.version.split(' ')[0]}\n",
+    }
+    stdlib = all(os.environ.get(k) == v for k, v in STDLIB_DISTUTILS.items())
     for code in FINDPYTHON_QUESTIONS:
+        if code == FINDPYTHON_FOLDERS and not (has_distutils and stdlib):
+            continue
         saved, sys.stdout = sys.stdout, io.StringIO()
         try:
             exec(code, {})  # the constant programs above, as ``python -c`` runs them
@@ -87,7 +110,8 @@ def parse_answers(text: str) -> tuple[dict[str, str], bool]:
     data = json.loads(text)
     if not isinstance(data, dict) or not isinstance(data.get("distutils"), bool):
         raise ValueError(f"not an answer: {text[:80]!r}")
-    answers = {code: data[code] for code in FINDPYTHON_QUESTIONS if isinstance(data.get(code), str)}
+    known = (*FINDPYTHON_QUESTIONS, VERSION_FLAG)
+    answers = {code: data[code] for code in known if isinstance(data.get(code), str)}
     return answers, data["distutils"]
 
 
@@ -125,12 +149,16 @@ def shim_text(
         if stdlib_distutils
         else []
     )
+    given = dict(answers or {})
     known = [
         f"  {q(code)}) printf %s {q(answer)}; exit 0;;"
-        for code, answer in sorted((answers or {}).items())
+        for code, answer in sorted(given.items())
         if code in FINDPYTHON_QUESTIONS
     ]
     answered = ['if [ "$1" = -c ] && [ $# -eq 2 ]; then case "$2" in', *known, "esac; fi"] if known else []
+    if VERSION_FLAG in given:
+        version = q(given[VERSION_FLAG])
+        answered.append(f'if [ "$1" = {VERSION_FLAG} ] && [ $# -eq 1 ]; then printf %s {version}; exit 0; fi')
     return "\n".join(
         [
             "#!/bin/sh",

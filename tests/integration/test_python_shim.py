@@ -18,14 +18,7 @@ from uros_build import pyshim
 
 pytestmark = pytest.mark.integration
 
-# CMake 3.25's probe, as FindPython/Support.cmake runs it (its -c program, verbatim)
-PROBE = (
-    "import sys\ntry:\n   from distutils import sysconfig\n   sys.stdout.write(';'.join([sysconfig.get_python_lib"
-    "(plat_specific=False,standard_lib=True),sysconfig.get_python_lib(plat_specific=True,standard_lib=True),"
-    "sysconfig.get_python_lib(plat_specific=False,standard_lib=False),sysconfig.get_python_lib(plat_specific=True,"
-    "standard_lib=False)]))\nexcept Exception:\n   import sysconfig\n   sys.stdout.write(';'.join([sysconfig.get_path"
-    "('stdlib'),sysconfig.get_path('platstdlib'),sysconfig.get_path('purelib'),sysconfig.get_path('platlib')]))"
-)
+PROBE = pyshim.FINDPYTHON_FOLDERS  # CMake 3.25's probe, as FindPython/Support.cmake runs it
 ENV = "import os, sys; print(os.environ.get('SETUPTOOLS_USE_DISTUTILS', '-')); sys.exit(3)"
 
 
@@ -36,6 +29,7 @@ def _shim(tmp_path: Path) -> Path:
         capture_output=True,
         text=True,
         check=True,
+        env={**os.environ, **pyshim.STDLIB_DISTUTILS},
     )
     answers, has_distutils = pyshim.parse_answers(asked.stdout)
     assert has_distutils == (sys.version_info < (3, 12))
@@ -75,11 +69,14 @@ def test_the_findpython_probe_answers_the_same_and_nothing_else_changes(tmp_path
 
 def test_findpythons_questions_get_the_interpreters_own_answers_without_running_it(tmp_path: Path) -> None:
     shim = _shim(tmp_path)
-    for code in pyshim.FINDPYTHON_QUESTIONS:
-        real = subprocess.run([sys.executable, "-c", code], capture_output=True, check=True)
-        through = subprocess.run([str(shim), "-c", code], capture_output=True, check=True)
+    env = {k: v for k, v in os.environ.items() if k != "SETUPTOOLS_USE_DISTUTILS"}
+    for args in [*(["-c", code] for code in pyshim.FINDPYTHON_QUESTIONS), ["-V"]]:
+        real = subprocess.run([sys.executable, *args], capture_output=True, check=True, env=env)
+        through = subprocess.run([str(shim), *args], capture_output=True, check=True, env=env)
         assert through.stdout == real.stdout and through.stderr == b""
-    assert "sys.copyright" in shim.read_text()  # answered by the shell, not by a Python run
+    text = shim.read_text()
+    assert "sys.copyright" in text and "printf %s 'Python " in text  # answered by the shell
+    assert ("get_python_lib" in text) == (sys.version_info < (3, 12))
     # the same program with one more argument, or one character more, is run as asked
     extra = subprocess.run(
         [str(shim), "-c", pyshim.FINDPYTHON_QUESTIONS[0], "x"], capture_output=True, check=True

@@ -191,7 +191,11 @@ def _python_shim(plan: BuildPlan, runner: Runner) -> Path:
     python, code_dir = colcon.host_python(), Path(uros_build.__file__).resolve().parent.parent
     try:
         answers, has_distutils = pyshim.parse_answers(
-            runner.query(pyshim.answers_argv(python, code_dir), step="ask Python what CMake will ask it")
+            runner.query(
+                pyshim.answers_argv(python, code_dir),
+                step="ask Python what CMake will ask it",
+                env={**os.environ, **pyshim.STDLIB_DISTUTILS},
+            )
         )
     except ValueError:  # not what print_answers prints: every question goes to the interpreter
         answers, has_distutils = {}, False
