@@ -3,18 +3,17 @@
 Existing tools do ``ar x`` of each library into one folder, rename, and ``ar rc``: a library that
 holds two members of the same name (two ``common.c.obj`` from different source folders, or
 test_msgs' msg/ and srv/ types of the same name) keeps only the last, so objects vanish without a
-word (12 of 1,093 in a real Humble build). Here every instance is extracted with ``ar xN``, given a
-unique name, and the result is checked: the same number of members and the same multiset of
-defined global symbols as all inputs together.
+word (12 of 1,093 in a real Humble build). Here every member, each instance of a repeated name
+too, is given a unique name, and the result is checked: the same number of members and the same
+multiset of defined global symbols as all inputs together.
 
-Plan, then execute (as in :mod:`uros_build.abi`): :func:`parse_ar` reads an archive's member
-table (what ``ar t`` prints, from the file itself), :func:`parse_defined_globals` reads ``nm``
-text, :func:`plan_merge` decides every extraction and every output name, :func:`verify_merge`
-compares inputs with the output; all are pure. Only :func:`merge_archives` runs commands, and few
-of them: one ``nm`` over all inputs at once, per input archive one ``ar x`` (plus one ``ar xN``
-per instance number where a name repeats), one ``ar qcsD`` that also writes the index, and one
-``nm`` of the output: about 115 processes for real Humble's 111 archives, where one ``ar t``,
-``nm`` and ``ar x`` per archive made ~340.
+Plan, then execute (as in :mod:`uros_build.abi`): :func:`parse_ar` reads an archive's members
+(what ``ar t`` lists and what ``ar x`` writes, from the file itself), :func:`parse_defined_globals`
+reads ``nm`` text, :func:`plan_merge` decides every output name, :func:`verify_merge` compares
+inputs with the output; all are pure. Only :func:`merge_archives` runs commands, and few of them:
+one ``nm`` over all inputs at once, one ``ar qcsD`` that also writes the index, and one ``nm`` of
+the output. The members are written from the archives' own bytes: one ``ar x`` per archive (and
+one ``ar xN`` per instance number) cost real Humble 119 processes, about 2 s of every build.
 """
 
 from __future__ import annotations
@@ -66,34 +65,19 @@ class ArchiveListing:
 
 
 @dataclass(frozen=True)
-class Extraction:
-    """One ``ar`` call that extracts ``members`` of ``archive`` into ``folder`` (relative to the
-    work folder). Each call gets a folder of its own, so no extraction overwrites another's file."""
-
-    archive: Path
-    folder: str
-    members: tuple[str, ...]
-    # None: plain ``ar x``; N: ``ar xN N``, the Nth member of each given name
-    instance: int | None = None
-    # ``members`` is the whole archive: ``ar x archive`` without names says the same, shorter
-    whole: bool = False
-
-
-@dataclass(frozen=True)
 class PlannedMember:
     """Where one input member comes from and what it is called in the output."""
 
     archive: Path
     member: str
+    position: int  # its place among its archive's members (0-based, symbol tables not counted)
     instance: int  # 1-based position among the members of this name in its archive
     duplicate: bool  # its name occurs more than once in its archive
-    source: str  # the file its extraction leaves, relative to the work folder
     output: str  # its name in the merged library, unique there
 
 
 @dataclass(frozen=True)
 class MergePlan:
-    extractions: tuple[Extraction, ...]  # in the order they run
     members: tuple[PlannedMember, ...]  # in output order
 
     @property
@@ -117,47 +101,62 @@ _SYMBOL_TABLES = (b"/", b"/SYM64/")
 
 def parse_ar(stream: BinaryIO, source: str) -> tuple[str, ...]:
     """Member names of an ar archive in archive order, as ``ar t`` lists them (pure over the
-    stream): GNU/SysV names (``name/``, long names as ``/offset`` into the ``//`` table) and BSD
-    names (``#1/length`` before the data), symbol tables left out
-    (https://en.wikipedia.org/wiki/Ar_(Unix)#File_format_details). Reading the table here saves one
-    ``ar t`` process per archive."""
+    stream). Reading the table here saves one ``ar t`` process per archive."""
+    return tuple(name for name, _ in parse_ar_members(stream, source))
+
+
+def parse_ar_members(stream: BinaryIO, source: str) -> tuple[tuple[str, bytes], ...]:
+    """Each member of an ar archive in archive order: its name, as ``ar t`` lists it, and its
+    content, the bytes ``ar x`` writes (pure over the stream). GNU/SysV names (``name/``, long names
+    as ``/offset`` into the ``//`` table) and BSD names (``#1/length`` before the data, which is
+    not part of the content), symbol tables left out
+    (https://en.wikipedia.org/wiki/Ar_(Unix)#File_format_details)."""
     if stream.read(len(_AR_MAGIC)) != _AR_MAGIC:
         raise VerifyError(
             f"{source}: not an ar archive (thin archives are not supported)",
             "the package installed something that is not a static library under lib/",
         )
-    names: list[str] = []
+    members: list[tuple[str, bytes]] = []
     long_names = b""
     while True:
         header = stream.read(_AR_HEADER)
         if not header.strip(b"\n"):
-            return tuple(names)
+            return tuple(members)
         size_text = header[48:58].strip()
         if len(header) < _AR_HEADER or header[58:60] != b"`\n" or not size_text.isdigit():
             raise VerifyError(f"{source}: a damaged ar archive", "rebuild it: uros build --rebuild")
         size = int(size_text)
         raw = header[:16].rstrip(b" ")
         body = stream.read(size + (size & 1))
+        if len(body) < size:
+            raise VerifyError(f"{source}: a cut ar archive", "rebuild it: uros build --rebuild")
+        data = body[:size]
         if raw == b"//":
-            long_names = body[:size]
+            long_names = data
         elif raw in _SYMBOL_TABLES or raw.startswith(b"__.SYMDEF"):
             continue
         elif raw.startswith(b"#1/") and raw[3:].isdigit():
-            name = body[: int(raw[3:])].rstrip(b"\0")
+            length = int(raw[3:])
+            name = data[:length].rstrip(b"\0")
             if not name.startswith(b"__.SYMDEF"):
-                names.append(os.fsdecode(name))
+                members.append((os.fsdecode(name), data[length:]))
         elif raw.startswith(b"/") and raw[1:].isdigit():
             start = int(raw[1:])
             end = long_names.find(b"\n", start)
             entry = long_names[start : end if end >= 0 else len(long_names)]
-            names.append(os.fsdecode(entry.removesuffix(b"/")))
+            members.append((os.fsdecode(entry.removesuffix(b"/")), data))
         else:
-            names.append(os.fsdecode(raw.removesuffix(b"/")))
+            members.append((os.fsdecode(raw.removesuffix(b"/")), data))
 
 
 def read_members(archive: Path) -> tuple[str, ...]:
     with archive.open("rb") as stream:
         return parse_ar(stream, str(archive))
+
+
+def read_member_data(archive: Path) -> tuple[tuple[str, bytes], ...]:
+    with archive.open("rb") as stream:
+        return parse_ar_members(stream, str(archive))
 
 
 def parse_defined_globals(nm_posix_text: str) -> Counter[str]:
@@ -181,37 +180,24 @@ def parse_defined_globals(nm_posix_text: str) -> Counter[str]:
 
 
 def plan_merge(listings: Sequence[ArchiveListing]) -> MergePlan:
-    """Every extraction and every output name, for ``listings`` in the order given (pure).
+    """Every output name, for ``listings`` in the order given (pure).
 
     Output names are ``<archive stem>__<member>``, and ``<archive stem>__<i>_<member>`` for the
     i-th of several same-named members of one archive: the stem keeps apart the ``util.c.obj`` of
     two libraries, the instance number the two ``common.c.obj`` of one. VerifyError if two members
     would still get one name (``lib a.a`` and ``lib_a.a``; a member literally named ``2_x.o`` next
-    to two ``x.o``), before anything is extracted.
+    to two ``x.o``), before anything is written.
     """
-    extractions: list[Extraction] = []
     members: list[PlannedMember] = []
     taken: dict[str, str] = {}  # output name -> "archive(member)" that has it, for the error
-    for index, listing in enumerate(listings):
+    for listing in listings:
         stem = _safe(listing.name.removesuffix(".a"))
-        base = f"{index:03d}"
         counts = Counter(listing.members)
-        unique = tuple(m for m in listing.members if counts[m] == 1)
-        if unique:
-            whole = len(unique) == len(listing.members)
-            extractions.append(Extraction(listing.path, base, unique, whole=whole))
-        # GNU ar applies xN's count to every name given, so one call per instance number takes the
-        # i-th copy of all names that repeat at least i times; names in first-appearance order.
-        repeated = tuple(dict.fromkeys(m for m in listing.members if counts[m] > 1))
-        for instance in range(1, max((counts[m] for m in repeated), default=0) + 1):
-            names = tuple(m for m in repeated if counts[m] >= instance)
-            extractions.append(Extraction(listing.path, f"{base}.{instance}", names, instance=instance))
         seen: Counter[str] = Counter()
-        for member in listing.members:
+        for position, member in enumerate(listing.members):
             seen[member] += 1
             instance = seen[member]
             duplicate = counts[member] > 1
-            folder = f"{base}.{instance}" if duplicate else base
             output = f"{stem}__{instance}_{_safe(member)}" if duplicate else f"{stem}__{_safe(member)}"
             where = f"{listing.name}({member})" + (f" #{instance}" if duplicate else "")
             if output in taken:
@@ -220,18 +206,8 @@ def plan_merge(listings: Sequence[ArchiveListing]) -> MergePlan:
                     "rename one of the two archives or objects: the merge would lose one of them",
                 )
             taken[output] = where
-            members.append(
-                PlannedMember(listing.path, member, instance, duplicate, f"{folder}/{member}", output)
-            )
-    return MergePlan(tuple(extractions), tuple(members))
-
-
-def extraction_argv(ar: str, extraction: Extraction) -> list[str]:
-    """The ``ar`` command line of one extraction, run in its folder (pure)."""
-    archive = str(extraction.archive)
-    if extraction.instance is not None:
-        return [ar, "xN", str(extraction.instance), archive, *extraction.members]
-    return [ar, "x", archive] if extraction.whole else [ar, "x", archive, *extraction.members]
+            members.append(PlannedMember(listing.path, member, position, instance, duplicate, output))
+    return MergePlan(tuple(members))
 
 
 def verify_merge(expected: Sequence[ArchiveContents], actual: ArchiveContents, workdir: Path) -> None:
@@ -270,9 +246,10 @@ def merge_archives(
     """Merge ``inputs`` (in name order) into ``output`` through ``workdir``, which is kept for
     inspection when the check fails and removed when it passes."""
     ordered = sorted(inputs, key=lambda p: p.name)
-    # Absolute paths: every ar runs inside the work folder.
+    # Absolute paths: ar runs inside the work folder.
     resolved = [p.resolve() for p in ordered]
-    listings = [ArchiveListing(p, read_members(p)) for p in resolved]
+    contents = {p: read_member_data(p) for p in resolved}
+    listings = [ArchiveListing(p, tuple(name for name, _ in contents[p])) for p in resolved]
     expected = ArchiveContents(
         tuple(m for listing in listings for m in listing.members),
         read_symbols(runner, tools, resolved, f"{len(resolved)} libraries"),
@@ -282,27 +259,11 @@ def merge_archives(
     if workdir.exists():
         shutil.rmtree(workdir)
     workdir.mkdir(parents=True)
-    for extraction in plan.extractions:
-        folder = workdir / extraction.folder
-        folder.mkdir()
-        what = f" #{extraction.instance}" if extraction.instance is not None else ""
-        runner.run(
-            extraction_argv(tools.ar, extraction),
-            step=f"extract{what} from {extraction.archive.name}",
-            cwd=folder,
-            quiet=True,
-        )
     for planned in plan.members:
-        source = workdir / planned.source
-        # ar x exits 0 when a named member is not there ("no entry ... in archive" on stderr only).
-        if not source.is_file():
-            raise VerifyError(
-                f"ar did not extract {planned.member} #{planned.instance} of {planned.archive.name}",
-                f"the work folder {workdir} is kept for inspection",
-            )
-        source.rename(workdir / planned.output)
-    for extraction in plan.extractions:
-        shutil.rmtree(workdir / extraction.folder)
+        _, data = contents[planned.archive][planned.position]
+        # "x": a second writer of one name would be a planning error, never a silent overwrite
+        with (workdir / planned.output).open("xb") as f:
+            f.write(data)
 
     output.unlink(missing_ok=True)
     # One response file instead of ~1,100 arguments; its names need no quoting (_safe keeps only

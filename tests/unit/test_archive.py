@@ -19,7 +19,7 @@ from typing import cast
 import pytest
 
 from uros_build import archive
-from uros_build.archive import ArchiveContents, ArchiveListing, BinTools, Extraction
+from uros_build.archive import ArchiveContents, ArchiveListing, BinTools
 from uros_build.errors import VerifyError
 from uros_build.proc import Runner
 
@@ -120,44 +120,24 @@ def test_plan_merge_names_every_member_uniquely_in_output_order() -> None:
     # the same names ar t lists in the library merge_archives made of these three
     assert plan.output_names == _ar_t(_text("archive-merged.ar-t.txt"))
     assert plan.renamed_duplicates == 3
-    assert len({m.source for m in plan.members}) == len(plan.members)  # no extraction overwrites another
+    assert len(set(plan.output_names)) == len(plan.members)  # no member overwrites another
 
 
-def test_plan_merge_extracts_unique_members_in_one_call_and_each_instance_in_one() -> None:
-    lib = Path("/ws/install/lib")
+def test_plan_merge_takes_each_member_by_its_place_in_its_archive() -> None:
     plan = archive.plan_merge(_listings())
-    assert plan.extractions == (
-        Extraction(lib / "libfx_core.a", "000", ("core.c.obj", "util.c.obj"), whole=True),
-        Extraction(lib / "libfx_dup.a", "001", ("empty.c.obj", "util.c.obj")),
-        Extraction(lib / "libfx_dup.a", "001.1", ("common.c.obj",), instance=1),
-        Extraction(lib / "libfx_dup.a", "001.2", ("common.c.obj",), instance=2),
-        Extraction(lib / "libfx_dup.a", "001.3", ("common.c.obj",), instance=3),
-        Extraction(lib / "libfx_util.a", "002", ("util.c.obj", "scale.c.obj"), whole=True),
-    )
     third = plan.members[6]
-    assert (third.member, third.instance, third.duplicate) == ("common.c.obj", 3, True)
-    assert (third.source, third.output) == ("001.3/common.c.obj", "libfx_dup__3_common.c.obj")
+    assert (third.member, third.position, third.instance, third.duplicate) == ("common.c.obj", 4, 3, True)
+    assert third.output == "libfx_dup__3_common.c.obj"
     util = plan.members[5]
-    assert (util.source, util.output, util.duplicate) == ("001/util.c.obj", "libfx_dup__util.c.obj", False)
+    assert (util.position, util.output, util.duplicate) == (3, "libfx_dup__util.c.obj", False)
 
 
-def test_plan_merge_one_call_per_instance_number_covers_every_repeated_name() -> None:
+def test_plan_merge_numbers_every_instance_of_a_repeated_name() -> None:
     plan = archive.plan_merge(
         [ArchiveListing(Path("libm.a"), ("a.o", "b.o", "a.o", "b.o", "b.o"))]  # only repeated names
     )
-    assert [(e.instance, e.members) for e in plan.extractions] == [
-        (1, ("a.o", "b.o")),
-        (2, ("a.o", "b.o")),
-        (3, ("b.o",)),
-    ]
     assert plan.output_names == ("libm__1_a.o", "libm__1_b.o", "libm__2_a.o", "libm__2_b.o", "libm__3_b.o")
-    assert [m.source for m in plan.members] == [
-        "000.1/a.o",
-        "000.1/b.o",
-        "000.2/a.o",
-        "000.2/b.o",
-        "000.3/b.o",
-    ]
+    assert [(m.position, m.instance) for m in plan.members] == [(0, 1), (1, 1), (2, 2), (3, 2), (4, 3)]
 
 
 def test_plan_merge_makes_names_safe_and_skips_empty_archives() -> None:
@@ -165,7 +145,7 @@ def test_plan_merge_makes_names_safe_and_skips_empty_archives() -> None:
         [ArchiveListing(Path("libempty.a"), ()), ArchiveListing(Path("libx y.a"), ("odd name.o",))]
     )
     assert plan.output_names == ("libx_y__odd_name.o",)
-    assert plan.extractions == (Extraction(Path("libx y.a"), "001", ("odd name.o",), whole=True),)
+    assert [(m.archive, m.position) for m in plan.members] == [(Path("libx y.a"), 0)]
     assert plan.renamed_duplicates == 0
 
 
@@ -186,15 +166,6 @@ def test_plan_merge_member_named_like_an_instance_collides() -> None:
         VerifyError, match=r"libq.a\(x.o\) #2 and libq.a\(2_x.o\) would both be named libq__2_x.o"
     ):
         archive.plan_merge([ArchiveListing(Path("libq.a"), ("x.o", "x.o", "2_x.o"))])
-
-
-def test_extraction_argv() -> None:
-    whole = Extraction(Path("/l/libc.a"), "000", ("a.o", "b.o"), whole=True)
-    some = Extraction(Path("/l/libc.a"), "000", ("b.o",))
-    second = Extraction(Path("/l/libc.a"), "000.2", ("a.o", "c.o"), instance=2)
-    assert archive.extraction_argv("ar", whole) == ["ar", "x", "/l/libc.a"]
-    assert archive.extraction_argv("ar", some) == ["ar", "x", "/l/libc.a", "b.o"]
-    assert archive.extraction_argv("ar", second) == ["ar", "xN", "2", "/l/libc.a", "a.o", "c.o"]
 
 
 # --- verify_merge ----------------------------------------------------------------------------
@@ -246,9 +217,9 @@ def test_verify_merge_fails_on_extra_symbols_too() -> None:
 # --- merge_archives, over a runner that starts nothing ---------------------------------------
 
 
-def ar_bytes(names: Sequence[str], symbol_table: bool = True) -> bytes:
+def ar_bytes(names: Sequence[str], symbol_table: bool = True, bodies: Sequence[bytes] = ()) -> bytes:
     """A GNU ar archive holding members of these names (long names through the // table), as
-    GNU ar writes it."""
+    GNU ar writes it; each member's content from ``bodies`` (default ``obj``)."""
 
     def header(name: bytes, size: int) -> bytes:
         return (
@@ -275,18 +246,18 @@ def ar_bytes(names: Sequence[str], symbol_table: bool = True) -> bytes:
             refs.append(raw + b"/")
     if table:
         out += header(b"//", len(table)) + table + (b"\n" if len(table) % 2 else b"")
-    for ref in refs:
-        body = b"obj"
-        out += header(ref, len(body)) + body + b"\n"
+    for i, ref in enumerate(refs):
+        body = bodies[i] if bodies else b"obj"
+        out += header(ref, len(body)) + body + (b"\n" if len(body) % 2 else b"")
     return bytes(out)
 
 
 class FakeRunner:
-    """Answers nm from the fixtures and does what ar x / ar q would to the files."""
+    """Answers nm from the fixtures and does what ar qcsD would to the files."""
 
     def __init__(self, lose: str | None = None) -> None:
         self.calls: list[list[str]] = []
-        self.lose = lose  # a member an ar x call "does not find" (it exits 0 then, as GNU ar does)
+        self.lose = lose  # a member the written library leaves out
 
     def query(self, argv: Sequence[str], *, step: str, cwd: Path | None = None) -> str:
         self.calls.append(list(argv))
@@ -302,18 +273,11 @@ class FakeRunner:
         self, argv: Sequence[str], *, step: str, cwd: Path | None = None, quiet: bool = False
     ) -> list[str]:
         self.calls.append(list(argv))
-        assert cwd is not None
-        if argv[1] in ("x", "xN"):
-            names = list(argv[4:] if argv[1] == "xN" else argv[3:])
-            names = names or list(_contents(Path(argv[2]).name[3:-2]).members)
-            for name in names:
-                if name != self.lose:
-                    (cwd / name).write_text(f"{argv}", encoding="utf-8")
-        elif argv[1] == "qcsD":
-            rsp = (cwd / argv[3].removeprefix("@")).read_text(encoding="utf-8").split()
-            assert all((cwd / name).is_file() for name in rsp)
-            assert rsp == list(_ar_t(_text("archive-merged.ar-t.txt")))
-            Path(argv[2]).write_bytes(ar_bytes(rsp))
+        assert cwd is not None and argv[1] == "qcsD"
+        rsp = (cwd / argv[3].removeprefix("@")).read_text(encoding="utf-8").split()
+        assert rsp == list(_ar_t(_text("archive-merged.ar-t.txt")))
+        kept = [name for name in rsp if name != self.lose]
+        Path(argv[2]).write_bytes(ar_bytes(kept, bodies=[(cwd / name).read_bytes() for name in kept]))
         return []
 
 
@@ -324,7 +288,9 @@ def _lib(tmp_path: Path) -> list[Path]:
     lib = tmp_path / "lib"
     lib.mkdir()
     for name in reversed(INPUTS):  # merge_archives sorts them by name
-        (lib / name).write_bytes(ar_bytes(_contents(name[3:-2]).members))
+        members = _contents(name[3:-2]).members
+        bodies = [f"{name}:{i}:{m}".encode() for i, m in enumerate(members)]  # odd and even sizes
+        (lib / name).write_bytes(ar_bytes(members, bodies=bodies))
     return [lib / name for name in reversed(INPUTS)]
 
 
@@ -335,13 +301,9 @@ def test_merge_archives_process_count(tmp_path: Path) -> None:
         cast(Runner, runner), TOOLS, libs, tmp_path / "libmicroros.a", tmp_path / "merge"
     )
     assert report == archive.MergeReport(inputs=INPUTS, members=9, symbols=11, renamed_duplicates=3)
-    # one nm over the 3 archives (their member tables are read from the files), 1 ar x each and
-    # 3 ar xN for the 3 common.c.obj, one ar qcsD (with the index), one nm of the output
-    assert [c[:2] for c in runner.calls] == [
-        ["nm", "-g"],
-        ["ar", "x"], ["ar", "x"], ["ar", "xN"], ["ar", "xN"], ["ar", "xN"], ["ar", "x"],
-        ["ar", "qcsD"], ["nm", "-g"],
-    ]  # fmt: skip
+    # one nm over the 3 archives (their members are read from the files), one ar qcsD (with the
+    # index), one nm of the output
+    assert [c[:2] for c in runner.calls] == [["nm", "-g"], ["ar", "qcsD"], ["nm", "-g"]]
     assert runner.calls[0][4:] == [str(p.resolve()) for p in sorted(libs)]
     assert not (tmp_path / "merge").exists()
 
@@ -385,10 +347,21 @@ def test_parse_ar_refuses_what_is_not_an_archive(data: bytes) -> None:
         archive.parse_ar(io.BytesIO(data), "x.a")
 
 
-def test_merge_archives_notices_a_member_ar_did_not_extract(tmp_path: Path) -> None:
-    with pytest.raises(VerifyError, match=r"ar did not extract empty.c.obj #1 of libfx_dup.a"):
+def test_merge_archives_writes_each_members_own_bytes(tmp_path: Path) -> None:
+    libs = _lib(tmp_path)
+    archive.merge_archives(cast(Runner, FakeRunner()), TOOLS, libs, tmp_path / "o.a", tmp_path / "m")
+    merged = dict(archive.read_member_data(tmp_path / "o.a"))
+    # the third common.c.obj of libfx_dup.a is its 5th member; util.c.obj its 4th
+    assert merged["libfx_dup__3_common.c.obj"] == b"libfx_dup.a:4:common.c.obj"
+    assert merged["libfx_dup__util.c.obj"] == b"libfx_dup.a:3:util.c.obj"
+    inputs = sorted(body for lib in libs for _, body in archive.read_member_data(lib))
+    assert sorted(merged.values()) == inputs
+
+
+def test_merge_archives_notices_a_member_the_library_lost(tmp_path: Path) -> None:
+    with pytest.raises(VerifyError, match=r"libmicroros.a has 8 members but its inputs have 9"):
         archive.merge_archives(
-            cast(Runner, FakeRunner(lose="empty.c.obj")),
+            cast(Runner, FakeRunner(lose="libfx_dup__empty.c.obj")),
             TOOLS,
             _lib(tmp_path),
             tmp_path / "o.a",
