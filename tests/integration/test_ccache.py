@@ -61,6 +61,9 @@ def test_another_checkout_hits_every_compile_and_the_library_keeps_its_bytes(tmp
 
     first = build(one, "--ccache")
     assert "ccache: 0 of 10 compiles taken from the cache" in first, first
+    # ccache's depend mode: each miss ran the compiler once, no preprocessor run before it
+    stats = (one / ".uros" / "targets" / "cortex-m7" / "ccache-stats.log").read_text()
+    assert stats.count("\ncache_miss") == 10 and "preprocessed_cache_miss" not in stats, stats
     second = build(two)  # ccache is the default where it is installed
     assert "ccache: 10 of 10 compiles taken from the cache (100%)" in second, second
     info = json.loads((two / "build" / "cortex-m7" / "build-info.json").read_text())

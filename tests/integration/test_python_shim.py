@@ -89,3 +89,51 @@ def test_findpythons_questions_get_the_interpreters_own_answers_without_running_
         [str(shim), "-c", pyshim.FINDPYTHON_QUESTIONS[1] + ";print(7)"], capture_output=True, text=True
     )
     assert other.stdout.endswith("7\n")
+
+
+PY_CMAKE = """\
+cmake_minimum_required(VERSION 3.16)
+project(fx_py C)
+find_package(Python3 REQUIRED COMPONENTS Interpreter)
+file(WRITE ${CMAKE_CURRENT_BINARY_DIR}/py.c "const char *fx_py = \\"python ${Python3_VERSION}\\";\\n")
+add_library(fx_py STATIC ${CMAKE_CURRENT_BINARY_DIR}/py.c)
+install(TARGETS fx_py ARCHIVE DESTINATION lib)
+"""
+
+
+def test_a_build_writes_the_interpreters_answers_into_its_shim_and_cmake_takes_them(tmp_path: Path) -> None:
+    from conftest import need
+    from fixture_ws import make_fixture_workspace
+    from uros_helpers import run_uros
+
+    need("arm-none-eabi-gcc", "cmake", "arm-none-eabi-strings")
+    ws = make_fixture_workspace(tmp_path / "ws")
+    pkg = ws / "mcu_ws" / "src" / "fx_py"
+    pkg.mkdir(parents=True)
+    (pkg / "package.xml").write_text(
+        '<?xml version="1.0"?><package format="3"><name>fx_py</name><version>0.1.0</version>'
+        "<description>d</description><maintainer email='d@example.com'>t</maintainer>"
+        "<license>Apache-2.0</license><export><build_type>cmake</build_type></export></package>\n"
+    )
+    (pkg / "CMakeLists.txt").write_text(PY_CMAKE)
+    run_uros("build", "--toolchain", "cortex-m7", "-w", str(ws), "--meta", str(ws / "fixture.meta"))
+
+    shim = ws / ".uros" / "targets" / "cortex-m7" / "uros-python"
+    text = shim.read_text()
+    python = text.rstrip().splitlines()[-1].split()[1]  # exec PYTHON "$@": the interpreter it stands for
+    assert "sys.copyright" in text and "printf %s 'Python " in text  # the build wrote the answers
+    for args in [*(["-c", code] for code in pyshim.FINDPYTHON_QUESTIONS), ["-V"]]:
+        env = {k: v for k, v in os.environ.items() if k != "SETUPTOOLS_USE_DISTUTILS"}
+        real = subprocess.run([python, *args], capture_output=True, check=True, env=env)
+        assert (
+            subprocess.run([str(shim), *args], capture_output=True, check=True, env=env).stdout == real.stdout
+        )
+    # CMake's FindPython took the shim's answer: the interpreter's version reached the library
+    version = subprocess.run(
+        [python, "-c", pyshim.FINDPYTHON_QUESTIONS[0]], capture_output=True, text=True
+    ).stdout
+    strings = subprocess.run(
+        ["arm-none-eabi-strings", "-a", str(ws / "build" / "cortex-m7" / "libmicroros.a")],
+        capture_output=True, text=True, check=True,
+    ).stdout  # fmt: skip
+    assert f"python {version}" in strings
