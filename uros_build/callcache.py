@@ -194,23 +194,6 @@ def _module_files() -> list[str]:
     return sorted(files)
 
 
-def _run(argv: Sequence[str]) -> None:
-    import runpy
-
-    saved = sys.argv
-    sys.argv = list(argv) if argv[0] != "-m" else [argv[1], *argv[2:]]
-    try:
-        if argv[0] == "-m":
-            runpy.run_module(argv[1], run_name="__main__", alter_sys=True)
-        else:
-            runpy.run_path(argv[0], run_name="__main__")
-    except SystemExit as exc:
-        if exc.code not in (None, 0):
-            raise
-    finally:
-        sys.argv = saved
-
-
 def _restore(files: Mapping[str, bytes], call: Call, workspace: StrPath) -> None:
     """Write an entry's files where the call writes them, each output's own path put back where
     the call named it (rosidl_adapter's list names its .idl folder), and this workspace's folder
@@ -236,7 +219,7 @@ def run(argv: Sequence[str], cache_dir: StrPath, target_dir: StrPath, workspace:
     """One configure call through the cache: "hit", "miss" or "bypass" (run as CMake asked)."""
     call = recognise(argv)
     if call is None:
-        _run(argv)
+        gencache.run_python(argv)
         return "bypass"
     top, ws = os.fspath(target_dir), os.fspath(workspace)
     first = _first_key(call, top, ws)
@@ -258,14 +241,16 @@ def run(argv: Sequence[str], cache_dir: StrPath, target_dir: StrPath, workspace:
 
     with tempfile.TemporaryDirectory(prefix="uros-call-") as tmp:
         try:
-            _run(_scratch_argv(call, tmp))
+            gencache.run_python(_scratch_argv(call, tmp))
         except BaseException:
-            _run(argv)  # fails as CMake asked it, naming its own files (or succeeds: then it is done)
+            # fails as CMake asked it, naming its own files (or succeeds: then it is done)
+            gencache.run_python(argv)
             return "bypass"
         code = _module_files()
         files = {k: v.replace(tmp.encode(), OUT.encode()) for k, v in gencache.read_folder(tmp).items()}
     if any(top.encode() in v for v in files.values()):
-        _run(argv)  # an answer that names the target's own folder is not the same for every target
+        # an answer that names the target's own folder is not the same for every target
+        gencache.run_python(argv)
         return "bypass"
     ws_bytes = os.path.join(ws, "").encode()
     files = {k: v.replace(ws_bytes, f"{gencache.WORKSPACE}/".encode()) for k, v in files.items()}

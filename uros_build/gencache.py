@@ -323,19 +323,30 @@ def _remember_parses(memo_dir: StrPath, modules: Mapping[str, str]) -> Callable[
 def _run_generator(argv: Sequence[str], memo: tuple[StrPath, Mapping[str, str]] | None = None) -> None:
     """The generator script as CMake would have run it, in this process; with ``memo`` (a folder
     and the module versions), its .idl parses remembered there."""
+    undo = _remember_parses(*memo) if memo is not None else (lambda: None)
+    try:
+        run_python(argv)
+    finally:
+        undo()
+
+
+def run_python(argv: Sequence[str]) -> None:
+    """``python ARGV`` in this process, as the interpreter would run it: a script, or ``-m
+    MODULE``; a SystemExit with a failing code is raised, success returns."""
     import runpy
 
-    undo = _remember_parses(*memo) if memo is not None else (lambda: None)
     saved = sys.argv
-    sys.argv = list(argv)
+    sys.argv = list(argv) if argv[0] != "-m" else [argv[1], *argv[2:]]
     try:
-        runpy.run_path(argv[0], run_name="__main__")
+        if argv[0] == "-m":
+            runpy.run_module(argv[1], run_name="__main__", alter_sys=True)
+        else:
+            runpy.run_path(argv[0], run_name="__main__")
     except SystemExit as exc:
         if exc.code not in (None, 0):
             raise
     finally:
         sys.argv = saved
-        undo()
 
 
 def generate(

@@ -7,11 +7,26 @@ from pathlib import Path
 import click
 
 from uros_build import defaults
-from uros_build.cli.common import PATH_ARG, VERBOSE, complete_distros, toolchain_option, workspace_option
+from uros_build.cli.common import (
+    PATH_ARG,
+    VERBOSE,
+    Decorator,
+    complete_distros,
+    toolchain_option,
+    workspace_option,
+)
 from uros_build.commands import add_package as add_package_cmd
 from uros_build.commands import create_firmware as create_cmd
 from uros_build.commands import update as update_cmd
 from uros_build.sourceplan import CreateArgs, UpdateArgs
+
+
+def _git_jobs(what: str) -> Decorator:
+    """``--git-jobs`` (named apart from build's ``-j``, which is colcon's parallel packages)."""
+    return click.option(
+        "--git-jobs", "jobs", type=int, default=defaults.CLONE_JOBS, show_default=True,
+        help=f"Parallel git {what} (`uros build -j` is colcon's parallel packages).",
+    )  # fmt: skip
 
 
 @click.command("create-firmware")
@@ -45,10 +60,7 @@ from uros_build.sourceplan import CreateArgs, UpdateArgs
     "--no-dev-build", is_flag=True, help="Do not build the host tools now (the first `uros build` will)."
 )
 @toolchain_option("Check this target's compiler, C library and C++ headers before cloning.")
-@click.option(
-    "--git-jobs", "jobs", type=int, default=defaults.CLONE_JOBS, show_default=True,
-    help="Parallel git clones (`uros build -j` is colcon's parallel packages).",
-)  # fmt: skip
+@_git_jobs("clones")
 @VERBOSE
 def create_firmware(
     platform: str,
@@ -103,10 +115,7 @@ def create_firmware(
     help="The newest commits before this day instead (a consistent snapshot of branches that move apart).",
 )
 @click.option("--dry-run", is_flag=True, help="Fetch and show what would move; change nothing.")
-@click.option(
-    "--git-jobs", "jobs", type=int, default=defaults.CLONE_JOBS, show_default=True,
-    help="Parallel git fetches (`uros build -j` is colcon's parallel packages).",
-)  # fmt: skip
+@_git_jobs("fetches")
 @VERBOSE
 def update(
     workspace: Path | None, distro: str | None, before: str | None, dry_run: bool, jobs: int, verbose: bool
