@@ -13,6 +13,9 @@ import sys
 from pathlib import Path
 
 import pytest
+from conftest import need
+from fixture_ws import make_fixture_workspace
+from uros_helpers import run_uros
 
 from uros_build import pyshim
 
@@ -102,10 +105,6 @@ install(TARGETS fx_py ARCHIVE DESTINATION lib)
 
 
 def test_a_build_writes_the_interpreters_answers_into_its_shim_and_cmake_takes_them(tmp_path: Path) -> None:
-    from conftest import need
-    from fixture_ws import make_fixture_workspace
-    from uros_helpers import run_uros
-
     need("arm-none-eabi-gcc", "cmake", "arm-none-eabi-strings")
     ws = make_fixture_workspace(tmp_path / "ws")
     pkg = ws / "mcu_ws" / "src" / "fx_py"
