@@ -34,6 +34,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
             "abi",
             "archive",
             "installtree",
+            "hoststage",
             "fingerprint",
             "firmware_scan",
             "depfiles",

@@ -86,6 +86,9 @@ class BuildInfo:
     # abi.verify's summary (expects/result/objects/...): its shape belongs to abi.py
     abi_check: Mapping[str, Any] = field(default_factory=dict)
     skipped_python_packages: tuple[str, ...] = ()
+    # of ``packages``, those that compile nothing and were built once for the workspace, for the
+    # host, and copied into this target's install tree (the host stage; absent: none)
+    host_stage_packages: tuple[str, ...] = ()
     idf_target: str | None = None
     idf: IdfInfo | None = None
     # how long colcon took over each package of this build (its own measure), in seconds
@@ -107,7 +110,7 @@ class BuildInfo:
         for key in ("idf_target", "idf"):
             if data[key] is None:
                 del data[key]
-        for key in ("from_cache", "ccache"):
+        for key in ("from_cache", "ccache", "host_stage_packages"):
             if not data[key]:
                 del data[key]
         if data["library"]["size"] is None:
@@ -191,6 +194,7 @@ def parse_build_info(data: Any, source: str) -> BuildInfo:
         ),
         abi_check=dict(loader.mapping(top.get("abi_check"), f"{source}: abi_check")),
         skipped_python_packages=_tuple(top, "skipped_python_packages", source),
+        host_stage_packages=_tuple(top, "host_stage_packages", source),
         idf_target=_optional(top, "idf_target", source),
         idf=_idf(top.get("idf"), f"{source}: idf"),
         package_seconds=_seconds(top.get("package_seconds"), f"{source}: package_seconds"),

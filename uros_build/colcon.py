@@ -95,6 +95,12 @@ class ColconPlan:
     # https://github.com/colcon/colcon-core/blob/master/colcon_core/verb/build.py (get_packages)
     packages_ignore: tuple[str, ...] = ()
     compiler_launcher: str | None = None  # ccache, in front of every C and C++ compile
+    # Built elsewhere (the host stage) and already in the install tree: colcon keeps them in its
+    # graph, so their dependents wait for what they depend on, but does not build them.
+    packages_skip: tuple[str, ...] = ()
+    # micro_ros_setup's firmware CMake arguments (static, no PIC, THIRDPARTY): every build but
+    # dev_ws's; the toolchain file is added when there is one (the host stage has none)
+    firmware: bool = True
 
 
 def ccache_env(workspace: Path, stats_log: Path) -> dict[str, str]:
@@ -154,6 +160,8 @@ def colcon_argv(plan: ColconPlan, colcon: str = "colcon") -> list[str]:
         argv.append(f"--packages-ignore-regex={plan.ignore_regex}")
     if plan.packages_ignore:
         argv += ["--packages-ignore", *plan.packages_ignore]
+    if plan.packages_skip:
+        argv += ["--packages-skip", *plan.packages_skip]
     if plan.packages_up_to:
         argv += ["--packages-up-to", *plan.packages_up_to]
     if plan.parallel_workers:
@@ -174,8 +182,9 @@ def colcon_argv(plan: ColconPlan, colcon: str = "colcon") -> list[str]:
             f"-DCMAKE_CXX_COMPILER_LAUNCHER={plan.compiler_launcher}",
         ]
     if plan.toolchain_file is not None:
+        cmake_args.append(f"-DCMAKE_TOOLCHAIN_FILE={plan.toolchain_file}")
+    if plan.firmware:
         cmake_args += [
-            f"-DCMAKE_TOOLCHAIN_FILE={plan.toolchain_file}",
             "-DCMAKE_POSITION_INDEPENDENT_CODE:BOOL=OFF",
             "-DTHIRDPARTY=ON",
             "-DBUILD_SHARED_LIBS=OFF",

@@ -305,6 +305,7 @@ def build_dev_workspace(
             log_base=ws.dev_dir / "log",
             metas=(),
             toolchain_file=None,
+            firmware=False,
             python=colcon.host_python(),
             generator=colcon.generator(env),
             verbose=verbose,

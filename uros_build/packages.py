@@ -25,6 +25,10 @@ _BUILD_DEPS = (
     "run_depend",
 )
 
+# What a package's own build needs (REP 149: build and buildtool dependencies; <depend> is both
+# build and exec), without the export and exec dependencies its dependents need.
+_CONFIGURE_DEPS = ("depend", "build_depend", "buildtool_depend")
+
 
 @dataclass(frozen=True)
 class PackageInfo:
@@ -36,6 +40,8 @@ class PackageInfo:
     # resolves a group dependency to every member in the workspace)
     group_deps: frozenset[str] = frozenset()
     groups: frozenset[str] = frozenset()
+    # what its own configure and build need (not what its dependents or its users need)
+    configure_deps: frozenset[str] = frozenset()
 
 
 def discover(source_dir: Path) -> list[PackageInfo]:
@@ -66,7 +72,8 @@ def discover(source_dir: Path) -> list[PackageInfo]:
         deps = frozenset((e.text or "").strip() for tag in _BUILD_DEPS for e in root.findall(tag))
         group_deps = frozenset((e.text or "").strip() for e in root.findall("group_depend"))
         groups = frozenset((e.text or "").strip() for e in root.findall("member_of_group"))
-        found.append(PackageInfo(name, build_type, deps, Path(dirpath), group_deps, groups))
+        own = frozenset((e.text or "").strip() for tag in _CONFIGURE_DEPS for e in root.findall(tag))
+        found.append(PackageInfo(name, build_type, deps, Path(dirpath), group_deps, groups, own))
     return sorted(found, key=lambda p: p.name)
 
 

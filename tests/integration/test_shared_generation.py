@@ -1,13 +1,14 @@
 """Issue 19, item 1, on real micro-ROS Humble: a second target takes the interface code the first
 generated (rosidl's generators do not run again) and its configures' Python answers, and its library
 is byte for byte the one a workspace makes that never built another target and shares nothing
-(UROS_GEN_CACHE=off, UROS_COMPILER_SEED=off: every generator, configure call and compiler check
-runs as CMake asks). The cache is the user's: another checkout of the same sources at another
+(UROS_GEN_CACHE=off, UROS_COMPILER_SEED=off, UROS_HOST_STAGE=off: every generator, configure call
+and compiler check runs as CMake asks, every package is configured for the target). The cache is the user's: another checkout of the same sources at another
 path takes it all too. Needs UROS_MIRROR (see test_real_sources.py);
 about six minutes on 2 cores (three builds of std_msgs' closure)."""
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import shutil
@@ -72,9 +73,29 @@ def test_a_second_target_reuses_the_generated_code_and_builds_the_same_bytes(tmp
     assert taken == 0 and generated > 0
     taken, generated = build(shared, "cortex-m4f")
     assert generated == 0 and taken > 0  # every generator run of the second target was a hit
-    build(alone, "cortex-m4f", {"UROS_GEN_CACHE": "off", "UROS_COMPILER_SEED": "off"})
+    build(
+        alone, "cortex-m4f", {"UROS_GEN_CACHE": "off", "UROS_COMPILER_SEED": "off", "UROS_HOST_STAGE": "off"}
+    )
     # another checkout of the same sources at another path: the user's cache answers it all
     taken, generated = build(checkout, "cortex-m4f")
     assert generated == 0 and taken > 0
     lib = Path("build") / "cortex-m4f" / "libmicroros.a"
     assert (shared / lib).read_bytes() == (alone / lib).read_bytes() == (checkout / lib).read_bytes()
+    # the packages that compile nothing came from the host stage, built once for both targets
+    info = json.loads((shared / "build" / "cortex-m4f" / "build-info.json").read_text())
+    assert {"rosidl_cli", "rosidl_parser", "rosidl_typesupport_interface"} <= set(info["host_stage_packages"])
+    assert "host_stage_packages" not in json.loads(
+        (alone / "build" / "cortex-m4f" / "build-info.json").read_text()
+    )
+    assert len(list((shared / ".uros" / "shared").iterdir())) == 1
+    # and the include tree is the same, file for file
+    inc = [
+        p.relative_to(shared / "build" / "cortex-m4f")
+        for p in (shared / "build" / "cortex-m4f" / "include").rglob("*")
+    ]
+    assert inc and all(
+        (shared / "build" / "cortex-m4f" / p).read_bytes()
+        == (alone / "build" / "cortex-m4f" / p).read_bytes()
+        for p in inc
+        if (shared / "build" / "cortex-m4f" / p).is_file()
+    )

@@ -39,8 +39,12 @@ def test_colcon_argv_golden() -> None:
 
 
 def test_host_build_has_no_toolchain() -> None:
-    argv = colcon_argv(_plan(toolchain_file=None, ignore_regex=None, packages_up_to=("ament_cmake",)))
-    assert not any(a.startswith("-DCMAKE_TOOLCHAIN_FILE") for a in argv)
+    argv = colcon_argv(
+        _plan(toolchain_file=None, firmware=False, ignore_regex=None, packages_up_to=("ament_cmake",))
+    )
+    assert not any(
+        a.startswith(("-DCMAKE_TOOLCHAIN_FILE", "-DTHIRDPARTY", "-DBUILD_SHARED_LIBS")) for a in argv
+    )
     assert argv[argv.index("--packages-up-to") + 1] == "ament_cmake"
 
 

@@ -1,8 +1,9 @@
 """`uros clean`: remove uros's own per-target trees and outputs from a workspace, and say how much
 that freed. Only what uros wrote goes: .uros/targets/<key> (colcon's build/install/log, the
-rendered toolchain and meta) and, of build/<key>, the entries its `.uros-output` marker names
-(the folder itself only when nothing else is left in it); the sources, uros.yaml, colcon.meta,
-dev_ws, a file the user put into an output and any folder of the user's stay."""
+rendered toolchain and meta), with --all the host stages (.uros/shared), and, of build/<key>, the
+entries its `.uros-output` marker names (the folder itself only when nothing else is left in it);
+the sources, uros.yaml, colcon.meta, dev_ws, a file the user put into an output and any folder of
+the user's stay."""
 
 from __future__ import annotations
 
@@ -49,6 +50,26 @@ def _chosen(ws: Workspace, toolchain: str | None, everything: bool) -> list[str]
     return [key]
 
 
+def _clean_host_stages(ws: Workspace) -> int:
+    """The host stages (.uros/shared/<key>: the packages that compile nothing, built once for every
+    target), each under its lock; returns the bytes freed."""
+    shared = ws.state_dir / "shared"
+    freed = 0
+    for stage in sorted(shared.iterdir()) if shared.is_dir() else ():
+        if not stage.is_dir():
+            continue
+        size = tree_bytes(stage)
+        with locked(stage, "the host stage"):  # never under a build that is taking from it
+            why = swap.remove_tree(stage)
+        shutil.rmtree(stage, ignore_errors=True)  # the lock file locked() leaves
+        if why is not None:
+            console.warn(f"could not remove all of {stage}: {why}")
+            continue
+        freed += size
+        console.info(f"removed {stage} ({human(size)})")
+    return freed
+
+
 def clean(workspace: Path | None, toolchain: str | None, everything: bool) -> int:
     """Remove the chosen targets' trees and outputs; returns the bytes freed."""
     root = resolve_workspace(workspace)
@@ -84,6 +105,7 @@ def clean(workspace: Path | None, toolchain: str | None, everything: bool) -> in
             else:
                 output.rmdir()
     if everything:
+        freed += _clean_host_stages(ws)
         # the interface code cache older uros kept in the workspace (now the user's, like ccache's:
         # ~/.cache/uros/gen, not the workspace's to drop)
         gen = ws.state_dir / "gen-cache"

@@ -14,10 +14,10 @@ from uros_build import (
     colcon,
     console,
     depfiles,
+    hoststage,
     installtree,
     pyshim,
 )
-from uros_build import packages as packages_mod
 from uros_build.errors import (
     DiskFull,
     StepFailed,
@@ -26,7 +26,8 @@ from uros_build.errors import (
 from uros_build.hosttools import HostFacts
 from uros_build.plan import BuildPlan
 from uros_build.proc import Runner, disk_full_line, disk_full_path, first_error
-from uros_build.steps.inputs import CCACHE_STATS, ColconSetup, Inputs, flags_fingerprint
+from uros_build.steps import host_stage
+from uros_build.steps.inputs import CCACHE_STATS, ColconSetup, Inputs, building_names, flags_fingerprint
 from uros_build.steps.prepare import DISK_FULL_MARK, drop_removed_packages
 from uros_build.wsfiles import write_if_changed
 
@@ -102,6 +103,8 @@ def _run_colcon(
             return
         if event.kind == "start":
             (setup.build_base / event.package / installtree.STAMP).unlink(missing_ok=True)
+            # built here now, not a copy of the host stage's
+            (setup.build_base / event.package / hoststage.TAKEN).unlink(missing_ok=True)
         elif event.kind == "finish":
             entry = plan.meta.names.get(event.package, {})
             installtree.write_stamp(
@@ -155,11 +158,7 @@ def _run_colcon(
 
 def _expected_packages(plan: BuildPlan, setup: ColconSetup) -> int:
     """How many packages colcon will build (for the progress view; colcon does not say)."""
-    if setup.plan.packages_up_to:
-        names = packages_mod.closure(plan.packages, setup.plan.packages_up_to)
-    else:  # colcon also builds the CMake packages without a package.xml (Micro-CDR, the XRCE client)
-        names = {p.name for p in plan.packages} | packages_mod.plain_cmake_packages(plan.workspace.source_dir)
-    return len(colcon.kept_by_ignores(setup.plan, names))
+    return len(building_names(plan, setup.plan) - set(setup.shared))
 
 
 def _check_built(
@@ -217,7 +216,8 @@ def _disk_full(lines: list[str] | tuple[str, ...], where: Path, what: str) -> Di
 
 @dataclass(frozen=True)
 class Compiled:
-    packages: tuple[str, ...]  # what colcon built, in build-info's order
+    packages: tuple[str, ...]  # what colcon built and what the host stage gave, in build-info's order
+    shared: tuple[str, ...]  # of those, the host stage's
     progress: colcon.BuildProgress
     ccache: dict[str, int]  # this build's ccache hits and misses (empty without ccache)
 
@@ -228,10 +228,15 @@ def compile_packages(plan: BuildPlan, facts: HostFacts, runner: Runner, inputs: 
     drop_removed_packages(plan)
     (plan.target_dir / pyshim.RUNS).unlink(missing_ok=True)
     (plan.target_dir / CCACHE_STATS).unlink(missing_ok=True)
-    progress = _run_colcon(plan, facts, runner, inputs.setup, inputs.parts)
+    setup = inputs.setup
+    if setup.stage is not None:
+        host_stage.take_into(
+            setup.build_base, setup.install_base, setup.stage, setup.shared, plan.workspace.root
+        )
+    progress = _run_colcon(plan, facts, runner, setup, inputs.parts)
     _say_generation(plan)
-    counts = _say_ccache(plan, inputs.setup)
-    built = _check_built(plan, inputs.setup, progress, inputs.parts)
+    counts = _say_ccache(plan, setup)
+    built = _check_built(plan, setup, progress, inputs.parts)
     # what the compiler read outside the workspace this time: the state records its content
-    inputs.parts["headers outside the workspace"] = _record_outside_headers(plan, runner, inputs.setup)
-    return Compiled(built, progress, counts)
+    inputs.parts["headers outside the workspace"] = _record_outside_headers(plan, runner, setup)
+    return Compiled(tuple(sorted({*built, *setup.shared})), setup.shared, progress, counts)

@@ -20,6 +20,7 @@ from uros_build import (
     colcon,
     console,
     gencache,
+    hoststage,
     hosttools,
     pyshim,
 )
@@ -35,6 +36,7 @@ from uros_build.errors import (
 from uros_build.hosttools import HostFacts
 from uros_build.plan import BuildPlan, ProfileTarget, meta_transport
 from uros_build.proc import Runner
+from uros_build.steps import host_stage
 from uros_build.steps.prepare import (
     compiler_identity,
     drop_readers_of_changed_headers,
@@ -58,6 +60,8 @@ class ColconSetup:
     argv: tuple[str, ...]
     env: Mapping[str, str]
     skipped: tuple[str, ...]  # pure-Python packages left out
+    stage: hoststage.Stage | None = None  # the host stage this build takes packages from
+    shared: tuple[str, ...] = ()  # the packages it takes from there (colcon skips them)
 
     @property
     def build_base(self) -> Path:
@@ -69,7 +73,12 @@ class ColconSetup:
 
 
 def _colcon_setup(
-    plan: BuildPlan, facts: HostFacts, toolchain_file: Path, meta_path: Path, runner: Runner
+    plan: BuildPlan,
+    facts: HostFacts,
+    toolchain_file: Path,
+    meta_path: Path,
+    runner: Runner,
+    records: Mapping[str, fp.FileRecord],
 ) -> ColconSetup:
     ws = plan.workspace
     env, scrubbed = hosttools.colcon_env(ws, plan.config, plan.distro, facts.cmake_version)
@@ -100,7 +109,22 @@ def _colcon_setup(
         parallel_workers=plan.jobs,
         compiler_launcher=launcher,
     )
-    return ColconSetup(colcon_plan, tuple(colcon.colcon_argv(colcon_plan, facts.colcon)), env, skipped)
+    building = building_names(plan, colcon_plan)
+    stage = host_stage.plan_stage(plan, facts, building, records, env)
+    shared = host_stage.ensure_built(plan, facts, runner, stage, env, building) if stage else ()
+    colcon_plan = dataclasses.replace(colcon_plan, packages_skip=shared)
+    argv = tuple(colcon.colcon_argv(colcon_plan, facts.colcon))
+    return ColconSetup(colcon_plan, argv, env, skipped, stage if shared else None, shared)
+
+
+def building_names(plan: BuildPlan, colcon_plan: colcon.ColconPlan) -> set[str]:
+    """The packages colcon builds (or skips) for this target: the workspace's, or the closure of
+    --packages-up-to, less what the plan ignores."""
+    if colcon_plan.packages_up_to:
+        names = packages_mod.closure(plan.packages, colcon_plan.packages_up_to)
+    else:  # colcon also builds the CMake packages without a package.xml (Micro-CDR, the XRCE client)
+        names = {p.name for p in plan.packages} | packages_mod.plain_cmake_packages(plan.workspace.source_dir)
+    return colcon.kept_by_ignores(colcon_plan, names)
 
 
 CCACHE_STATS = "ccache-stats.log"  # this build's ccache counters (the user's totals stay theirs)
@@ -320,10 +344,9 @@ def changes(previous: fp.BuildState, parts: Mapping[str, str], complete: bool) -
     return changed
 
 
-def _input_parts(
-    plan: BuildPlan, facts: HostFacts, toolchain_file: Path, setup: ColconSetup
-) -> dict[str, str]:
-    """Every input of the build, each as a digest: equal parts, equal build."""
+def _scan(plan: BuildPlan) -> dict[str, fp.FileRecord]:
+    """The workspace's sources now (their stat cache updated, files whose content changed under
+    an old mtime made newer, so that CMake and ninja see them)."""
     ws = plan.workspace
     sources, cached = scan_sources(ws, plan.target_dir, plan.output)
     newer = fp.content_changed(cached, sources)
@@ -331,6 +354,18 @@ def _input_parts(
         fp.make_newer(ws.source_dir, newer, sources)
     if sources != cached:
         fp.save_sources_cache(plan.target_dir / fp.SOURCES_CACHE, sources)
+    return sources
+
+
+def _input_parts(
+    plan: BuildPlan,
+    facts: HostFacts,
+    toolchain_file: Path,
+    setup: ColconSetup,
+    sources: Mapping[str, fp.FileRecord],
+) -> dict[str, str]:
+    """Every input of the build, each as a digest: equal parts, equal build."""
+    ws = plan.workspace
     # The colcon command without what does not change its result (progress output, workers).
     stable = colcon.colcon_argv(
         dataclasses.replace(setup.plan, verbose=False, parallel_workers=None), facts.colcon
@@ -364,6 +399,8 @@ def _input_parts(
             marker.read_text(encoding="utf-8") if marker.is_file() else "", fp.stat_key(marker)
         ),
         "colcon": fp.digest_json([stable, sorted(env.items())]),
+        # what the shared packages' files came from (their sources are in "sources")
+        "host stage": fp.digest(setup.stage.key if setup.stage else "", *setup.shared),
     }
 
 
@@ -440,9 +477,10 @@ def resolve(plan: BuildPlan, facts: HostFacts, runner: Runner) -> Inputs:
     toolchain_file = _prepare_toolchain(plan, facts)
     meta_path = plan.target_dir / "colcon.meta"
     write_if_changed(meta_path, meta_text(plan))
-    setup = _colcon_setup(plan, facts, toolchain_file, meta_path, runner)
+    sources = _scan(plan)
+    setup = _colcon_setup(plan, facts, toolchain_file, meta_path, runner, sources)
     outside_digest = drop_readers_of_changed_headers(plan)
-    parts = _input_parts(plan, facts, toolchain_file, setup)
+    parts = _input_parts(plan, facts, toolchain_file, setup, sources)
     parts["headers outside the workspace"] = outside_digest
     state_path = plan.target_dir / fp.STATE
     key = build_key(plan, facts, toolchain_file, parts)

@@ -248,6 +248,7 @@ def _stage_output(
         include=Include(dir="include", files=inc.files, bytes=inc.bytes, packages=inc.packages),
         abi_check=abi_check,
         skipped_python_packages=setup.skipped,
+        host_stage_packages=setup.shared,
         idf_target=profile.idf_target or None if profile else None,
         idf=_idf_info(plan),
         package_seconds={p: round(progress.finished[p], 2) for p in built if p in progress.finished},

@@ -1,0 +1,137 @@
+"""Issue 19, item 1: packages that compile nothing are built once per workspace, for the host (the
+host stage), and copied into each target's install tree; the library and include tree are byte for
+byte those of a build that configures them for the target (UROS_HOST_STAGE=off), a listed package
+that does compile code is built per target, and no copied file names the stage's folder."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+from pathlib import Path
+
+import pytest
+from conftest import need
+from fixture_ws import make_fixture_workspace
+from uros_helpers import run_uros
+
+pytestmark = pytest.mark.integration
+
+_XML = """<?xml version="1.0"?>
+<package format="3"><name>{name}</name><version>0.1.0</version><description>fixture</description>
+<maintainer email="dev@example.com">uros tests</maintainer><license>Apache-2.0</license>
+{deps}<export><build_type>cmake</build_type></export></package>
+"""
+
+# names from meta/host-stage.yaml, shaped as the real ones are: a header (and a C project, as the
+# real rosidl_typesupport_interface declares), CMake modules, and a "tracetools" that compiles a
+# library (its real one does unless TRACETOOLS_DISABLED)
+HEADER_ONLY = """cmake_minimum_required(VERSION 3.16)
+project(rosidl_typesupport_interface C)
+install(DIRECTORY include/ DESTINATION include/rosidl_typesupport_interface)
+file(WRITE ${CMAKE_CURRENT_BINARY_DIR}/rosidl_typesupport_interfaceConfig.cmake
+  "set(rosidl_typesupport_interface_INCLUDE_DIRS \\"\\${CMAKE_CURRENT_LIST_DIR}/../../../include/rosidl_typesupport_interface\\")\\n")
+install(FILES ${CMAKE_CURRENT_BINARY_DIR}/rosidl_typesupport_interfaceConfig.cmake
+  DESTINATION share/rosidl_typesupport_interface/cmake)
+"""
+MODULES = """cmake_minimum_required(VERSION 3.16)
+project(rmw_implementation_cmake NONE)
+file(WRITE ${CMAKE_CURRENT_BINARY_DIR}/rmw_implementation_cmakeConfig.cmake "set(FX_RMW_CMAKE_FOUND 1)\\n")
+install(FILES ${CMAKE_CURRENT_BINARY_DIR}/rmw_implementation_cmakeConfig.cmake
+  DESTINATION share/rmw_implementation_cmake/cmake)
+"""
+COMPILES = """cmake_minimum_required(VERSION 3.16)
+project(tracetools C)
+add_library(tracetools STATIC tracetools.c)
+install(TARGETS tracetools ARCHIVE DESTINATION lib)
+"""
+USER = """cmake_minimum_required(VERSION 3.16)
+project(fx_user C)
+find_package(rosidl_typesupport_interface REQUIRED)
+find_package(rmw_implementation_cmake REQUIRED)
+add_library(fx_user STATIC user.c)
+target_include_directories(fx_user PRIVATE ${rosidl_typesupport_interface_INCLUDE_DIRS})
+install(TARGETS fx_user ARCHIVE DESTINATION lib)
+"""
+
+
+def _package(
+    root: Path, name: str, cmake: str, deps: tuple[str, ...] = (), files: dict[str, str] | None = None
+) -> None:
+    folder = root / "mcu_ws" / "src" / name
+    folder.mkdir(parents=True)
+    lines = "".join(f"<build_depend>{d}</build_depend>\n" for d in deps)
+    (folder / "package.xml").write_text(_XML.format(name=name, deps=lines))
+    (folder / "CMakeLists.txt").write_text(cmake)
+    for rel, text in (files or {}).items():
+        (folder / rel).parent.mkdir(parents=True, exist_ok=True)
+        (folder / rel).write_text(text)
+
+
+def _workspace(root: Path) -> Path:
+    ws = make_fixture_workspace(root)
+    macros = "#define FX_TYPESUPPORT_SYMBOL(x) fx_typesupport_##x\n"
+    _package(ws, "rosidl_typesupport_interface", HEADER_ONLY, files={"include/fx_macros.h": macros})
+    _package(ws, "rmw_implementation_cmake", MODULES)
+    _package(ws, "tracetools", COMPILES, files={"tracetools.c": "int fx_trace_value(void) { return 3; }\n"})
+    source = '#include "fx_macros.h"\nint FX_TYPESUPPORT_SYMBOL(user)(void) { return 42; }\n'
+    deps = ("rosidl_typesupport_interface", "rmw_implementation_cmake", "tracetools")
+    _package(ws, "fx_user", USER, deps, files={"user.c": source})
+    return ws
+
+
+def _build(ws: Path, target: str, **env: str) -> str:
+    args = ("build", "--toolchain", target, "--meta", str(ws / "fixture.meta"), "--workspace", str(ws))
+    proc = run_uros(*args, env={**os.environ, **env})
+    return proc.stdout + proc.stderr
+
+
+def test_packages_that_compile_nothing_are_built_once_and_the_library_is_unchanged(tmp_path: Path) -> None:
+    need("cmake", "colcon", "arm-none-eabi-gcc", "gcc")
+    ws = _workspace(tmp_path)
+    out = _build(ws, "cortex-m7")
+    shared = ["rmw_implementation_cmake", "rosidl_typesupport_interface"]
+    assert "the host stage" in out and "tracetools: compiled code in the host stage" in out, out
+    info = json.loads((ws / "build" / "cortex-m7" / "build-info.json").read_text())
+    assert info["host_stage_packages"] == shared
+    assert set(shared) <= set(info["packages"]) and "tracetools" in info["packages"]
+    # the listed package that compiles was built for the target: its object is in the library
+    assert "libtracetools.a" in info["library"]["inputs"]
+    # the header the stage installed is in the include tree, and was compiled against
+    assert (ws / "build" / "cortex-m7" / "include" / "rosidl_typesupport_interface" / "fx_macros.h").is_file()
+    # nothing the target's trees hold names the stage's folder (but uros's own record of it)
+    target = ws / ".uros" / "targets" / "cortex-m7"
+    for path in (target / "install").rglob("*"):
+        if path.is_file():
+            assert b".uros/shared" not in path.read_bytes(), path
+    for path in (target / "build").rglob("CMakeCache.txt"):
+        assert ".uros/shared" not in path.read_text(errors="replace"), path
+
+    # a second target takes the stage as it is: no colcon run for it
+    out = _build(ws, "cortex-m4")
+    assert "packages that compile nothing once" not in out and "from the host stage: 2 packages" in out, out
+    info4 = json.loads((ws / "build" / "cortex-m4" / "build-info.json").read_text())
+    assert info4["host_stage_packages"] == shared
+
+    # the same target without the stage: the same library and include tree, byte for byte
+    staged = tmp_path / "staged"
+    shutil.copytree(ws / "build" / "cortex-m7", staged)
+    out = _build(ws, "cortex-m7", UROS_HOST_STAGE="off")
+    assert "the host stage" not in out
+    plain = ws / "build" / "cortex-m7"
+    assert (plain / "libmicroros.a").read_bytes() == (staged / "libmicroros.a").read_bytes()
+    inc = sorted(p.relative_to(staged) for p in (staged / "include").rglob("*") if p.is_file())
+    assert inc == sorted(p.relative_to(plain) for p in (plain / "include").rglob("*") if p.is_file())
+    assert all((plain / p).read_bytes() == (staged / p).read_bytes() for p in inc)
+    assert "host_stage_packages" not in json.loads((plain / "build-info.json").read_text())
+
+    # and back: the stage's files replace what the target built itself
+    out = _build(ws, "cortex-m7")
+    assert "from the host stage: 2 packages" in out, out
+    assert (plain / "libmicroros.a").read_bytes() == (staged / "libmicroros.a").read_bytes()
+
+    # the stages are uros's: `uros clean --all` removes them with the targets
+    stages = list((ws / ".uros" / "shared").iterdir())
+    assert len(stages) == 1
+    cleaned = run_uros("clean", "--all", "-w", str(ws))
+    assert f"removed {stages[0]}" in cleaned.stdout + cleaned.stderr and not stages[0].exists()

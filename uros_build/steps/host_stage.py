@@ -1,0 +1,121 @@
+"""The host stage (hoststage.py): the packages that compile nothing, built once per workspace for
+the host, and taken into a target's trees before its colcon runs.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+from uros_build import __version__, colcon, console, hoststage
+from uros_build import fingerprint as fp
+from uros_build import packages as packages_mod
+from uros_build.errors import StepFailed
+from uros_build.hosttools import HostFacts
+from uros_build.plan import BuildPlan
+from uros_build.proc import Runner
+from uros_build.workspace import DEV_MARKER, locked
+
+
+def plan_stage(
+    plan: BuildPlan,
+    facts: HostFacts,
+    building: set[str],
+    records: Mapping[str, fp.FileRecord],
+    env: Mapping[str, str],
+) -> hoststage.Stage | None:
+    """The stage of this target's build: None when switched off or when no package qualifies."""
+    if os.environ.get(hoststage.SWITCH, "").lower() == "off":
+        return None
+    chosen = hoststage.choose(list(plan.packages), building, hoststage.load_list().packages)
+    if not chosen:
+        return None
+    ws = plan.workspace
+    by_name = {p.name: p for p in plan.packages}
+    sources = {name: hoststage.package_sources(records, ws.source_dir, by_name[name]) for name in chosen}
+    marker = ws.dev_install / DEV_MARKER
+    dev = marker.read_text(encoding="utf-8") if marker.is_file() else ""
+    tools = (facts.cmake, facts.cmake_version, facts.colcon, str(colcon.generator(env)), colcon.host_python())
+    return hoststage.plan_stage(ws.state_dir, chosen, plan.meta.names, tools, sources, dev)
+
+
+def ensure_built(
+    plan: BuildPlan,
+    facts: HostFacts,
+    runner: Runner,
+    stage: hoststage.Stage,
+    env: Mapping[str, str],
+    building: set[str],
+) -> tuple[str, ...]:
+    """The stage built for its key (once: its marker says so after), and the packages it shares:
+    those it built that compiled nothing (and what needs no other). A stage whose colcon fails
+    shares nothing: each target builds them; --rebuild tries the stage again."""
+    with locked(stage.folder, "the host stage"):
+        found = hoststage.read_marker(stage)
+        if found is not None and found.key == stage.key and not (found.failed and plan.rebuild):
+            return found.shared
+        written_by = f"uros {__version__} build"
+        stage.meta_path.write_text(hoststage.meta_text(stage, written_by), encoding="utf-8")
+        others = {p.name for p in plan.packages} | packages_mod.plain_cmake_packages(
+            plan.workspace.source_dir
+        )
+        colcon_plan = colcon.ColconPlan(
+            base_paths=(plan.workspace.source_dir,),
+            build_base=stage.build_base,
+            install_base=stage.install_base,
+            log_base=stage.log_base,
+            metas=(stage.meta_path,),
+            toolchain_file=None,
+            python=colcon.host_python(),
+            generator=colcon.generator(env),
+            verbose=plan.verbose,
+            parallel_workers=plan.jobs,
+            ignore_regex=None,
+            packages_ignore=tuple(sorted(others - set(stage.packages))),
+        )
+        console.step(
+            f"building {len(stage.packages)} packages that compile nothing once for every target "
+            f"(the host stage, {stage.folder.name}): {', '.join(stage.packages)}"
+        )
+        try:
+            runner.run(
+                colcon.colcon_argv(colcon_plan, facts.colcon),
+                step="colcon build (host stage)",
+                cwd=plan.workspace.root,
+                env=env,
+                quiet=not plan.verbose,
+            )
+        except StepFailed as exc:
+            console.warn(
+                f"the host stage failed ({exc.message}): each target builds these packages itself; "
+                f"the log: {runner.log_path}"
+            )
+            marker = hoststage.Marker(stage.key, (), (), failed=True)
+            hoststage.write_marker(stage, marker, written_by)
+            return ()
+        compiled = tuple(
+            p for p in stage.packages if hoststage.compiled_code(stage.build_base, stage.install_base, p)
+        )
+        shared = hoststage.choose(list(plan.packages), building, set(stage.packages) - set(compiled))
+        if compiled:
+            console.warn(
+                f"{', '.join(compiled)}: compiled code in the host stage, so each target builds "
+                f"{'it' if len(compiled) == 1 else 'them'} (meta/host-stage.yaml lists "
+                f"{'it' if len(compiled) == 1 else 'them'} as compiling nothing)"
+            )
+        hoststage.write_marker(stage, hoststage.Marker(stage.key, shared, compiled), written_by)
+        return shared
+
+
+def take_into(
+    target_build: Path, target_install: Path, stage: hoststage.Stage, shared: Sequence[str], workspace: Path
+) -> None:
+    """The shared packages into the target's trees, where they are not already the stage's."""
+    stale = [p for p in shared if not hoststage.taken(target_build, p, stage.key)]
+    if not stale:
+        return
+    copied = sum(hoststage.take(stage, p, target_build, target_install, workspace) for p in stale)
+    console.info(
+        f"from the host stage: {len(stale)} packages ({copied} files) into the target's install tree"
+    )
