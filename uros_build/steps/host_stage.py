@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Mapping, Sequence
+from contextlib import AbstractContextManager
 from pathlib import Path
 
 from uros_build import __version__, colcon, console, hoststage
@@ -40,82 +41,102 @@ def plan_stage(
     return hoststage.plan_stage(ws.state_dir, chosen, plan.meta.names, tools, sources, dev)
 
 
-def ensure_built(
+def stage_lock(stage: hoststage.Stage) -> AbstractContextManager[None]:
+    """One build of a stage at a time, and no copy from it while it is built."""
+    return locked(stage.folder, "the host stage")
+
+
+def shared_if_built(plan: BuildPlan, stage: hoststage.Stage) -> tuple[str, ...] | None:
+    """What the stage shares when it is built for its key (under :func:`stage_lock`); None when it
+    must be built (never built, its inputs changed, or it failed and --rebuild asks again)."""
+    found = hoststage.read_marker(stage)
+    if found is None or found.key != stage.key or (found.failed and plan.rebuild):
+        return None
+    return found.shared
+
+
+def build(
     plan: BuildPlan,
     facts: HostFacts,
     runner: Runner,
     stage: hoststage.Stage,
     env: Mapping[str, str],
     building: set[str],
+    python: str,
+    toolchain_file: Path,
 ) -> tuple[str, ...]:
-    """The stage built for its key (once: its marker says so after), and the packages it shares:
-    those it built that compiled nothing (and what needs no other). A stage whose colcon fails
-    shares nothing: each target builds them; --rebuild tries the stage again."""
-    with locked(stage.folder, "the host stage"):
-        found = hoststage.read_marker(stage)
-        if found is not None and found.key == stage.key and not (found.failed and plan.rebuild):
-            return found.shared
-        written_by = f"uros {__version__} build"
-        stage.meta_path.write_text(hoststage.meta_text(stage, written_by), encoding="utf-8")
-        others = {p.name for p in plan.packages} | packages_mod.plain_cmake_packages(
-            plan.workspace.source_dir
+    """Build the stage (under :func:`stage_lock`) with ``python`` (the generation cache's shim)
+    and ``toolchain_file`` (the host compilers' facts, found once); returns the packages it shares:
+    those that compiled nothing (and need no other). A stage whose colcon fails shares nothing:
+    each target builds them; --rebuild tries the stage again."""
+    written_by = f"uros {__version__} build"
+    stage.meta_path.write_text(hoststage.meta_text(stage, written_by), encoding="utf-8")
+    others = {p.name for p in plan.packages} | packages_mod.plain_cmake_packages(plan.workspace.source_dir)
+    colcon_plan = colcon.ColconPlan(
+        base_paths=(plan.workspace.source_dir,),
+        build_base=stage.build_base,
+        install_base=stage.install_base,
+        log_base=stage.log_base,
+        metas=(stage.meta_path,),
+        toolchain_file=toolchain_file,
+        python=python,
+        generator=colcon.generator(env),
+        verbose=plan.verbose,
+        parallel_workers=plan.jobs,
+        ignore_regex=None,
+        packages_ignore=tuple(sorted(others - set(stage.packages))),
+    )
+    console.step(
+        f"building {len(stage.packages)} packages that compile nothing once for every target "
+        f"(the host stage, {stage.folder.name}): {', '.join(stage.packages)}"
+    )
+    try:
+        runner.run(
+            colcon.colcon_argv(colcon_plan, facts.colcon),
+            step="colcon build (host stage)",
+            cwd=plan.workspace.root,
+            env=env,
+            quiet=not plan.verbose,
         )
-        colcon_plan = colcon.ColconPlan(
-            base_paths=(plan.workspace.source_dir,),
-            build_base=stage.build_base,
-            install_base=stage.install_base,
-            log_base=stage.log_base,
-            metas=(stage.meta_path,),
-            toolchain_file=None,
-            python=colcon.host_python(),
-            generator=colcon.generator(env),
-            verbose=plan.verbose,
-            parallel_workers=plan.jobs,
-            ignore_regex=None,
-            packages_ignore=tuple(sorted(others - set(stage.packages))),
+    except StepFailed as exc:
+        console.warn(
+            f"the host stage failed ({exc.message}): each target builds these packages itself; "
+            f"the log: {runner.log_path}"
         )
-        console.step(
-            f"building {len(stage.packages)} packages that compile nothing once for every target "
-            f"(the host stage, {stage.folder.name}): {', '.join(stage.packages)}"
+        hoststage.write_marker(stage, hoststage.Marker(stage.key, (), (), failed=True), written_by)
+        return ()
+    compiled = tuple(
+        p for p in stage.packages if hoststage.compiled_code(stage.build_base, stage.install_base, p)
+    )
+    shared = hoststage.choose(list(plan.packages), building, set(stage.packages) - set(compiled))
+    if compiled:
+        them = "it" if len(compiled) == 1 else "them"
+        console.warn(
+            f"{', '.join(compiled)}: compiled code in the host stage, so each target builds {them} "
+            f"(meta/host-stage.yaml lists {them} as compiling nothing)"
         )
-        try:
-            runner.run(
-                colcon.colcon_argv(colcon_plan, facts.colcon),
-                step="colcon build (host stage)",
-                cwd=plan.workspace.root,
-                env=env,
-                quiet=not plan.verbose,
-            )
-        except StepFailed as exc:
-            console.warn(
-                f"the host stage failed ({exc.message}): each target builds these packages itself; "
-                f"the log: {runner.log_path}"
-            )
-            marker = hoststage.Marker(stage.key, (), (), failed=True)
-            hoststage.write_marker(stage, marker, written_by)
-            return ()
-        compiled = tuple(
-            p for p in stage.packages if hoststage.compiled_code(stage.build_base, stage.install_base, p)
-        )
-        shared = hoststage.choose(list(plan.packages), building, set(stage.packages) - set(compiled))
-        if compiled:
-            console.warn(
-                f"{', '.join(compiled)}: compiled code in the host stage, so each target builds "
-                f"{'it' if len(compiled) == 1 else 'them'} (meta/host-stage.yaml lists "
-                f"{'it' if len(compiled) == 1 else 'them'} as compiling nothing)"
-            )
-        hoststage.write_marker(stage, hoststage.Marker(stage.key, shared, compiled), written_by)
-        return shared
+    hoststage.write_marker(stage, hoststage.Marker(stage.key, shared, compiled), written_by)
+    return shared
 
 
 def take_into(
     target_build: Path, target_install: Path, stage: hoststage.Stage, shared: Sequence[str], workspace: Path
 ) -> None:
-    """The shared packages into the target's trees, where they are not already the stage's."""
+    """The shared packages into the target's trees, where they are not already the stage's: under
+    the stage's lock, from the stage this build planned (another build may have built it again
+    for other sources since)."""
     stale = [p for p in shared if not hoststage.taken(target_build, p, stage.key)]
     if not stale:
         return
-    copied = sum(hoststage.take(stage, p, target_build, target_install, workspace) for p in stale)
+    with stage_lock(stage):
+        found = hoststage.read_marker(stage)
+        if found is None or found.key != stage.key:
+            raise StepFailed(
+                f"the host stage {stage.folder} changed while this build ran "
+                "(another build built it for other sources)",
+                "run the build again",
+            )
+        copied = sum(hoststage.take(stage, p, target_build, target_install, workspace) for p in stale)
     console.info(
         f"from the host stage: {len(stale)} packages ({copied} files) into the target's install tree"
     )

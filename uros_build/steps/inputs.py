@@ -102,7 +102,7 @@ def _colcon_setup(
         log_base=plan.target_dir / "log",
         metas=(meta_path,),
         toolchain_file=_seeded_toolchain(plan, facts, toolchain_file, runner, env),
-        python=str(_python_shim(plan, runner)),
+        python=str(_python_shim(plan, runner, plan.target_dir)),
         generator=colcon.generator(env),
         verbose=plan.verbose,
         packages_up_to=plan.packages_up_to,
@@ -111,7 +111,15 @@ def _colcon_setup(
     )
     building = building_names(plan, colcon_plan)
     stage = host_stage.plan_stage(plan, facts, building, records, env)
-    shared = host_stage.ensure_built(plan, facts, runner, stage, env, building) if stage else ()
+    shared: tuple[str, ...] = ()
+    if stage is not None:
+        with host_stage.stage_lock(stage):
+            found = host_stage.shared_if_built(plan, stage)
+            if found is None:
+                python = str(_python_shim(plan, runner, stage.folder))
+                host_toolchain = _host_toolchain(stage.folder, facts, runner, env)
+                found = host_stage.build(plan, facts, runner, stage, env, building, python, host_toolchain)
+            shared = found
     colcon_plan = dataclasses.replace(colcon_plan, packages_skip=shared)
     argv = tuple(colcon.colcon_argv(colcon_plan, facts.colcon))
     return ColconSetup(colcon_plan, argv, env, skipped, stage if shared else None, shared)
@@ -153,18 +161,51 @@ def _seeded_toolchain(
     """The toolchain file colcon passes to every package: the target's, with CMake's compiler facts
     found once per target (and again only when the toolchain, compiler or CMake changes). The
     rendered toolchain file stays what the build key and build-info describe."""
+    identity = (compiler_identity(facts), facts.cmake, facts.cmake_version, str(colcon.generator(env)))
+    return _seed_compilers(plan.target_dir, toolchain_file, identity, facts.cmake, runner, env)
+
+
+def _host_toolchain(folder: Path, facts: HostFacts, runner: Runner, env: Mapping[str, str]) -> Path:
+    """The host stage's toolchain file: none of its own (CMake takes the host's compilers), with
+    the host compilers' facts found once for the stage, as a target's are (each of its packages
+    would otherwise identify the host's C and C++ compilers again, ~1 s per configure)."""
+    plain = folder / "host-toolchain.cmake"
+    write_if_changed(
+        plain,
+        f"# Written by uros {__version__} build: the host stage compiles nothing for the target; CMake\n"
+        "# takes the host's compilers (their facts come from the seed beside this file).\n",
+    )
+    compilers = []
+    for name in ("cc", "c++"):
+        found = shutil.which(name, path=env.get("PATH"))
+        real = Path(os.path.realpath(found)) if found else None
+        compilers.append(f"{name}={real}:{fp.stat_key(real) if real else ''}")
+    identity = (*compilers, facts.cmake, facts.cmake_version, str(colcon.generator(env)))
+    return _seed_compilers(folder, plain, identity, facts.cmake, runner, env)
+
+
+def _seed_compilers(
+    folder: Path,
+    toolchain_file: Path,
+    identity: tuple[str, ...],
+    cmake: str,
+    runner: Runner,
+    env: Mapping[str, str],
+) -> Path:
+    """``toolchain_file`` with CMake's compiler facts for it found once (in ``folder``) and given
+    to every configure; found again only when the toolchain file or ``identity`` (compilers,
+    CMake, generator) changes. ``toolchain_file`` itself when switched off or not found."""
     if os.environ.get(SEED_SWITCH, "").lower() == "off":
         return toolchain_file
-    seed = plan.target_dir / "toolchain-seeded.cmake"
-    stamp = plan.target_dir / "toolchain-seeded.key"
-    modules = plan.target_dir / "compiler-seed"
-    generator = colcon.generator(env)
-    identity = (compiler_identity(facts), facts.cmake, facts.cmake_version, str(generator))
+    seed = folder / "toolchain-seeded.cmake"
+    stamp = folder / "toolchain-seeded.key"
+    modules = folder / "compiler-seed"
     key = fp.digest(SEED_FORMAT, fp.file_sha256(toolchain_file), *identity)
     if seed.is_file() and stamp.is_file() and stamp.read_text(encoding="utf-8").strip() == key:
         return seed
+    generator = colcon.generator(env)
     found = hosttools.cmake_compiler_facts(
-        runner, facts.cmake, toolchain_file, plan.target_dir / "compiler-facts", generator, env
+        runner, cmake, toolchain_file, folder / "compiler-facts", generator, env
     )
     if found is None:
         console.info("CMake could not find the compilers' facts once: each package's configure finds them")
@@ -176,16 +217,6 @@ def _seeded_toolchain(
         module = seed_module_text(lang, text, found.executable_format, written_by)
         write_if_changed(modules / f"CMakeDetermine{lang}Compiler.cmake", module)
     write_if_changed(seed, seeded_toolchain_text(toolchain_file, modules, written_by))
-    write_if_changed(stamp, key + "\n")
-    return seed
-    found = hosttools.cmake_compiler_facts(
-        runner, facts.cmake, toolchain_file, plan.target_dir / "compiler-facts", generator, env
-    )
-    if found is None:
-        console.info("CMake could not find the compilers' facts once: each package's configure finds them")
-        seed.unlink(missing_ok=True)
-        return toolchain_file
-    write_if_changed(seed, seeded_toolchain_text(toolchain_file, found, f"uros {__version__} build"))
     write_if_changed(stamp, key + "\n")
     return seed
 
@@ -204,14 +235,14 @@ def gen_cache_dir(env: Mapping[str, str]) -> Path:
     return Path(base) / "uros" / "gen"
 
 
-def _python_shim(plan: BuildPlan, runner: Runner) -> Path:
-    """The Python of the target's CMake builds: the real one, with rosidl's generator runs and the
-    configures' Python calls going through the workspace's caches (shared by every target:
-    pyshim.py), and FindPython's questions about the interpreter answered as it answered them once
-    for this build."""
+def _python_shim(plan: BuildPlan, runner: Runner, folder: Path) -> Path:
+    """The Python of the CMake builds of a target (or of the host stage: ``folder``): the real one,
+    with rosidl's generator runs and the configures' Python calls going through the workspace's
+    caches (shared by every target: pyshim.py), and FindPython's questions about the interpreter
+    answered as it answered them once for this build."""
     if os.environ.get(SHARE_SWITCH, "").lower() == "off":
         return Path(colcon.host_python())
-    shim = plan.target_dir / "uros-python"
+    shim = folder / "uros-python"
     python, code_dir = colcon.host_python(), Path(uros_build.__file__).resolve().parent.parent
     try:
         answers, has_distutils = pyshim.parse_answers(
@@ -226,7 +257,7 @@ def _python_shim(plan: BuildPlan, runner: Runner) -> Path:
     text = pyshim.shim_text(
         python,
         gen_cache_dir(os.environ),
-        plan.target_dir,
+        folder,
         plan.workspace.root,
         code_dir,
         f"uros {__version__} build",
