@@ -80,8 +80,8 @@ def _workspace(root: Path) -> Path:
     return ws
 
 
-def _build(ws: Path, target: str, **env: str) -> str:
-    args = ("build", "--toolchain", target, "--meta", str(ws / "fixture.meta"), "--workspace", str(ws))
+def _build(ws: Path, target: str, *more: str, **env: str) -> str:
+    args = ("build", "--toolchain", target, "--meta", str(ws / "fixture.meta"), "--workspace", str(ws), *more)
     proc = run_uros(*args, env={**os.environ, **env})
     return proc.stdout + proc.stderr
 
@@ -135,3 +135,40 @@ def test_packages_that_compile_nothing_are_built_once_and_the_library_is_unchang
     assert len(stages) == 1
     cleaned = run_uros("clean", "--all", "-w", str(ws))
     assert f"removed {stages[0]}" in cleaned.stdout + cleaned.stderr and not stages[0].exists()
+
+
+def test_a_stage_that_fails_on_the_host_leaves_its_packages_to_each_target(tmp_path: Path) -> None:
+    need("cmake", "colcon", "arm-none-eabi-gcc", "gcc")
+    ws = _workspace(tmp_path)
+    # a listed package whose configure works only for the target (as one needing a host compiler
+    # the machine lacks would fail)
+    cmake = ws / "mcu_ws" / "src" / "rmw_implementation_cmake" / "CMakeLists.txt"
+    cmake.write_text(
+        MODULES.replace(
+            "project(rmw_implementation_cmake NONE)\n",
+            "project(rmw_implementation_cmake NONE)\n"
+            'if(NOT CMAKE_CROSSCOMPILING)\n  message(FATAL_ERROR "fixture: the host cannot configure me")\nendif()\n',
+        )
+    )
+    out = _build(ws, "cortex-m7")
+    assert "warning: the host stage failed" in out and "each target builds these packages itself" in out, out
+    info = json.loads((ws / "build" / "cortex-m7" / "build-info.json").read_text())
+    assert "host_stage_packages" not in info
+    assert {"rmw_implementation_cmake", "rosidl_typesupport_interface"} <= set(info["packages"])
+    # the failure is remembered for the stage's key: the next target does not try again
+    out = _build(ws, "cortex-m4")
+    assert "the host stage" not in out, out
+
+
+def test_a_team_cache_hit_builds_no_host_stage(tmp_path: Path) -> None:
+    """The stage is built when colcon is about to run, not before the team cache is asked: a fresh
+    checkout that takes its library from the cache runs no colcon at all."""
+    need("cmake", "colcon", "arm-none-eabi-gcc", "gcc")
+    store = tmp_path / "store"
+    store.mkdir()
+    first = _workspace(tmp_path / "first")
+    assert "the host stage" in _build(first, "cortex-m7", "--cache", store.as_uri(), "--cache-upload")
+    fresh = _workspace(tmp_path / "fresh")
+    out = _build(fresh, "cortex-m7", "--cache", store.as_uri())
+    assert "from the cache" in out and "host stage" not in out and "colcon build" not in out, out
+    assert not (fresh / ".uros" / "shared").exists()

@@ -26,8 +26,14 @@ from uros_build.errors import (
 from uros_build.hosttools import HostFacts
 from uros_build.plan import BuildPlan
 from uros_build.proc import Runner, disk_full_line, disk_full_path, first_error
-from uros_build.steps import host_stage
-from uros_build.steps.inputs import CCACHE_STATS, ColconSetup, Inputs, building_names, flags_fingerprint
+from uros_build.steps.inputs import (
+    CCACHE_STATS,
+    ColconSetup,
+    Inputs,
+    building_names,
+    flags_fingerprint,
+    ready_host_stage,
+)
 from uros_build.steps.prepare import DISK_FULL_MARK, drop_removed_packages
 from uros_build.wsfiles import write_if_changed
 
@@ -228,11 +234,8 @@ def compile_packages(plan: BuildPlan, facts: HostFacts, runner: Runner, inputs: 
     drop_removed_packages(plan)
     (plan.target_dir / pyshim.RUNS).unlink(missing_ok=True)
     (plan.target_dir / CCACHE_STATS).unlink(missing_ok=True)
+    ready_host_stage(plan, facts, runner, inputs)
     setup = inputs.setup
-    if setup.stage is not None:
-        host_stage.take_into(
-            setup.build_base, setup.install_base, setup.stage, setup.shared, plan.workspace.root
-        )
     progress = _run_colcon(plan, facts, runner, setup, inputs.parts)
     _say_generation(plan)
     counts = _say_ccache(plan, setup)

@@ -46,6 +46,13 @@ def stage_lock(stage: hoststage.Stage) -> AbstractContextManager[None]:
     return locked(stage.folder, "the host stage")
 
 
+def expected_shares(plan: BuildPlan, stage: hoststage.Stage) -> tuple[str, ...]:
+    """What the stage will share, known without building it (resolve needs it for the colcon
+    command): its marker's answer when it is built for its key, else every package it builds."""
+    found = shared_if_built(plan, stage)
+    return stage.packages if found is None else found
+
+
 def shared_if_built(plan: BuildPlan, stage: hoststage.Stage) -> tuple[str, ...] | None:
     """What the stage shares when it is built for its key (under :func:`stage_lock`); None when it
     must be built (never built, its inputs changed, or it failed and --rebuild asks again)."""
@@ -122,21 +129,12 @@ def build(
 def take_into(
     target_build: Path, target_install: Path, stage: hoststage.Stage, shared: Sequence[str], workspace: Path
 ) -> None:
-    """The shared packages into the target's trees, where they are not already the stage's: under
-    the stage's lock, from the stage this build planned (another build may have built it again
-    for other sources since)."""
+    """The shared packages into the target's trees (under :func:`stage_lock`), where they are not
+    already the stage's."""
     stale = [p for p in shared if not hoststage.taken(target_build, p, stage.key)]
     if not stale:
         return
-    with stage_lock(stage):
-        found = hoststage.read_marker(stage)
-        if found is None or found.key != stage.key:
-            raise StepFailed(
-                f"the host stage {stage.folder} changed while this build ran "
-                "(another build built it for other sources)",
-                "run the build again",
-            )
-        copied = sum(hoststage.take(stage, p, target_build, target_install, workspace) for p in stale)
+    copied = sum(hoststage.take(stage, p, target_build, target_install, workspace) for p in stale)
     console.info(
         f"from the host stage: {len(stale)} packages ({copied} files) into the target's install tree"
     )

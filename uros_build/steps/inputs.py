@@ -111,18 +111,36 @@ def _colcon_setup(
     )
     building = building_names(plan, colcon_plan)
     stage = host_stage.plan_stage(plan, facts, building, records, env)
-    shared: tuple[str, ...] = ()
-    if stage is not None:
-        with host_stage.stage_lock(stage):
-            found = host_stage.shared_if_built(plan, stage)
-            if found is None:
-                python = str(_python_shim(plan, runner, stage.folder))
-                host_toolchain = _host_toolchain(stage.folder, facts, runner, env)
-                found = host_stage.build(plan, facts, runner, stage, env, building, python, host_toolchain)
-            shared = found
+    # what the stage shares, as its marker says (or, not built yet, every package it will build):
+    # built only when colcon is about to run (ready_host_stage), after the team cache was asked
+    shared = host_stage.expected_shares(plan, stage) if stage is not None else ()
     colcon_plan = dataclasses.replace(colcon_plan, packages_skip=shared)
     argv = tuple(colcon.colcon_argv(colcon_plan, facts.colcon))
-    return ColconSetup(colcon_plan, argv, env, skipped, stage if shared else None, shared)
+    return ColconSetup(colcon_plan, argv, env, skipped, stage, shared)
+
+
+def ready_host_stage(plan: BuildPlan, facts: HostFacts, runner: Runner, inputs: Inputs) -> None:
+    """Just before colcon: the host stage built for its key (once), and its packages copied into
+    the target's trees, under the stage's lock. Where the stage shares other packages than
+    resolve expected (it failed, or a listed package compiled code), the colcon command and the
+    fingerprint's parts are made to say so."""
+    setup = inputs.setup
+    stage = setup.stage
+    if stage is None:
+        return
+    with host_stage.stage_lock(stage):
+        found = host_stage.shared_if_built(plan, stage)
+        if found is None:
+            python = str(_python_shim(plan, runner, stage.folder))
+            host_toolchain = _host_toolchain(stage.folder, facts, runner, setup.env)
+            building = building_names(plan, setup.plan)
+            found = host_stage.build(plan, facts, runner, stage, setup.env, building, python, host_toolchain)
+        if found != setup.shared:
+            colcon_plan = dataclasses.replace(setup.plan, packages_skip=found)
+            argv = tuple(colcon.colcon_argv(colcon_plan, facts.colcon))
+            inputs.setup = setup = dataclasses.replace(setup, plan=colcon_plan, argv=argv, shared=found)
+            inputs.parts.update(_colcon_parts(facts, setup))
+        host_stage.take_into(setup.build_base, setup.install_base, stage, found, plan.workspace.root)
 
 
 def building_names(plan: BuildPlan, colcon_plan: colcon.ColconPlan) -> set[str]:
@@ -397,17 +415,6 @@ def _input_parts(
 ) -> dict[str, str]:
     """Every input of the build, each as a digest: equal parts, equal build."""
     ws = plan.workspace
-    # The colcon command without what does not change its result (progress output, workers).
-    stable = colcon.colcon_argv(
-        dataclasses.replace(setup.plan, verbose=False, parallel_workers=None), facts.colcon
-    )
-    env = {
-        k: v
-        for k, v in setup.env.items()
-        if k in _ENV_THAT_MATTERS
-        or k in colcon.FINGERPRINTED_VARIABLES
-        or k.startswith(("GIT_CONFIG_", *colcon.FINGERPRINTED_PREFIXES))
-    }
     marker = ws.dev_install / DEV_MARKER
     ninja = colcon.ninja_program(setup.env)
     parts = content_parts(plan, fp.tree_digest(sources))
@@ -429,9 +436,27 @@ def _input_parts(
         "dev_ws": fp.digest(
             marker.read_text(encoding="utf-8") if marker.is_file() else "", fp.stat_key(marker)
         ),
+        **_colcon_parts(facts, setup),
+    }
+
+
+def _colcon_parts(facts: HostFacts, setup: ColconSetup) -> dict[str, str]:
+    """The colcon command (without what does not change its result: progress output, workers)
+    and the environment variables that reach the objects; the host stage's packages, and what
+    their files came from (their sources are in "sources")."""
+    stable = colcon.colcon_argv(
+        dataclasses.replace(setup.plan, verbose=False, parallel_workers=None), facts.colcon
+    )
+    env = {
+        k: v
+        for k, v in setup.env.items()
+        if k in _ENV_THAT_MATTERS
+        or k in colcon.FINGERPRINTED_VARIABLES
+        or k.startswith(("GIT_CONFIG_", *colcon.FINGERPRINTED_PREFIXES))
+    }
+    return {
         "colcon": fp.digest_json([stable, sorted(env.items())]),
-        # what the shared packages' files came from (their sources are in "sources")
-        "host stage": fp.digest(setup.stage.key if setup.stage else "", *setup.shared),
+        "host stage": fp.digest(setup.stage.key if setup.stage and setup.shared else "", *setup.shared),
     }
 
 

@@ -72,8 +72,9 @@ class Staged:
 
 
 def entries_of(folder: Path) -> list[str]:
-    """What uros writes into an output (build-info.json's folder), its marker left out."""
-    return sorted(p.name for p in folder.iterdir() if p.name != outputs.MARKER)
+    """What uros writes into an output (build-info.json's folder, or a staged one, into which the
+    delivery writes build-info.json later: it is named either way), its marker left out."""
+    return sorted({p.name for p in folder.iterdir() if p.name != outputs.MARKER} | {BUILD_INFO})
 
 
 def _deliver(plan: BuildPlan, staged: Staged) -> list[str]:
