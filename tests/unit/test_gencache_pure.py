@@ -130,6 +130,14 @@ def test_the_shim_sends_only_generator_runs_to_the_cache(tmp_path: Path) -> None
     # only CMake's FindPython probe gets the standard library's distutils, and only where there is one
     assert "*'from distutils import sysconfig'*)" in text and "SETUPTOOLS_USE_DISTUTILS=stdlib" in text
     assert "SETUPTOOLS_USE_DISTUTILS" not in shim(False)
+    # uros's own calls keep their compiled modules in the cache, even under PYTHONDONTWRITEBYTECODE
+    to_uros = [line for line in text.splitlines() if "from uros_build.pyshim import main" in line]
+    assert len(to_uros) == 3 and all(
+        line.strip().startswith(
+            f"PYTHONDONTWRITEBYTECODE= exec /venv/bin/python3 -X pycache_prefix='{tmp_path / 'c d' / 'pycache'}'"
+        )
+        for line in to_uros
+    ), to_uros
     assert pyshim.count_runs("hit a\nmiss b\nhit c\nbypass d\ncall-hit -m rosidl_adapter\n") == {
         "hit": 2,
         "miss": 1,
