@@ -5,7 +5,10 @@
 Prints, for one built package of the target: its compiles run one after another without ccache, with
 ccache in its usual mode and in its depend mode (each ccache mode with an empty cache of its own, so
 every compile misses, as on a new target); and the cost of one Python start as CMake's FindPython asks
-it, through the target's uros-python (answered by the shell) and through the interpreter itself.
+it, through the target's uros-python (answered by the shell) and through the interpreter itself; and
+the start of a call uros-python sends to uros's caches, with its modules compiled each time
+(PYTHONDONTWRITEBYTECODE=1) and kept in a pycache_prefix folder (what the shim does). --rounds 0 skips
+the compiles.
 Objects are written beside the package's own with a .bench suffix and removed after.
 """
 
@@ -65,11 +68,11 @@ def run_all(commands: list[list[str]], build: Path, mode: str) -> float:
     return took
 
 
-def start_cost(argv: list[str], n: int = 15) -> float:
+def start_cost(argv: list[str], n: int = 15, env: dict[str, str] | None = None) -> float:
     times = []
     for _ in range(n):
         started = time.perf_counter()
-        subprocess.run(argv, check=True, capture_output=True)
+        subprocess.run(argv, check=True, capture_output=True, env=env)
         times.append(time.perf_counter() - started)
     return statistics.median(times)
 
@@ -99,6 +102,20 @@ def main() -> None:
     print(f"| `python -c pass` | {start_cost([python, '-c', 'pass']):.4f} |")
     print(f"| FindPython's version question, interpreter | {start_cost([python, '-c', question]):.4f} |")
     print(f"| FindPython's version question, uros-python | {start_cost([str(shim), '-c', question]):.4f} |")
+    # what each call uros-python sends to uros's caches does first: start and import the cache modules
+    # (PYTHONDONTWRITEBYTECODE=1, as on this machine: compiled each time, or kept in a pycache_prefix)
+    entry = f"import sys; sys.path.append({str(HERE.parent)!r}); import uros_build.pyshim"
+    plain = {**os.environ, "PYTHONDONTWRITEBYTECODE": "1"}
+    kept = {**os.environ, "PYTHONDONTWRITEBYTECODE": ""}
+    prefix = tempfile.mkdtemp(prefix="uros-bench-pycache-")
+    subprocess.run([python, "-X", f"pycache_prefix={prefix}", "-c", entry], env=kept, check=True)
+    print(
+        f"| a cache call's start, modules compiled each time | {start_cost([python, '-c', entry], env=plain):.4f} |"
+    )
+    with_prefix = [python, "-X", f"pycache_prefix={prefix}", "-c", entry]
+    print(
+        f"| a cache call's start, compiled modules kept (pycache_prefix) | {start_cost(with_prefix, env=kept):.4f} |"
+    )
 
 
 if __name__ == "__main__":

@@ -133,7 +133,11 @@ def test_packages_that_compile_nothing_are_built_once_and_the_library_is_unchang
     # the stages are uros's: `uros clean --all` removes them with the targets
     stages = list((ws / ".uros" / "shared").iterdir())
     assert len(stages) == 1
+    mine = ws / ".uros" / "shared" / "my-notes"  # not a folder uros names: not uros's to remove
+    mine.mkdir()
+    (mine / "keep.txt").write_text("mine\n")
     cleaned = run_uros("clean", "--all", "-w", str(ws))
+    assert (mine / "keep.txt").read_text() == "mine\n"
     assert f"removed {stages[0]}" in cleaned.stdout + cleaned.stderr and not stages[0].exists()
 
 

@@ -136,3 +136,49 @@ def test_a_build_writes_the_interpreters_answers_into_its_shim_and_cmake_takes_t
         capture_output=True, text=True, check=True,
     ).stdout  # fmt: skip
     assert f"python {version}" in strings
+
+
+# A package whose configure makes one of the calls uros-python sends to uros's caches (an ament
+# templates call, recognised by its script's path), as every ament package's configure does.
+TEMPLATES_CMAKE = """\
+cmake_minimum_required(VERSION 3.16)
+project(fx_templates NONE)
+execute_process(
+  COMMAND ${Python3_EXECUTABLE} ${CMAKE_CURRENT_SOURCE_DIR}/package_templates/templates_2_cmake.py
+    ${CMAKE_CURRENT_BINARY_DIR}/templates.cmake
+  RESULT_VARIABLE result)
+if(NOT result EQUAL 0 OR NOT EXISTS ${CMAKE_CURRENT_BINARY_DIR}/templates.cmake)
+  message(FATAL_ERROR "the templates call failed: ${result}")
+endif()
+install(FILES ${CMAKE_CURRENT_BINARY_DIR}/templates.cmake DESTINATION share/fx_templates)
+"""
+TEMPLATES_PY = """\
+import sys
+with open(sys.argv[1], "w") as f:
+    f.write("set(FX_TEMPLATES 1)\\n")
+"""
+
+
+def test_uros_calls_keep_compiled_modules_in_the_cache_even_without_bytecode_writing(tmp_path: Path) -> None:
+    """PYTHONDONTWRITEBYTECODE (set on some CI images) made every call through uros's caches compile
+    uros's modules again; they are kept in the generation cache's pycache folder, not beside any
+    sources."""
+    need("arm-none-eabi-gcc", "cmake")
+    ws = make_fixture_workspace(tmp_path / "ws")
+    pkg = ws / "mcu_ws" / "src" / "fx_templates"
+    (pkg / "package_templates").mkdir(parents=True)
+    (pkg / "package.xml").write_text(
+        '<?xml version="1.0"?><package format="3"><name>fx_templates</name><version>0.1.0</version>'
+        "<description>d</description><maintainer email='d@example.com'>t</maintainer>"
+        "<license>Apache-2.0</license><export><build_type>cmake</build_type></export></package>\n"
+    )
+    (pkg / "CMakeLists.txt").write_text(TEMPLATES_CMAKE)
+    (pkg / "package_templates" / "templates_2_cmake.py").write_text(TEMPLATES_PY)
+    cache = tmp_path / "gen-cache"
+    env = {**os.environ, "PYTHONDONTWRITEBYTECODE": "1", "UROS_GEN_CACHE_DIR": str(cache)}
+    run_uros("build", "--toolchain", "cortex-m7", "-w", str(ws), "--meta", str(ws / "fixture.meta"), env=env)
+    runs = (ws / ".uros" / "targets" / "cortex-m7" / pyshim.RUNS).read_text()
+    assert "templates_2_cmake.py" in runs  # the call went through uros
+    compiled = {p.name.split(".")[0] for p in (cache / "pycache").rglob("*.pyc")}
+    assert {"pyshim", "callcache", "gencache"} <= compiled, sorted(compiled)
+    assert not list(pkg.rglob("__pycache__"))

@@ -7,6 +7,7 @@ the user's stay."""
 
 from __future__ import annotations
 
+import re
 import shutil
 from pathlib import Path
 
@@ -50,13 +51,17 @@ def _chosen(ws: Workspace, toolchain: str | None, everything: bool) -> list[str]
     return [key]
 
 
+_STAGE_NAME = re.compile(r"[0-9a-f]{16}")
+
+
 def _clean_host_stages(ws: Workspace) -> int:
     """The host stages (.uros/shared/<key>: the packages that compile nothing, built once for every
     target), each under its lock; returns the bytes freed."""
     shared = ws.state_dir / "shared"
     freed = 0
     for stage in sorted(shared.iterdir()) if shared.is_dir() else ():
-        if not stage.is_dir():
+        # only the folders uros names (hoststage.plan_stage: 16 hex digits of their key)
+        if not stage.is_dir() or stage.is_symlink() or not _STAGE_NAME.fullmatch(stage.name):
             continue
         size = tree_bytes(stage)
         with locked(stage, "the host stage"):  # never under a build that is taking from it

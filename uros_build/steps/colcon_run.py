@@ -14,7 +14,6 @@ from uros_build import (
     colcon,
     console,
     depfiles,
-    hoststage,
     installtree,
     pyshim,
 )
@@ -109,8 +108,6 @@ def _run_colcon(
             return
         if event.kind == "start":
             (setup.build_base / event.package / installtree.STAMP).unlink(missing_ok=True)
-            # built here now, not a copy of the host stage's
-            (setup.build_base / event.package / hoststage.TAKEN).unlink(missing_ok=True)
         elif event.kind == "finish":
             entry = plan.meta.names.get(event.package, {})
             installtree.write_stamp(

@@ -19,7 +19,7 @@ from uros_build.proc import Runner
 from uros_build.workspace import DEV_MARKER, locked
 
 
-def plan_stage(
+def stage_for(
     plan: BuildPlan,
     facts: HostFacts,
     building: set[str],

@@ -110,7 +110,7 @@ def _colcon_setup(
         compiler_launcher=launcher,
     )
     building = building_names(plan, colcon_plan)
-    stage = host_stage.plan_stage(plan, facts, building, records, env)
+    stage = host_stage.stage_for(plan, facts, building, records, env)
     # what the stage shares, as its marker says (or, not built yet, every package it will build):
     # built only when colcon is about to run (ready_host_stage), after the team cache was asked
     shared = host_stage.expected_shares(plan, stage) if stage is not None else ()
