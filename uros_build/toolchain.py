@@ -197,18 +197,34 @@ def seed_module_text(lang: str, facts: str, executable_format: str, written_by: 
     return "\n".join(lines) + "\n"
 
 
-def seeded_toolchain_text(toolchain_file: Path, module_dir: Path, written_by: str) -> str:
+def seeded_toolchain_text(
+    toolchain_file: Path, module_dir: Path, written_by: str, archive_plugin: str = ""
+) -> str:
     """A toolchain file that includes ``toolchain_file`` and puts ``module_dir`` (the
     :func:`seed_module_text` files) on CMAKE_MODULE_PATH, where CMake looks for
     ``CMakeDetermine<LANG>Compiler.cmake`` when a project enables a language. A project that sets
-    CMAKE_MODULE_PATH before project() finds its compilers itself, as without the seed."""
-    return "\n".join(
-        [
-            f"# Written by {templating.cmake_comment(written_by)}: "
-            f"{templating.cmake_comment(toolchain_file.name)} with the compiler facts CMake found for it",
-            "# once, so that each package's configure does not find them again.",
-            f'include("{templating.cmake_quote(str(toolchain_file))}")',
-            f'list(APPEND CMAKE_MODULE_PATH "{templating.cmake_quote(str(module_dir))}")',
-            "",
-        ]
-    )
+    CMAKE_MODULE_PATH before project() finds its compilers itself, as without the seed.
+
+    With ``archive_plugin`` (hosttools.archive_plugin: GCC's LTO plugin, for GNU ar) the archive
+    rules name it, so that ar loads it alone and not every plugin installed, and write the index
+    with ``qcs`` in the same pass instead of a ranlib after: the same archive bytes, two processes
+    fewer per static library. Where ``toolchain_file`` sets its own rules they stay."""
+    lines = [
+        f"# Written by {templating.cmake_comment(written_by)}: "
+        f"{templating.cmake_comment(toolchain_file.name)} with the compiler facts CMake found for it",
+        "# once, so that each package's configure does not find them again.",
+        f'include("{templating.cmake_quote(str(toolchain_file))}")',
+        f'list(APPEND CMAKE_MODULE_PATH "{templating.cmake_quote(str(module_dir))}")',
+    ]
+    if archive_plugin:
+        ar = f"<CMAKE_AR> --plugin {templating.cmake_quote(archive_plugin)}"
+        lines.append("# Static libraries: GNU ar with GCC's LTO plugin named, the index written by qcs.")
+        for lang in ("C", "CXX"):
+            lines += [
+                f"if(NOT DEFINED CMAKE_{lang}_ARCHIVE_CREATE)",
+                f'  set(CMAKE_{lang}_ARCHIVE_CREATE "{ar} qcs <TARGET> <LINK_FLAGS> <OBJECTS>")',
+                f'  set(CMAKE_{lang}_ARCHIVE_APPEND "{ar} qs <TARGET> <LINK_FLAGS> <OBJECTS>")',
+                f'  set(CMAKE_{lang}_ARCHIVE_FINISH "")',
+                "endif()",
+            ]
+    return "\n".join([*lines, ""])

@@ -9,6 +9,7 @@ from __future__ import annotations
 import json
 import os
 import re
+import subprocess
 from pathlib import Path
 
 import pytest
@@ -91,3 +92,21 @@ def test_compilers_are_found_once_per_target_and_the_bytes_do_not_change(tmp_pat
     assert "fvisibility" not in _configured(seeded)["fx_lang"]  # no C++ facts in a C project
     lib = Path("build") / "cortex-m7" / "libmicroros.a"
     assert (seeded / lib).read_bytes() == (plain / lib).read_bytes()
+
+    # the static libraries: GNU ar with GCC's LTO plugin named and the index written by qcs (no
+    # ranlib), where the compiler has the plugin; every package's archive the same bytes
+    plugin = subprocess.run(
+        ["arm-none-eabi-gcc", "-print-file-name=liblto_plugin.so"], capture_output=True, text=True, check=True
+    ).stdout.strip()
+    rules = (target / "build" / "fx_lang" / "CMakeFiles" / "rules.ninja").read_text()
+    if os.path.isabs(plugin):
+        assert f"--plugin {plugin} qcs" in rules and "ranlib" not in rules
+        assert plugin in seed
+    plain_rules = (
+        plain / ".uros" / "targets" / "cortex-m7" / "build" / "fx_lang" / "CMakeFiles" / "rules.ninja"
+    )
+    assert "ranlib" in plain_rules.read_text() and "--plugin" not in plain_rules.read_text()
+    archives = sorted(p.relative_to(target) for p in (target / "install").rglob("*.a"))
+    assert Path("install/lib/libfx_lang.a") in archives
+    for archive in archives:
+        assert (target / archive).read_bytes() == (plain / ".uros/targets/cortex-m7" / archive).read_bytes()

@@ -19,8 +19,9 @@ from uros_build.steps import inputs, team_cache
 C_FACTS = 'set(CMAKE_C_COMPILER "/usr/bin/arm-none-eabi-gcc")\nset(CMAKE_C_COMPILER_ID "GNU")\n'
 
 
-def _cmake_writes(langs: tuple[str, ...]) -> Any:
-    """A cmake that, like the real one configuring a project, leaves CMake<LANG>Compiler.cmake."""
+def _cmake_writes(langs: tuple[str, ...], archiver: str = "") -> Any:
+    """A cmake that, like the real one configuring a project, leaves CMake<LANG>Compiler.cmake
+    (and the probe's answers about the archiver, ``archiver``, when given)."""
 
     def answer(argv: Sequence[str]) -> str:
         build = Path(argv[argv.index("-B") + 1])
@@ -29,6 +30,8 @@ def _cmake_writes(langs: tuple[str, ...]) -> Any:
         for lang in langs:
             (platform / f"CMake{lang}Compiler.cmake").write_text(C_FACTS.replace("C_", f"{lang}_"))
         (build / "CMakeCache.txt").write_text("CMAKE_EXECUTABLE_FORMAT:INTERNAL=ELF\n")
+        if archiver:
+            (build / "uros-archiver.txt").write_text(archiver)
         return ""
 
     return answer
@@ -50,6 +53,33 @@ def test_the_compilers_facts_come_from_one_configure(tmp_path: Path) -> None:
     argv = runner.calls[0]
     assert f"-DCMAKE_TOOLCHAIN_FILE={tmp_path / 'toolchain.cmake'}" in argv and "-GNinja" in argv
     assert not (tmp_path / "scratch").exists()  # the probe project is gone afterwards
+
+
+def test_the_archive_plugin_is_gccs_own_when_the_archiver_is_gnu_ar(tmp_path: Path) -> None:
+    plugin = tmp_path / "liblto_plugin.so"
+    plugin.write_bytes(b"")
+    gnu = f"{plugin}\nGNU ar (GNU Binutils for Debian) 2.40\nCopyright (C) 2023\n"
+    runner = FakeRunner(tmp_path / "log", {"cmake": _cmake_writes(("C", "CXX"), gnu)})
+    args = ("cmake", tmp_path / "t.cmake", tmp_path / "s", None, {})
+    found = hosttools.cmake_compiler_facts(runner, *args)  # type: ignore[arg-type]
+    assert found is not None and found.archive_plugin == str(plugin)
+    plugin.unlink()  # the compiler named a plugin that is not there: CMake's own rules
+    runner = FakeRunner(tmp_path / "log", {"cmake": _cmake_writes(("C", "CXX"), gnu)})
+    found = hosttools.cmake_compiler_facts(runner, *args)  # type: ignore[arg-type]
+    assert found is not None and found.archive_plugin == ""
+
+
+def test_archive_plugin_only_for_gnu_ar_and_a_plain_absolute_path() -> None:
+    gnu = "\nGNU ar (GNU Binutils) 2.40\n"
+    assert hosttools.archive_plugin("/usr/lib/gcc/arm-none-eabi/12.2.1/liblto_plugin.so" + gnu) == (
+        "/usr/lib/gcc/arm-none-eabi/12.2.1/liblto_plugin.so"
+    )
+    assert hosttools.archive_plugin("liblto_plugin.so" + gnu) == ""  # gcc did not find it: bare name
+    assert hosttools.archive_plugin("/opt/my tools/liblto_plugin.so" + gnu) == ""  # would need quoting
+    assert hosttools.archive_plugin("/opt/x;rm/liblto_plugin.so" + gnu) == ""
+    llvm = "/usr/lib/gcc/x/liblto_plugin.so\nLLVM (http://llvm.org/):\n  LLVM version 14.0.6\n"
+    assert hosttools.archive_plugin(llvm) == ""  # llvm-ar: not GNU ar
+    assert hosttools.archive_plugin("") == "" and hosttools.archive_plugin("/a/b.so\n") == ""
 
 
 def test_without_a_cxx_compiler_there_are_no_facts(tmp_path: Path) -> None:

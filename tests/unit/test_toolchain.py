@@ -166,3 +166,16 @@ def test_a_compiler_seed_is_one_language_and_leaves_binutils_to_cmake() -> None:
     assert 'include("/w \\"q\\"/toolchain.cmake")' in toolchain
     assert 'list(APPEND CMAKE_MODULE_PATH "/w/seed \\$x")' in toolchain
     assert "COMPILER_ID" not in toolchain  # no language's facts for every project
+    assert "ARCHIVE" not in toolchain  # no plugin found: CMake's own archive rules
+
+    plugin = "/usr/lib/gcc/arm-none-eabi/12.2.1/liblto_plugin.so"
+    with_plugin = seeded_toolchain_text(Path("/w/toolchain.cmake"), Path("/w/seed"), "uros 1 build", plugin)
+    for lang in ("C", "CXX"):
+        assert f"if(NOT DEFINED CMAKE_{lang}_ARCHIVE_CREATE)" in with_plugin  # a toolchain's own rules stay
+        assert (
+            f'set(CMAKE_{lang}_ARCHIVE_CREATE "<CMAKE_AR> --plugin {plugin} qcs <TARGET> <LINK_FLAGS> <OBJECTS>")'
+            in with_plugin
+        )
+        assert f'set(CMAKE_{lang}_ARCHIVE_APPEND "<CMAKE_AR> --plugin {plugin} qs <TARGET>' in with_plugin
+        assert f'set(CMAKE_{lang}_ARCHIVE_FINISH "")' in with_plugin  # qcs wrote the index: no ranlib
+    assert with_plugin.index("include(") < with_plugin.index("ARCHIVE_CREATE")  # after the toolchain's

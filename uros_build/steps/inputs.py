@@ -168,9 +168,9 @@ def _ccache(plan: BuildPlan, env: Mapping[str, str], runner: Runner) -> str | No
 
 
 SEED_SWITCH = "UROS_COMPILER_SEED"  # "off": every package's configure finds the compilers itself
-SEED_FORMAT = (
-    "2"  # 2: per-language CMakeDetermine<LANG>Compiler.cmake (1 put every language's facts in the toolchain)
-)
+# 2: per-language CMakeDetermine<LANG>Compiler.cmake (1 put every language's facts in the toolchain);
+# 3: the archive rules name GCC's LTO plugin (hosttools.archive_plugin)
+SEED_FORMAT = "3"
 
 
 def _seeded_toolchain(
@@ -234,7 +234,7 @@ def _seed_compilers(
     for lang, text in found.languages.items():
         module = seed_module_text(lang, text, found.executable_format, written_by)
         write_if_changed(modules / f"CMakeDetermine{lang}Compiler.cmake", module)
-    write_if_changed(seed, seeded_toolchain_text(toolchain_file, modules, written_by))
+    write_if_changed(seed, seeded_toolchain_text(toolchain_file, modules, written_by, found.archive_plugin))
     write_if_changed(stamp, key + "\n")
     return seed
 
