@@ -10,7 +10,8 @@ importing (catkin_pkg, empy). Measured on real Humble: about a third of a packag
 A call's key is made in two steps, as ccache's direct mode does: the first from its command line
 (outputs and the target's folder taken out), the content of the files it reads, the environment
 it reads and the interpreter's search path; under that key a manifest lists the Python files the
-call imported when it ran, and the second key adds their content. A miss runs the call in this
+call imported when it ran (and, for rosidl_adapter, the .msg files its arguments file names: a
+hit reads no JSON), and the second key adds their content. A miss runs the call in this
 process (runpy) with its outputs in an empty folder and keeps exactly what it wrote; a hit writes
 it where the call would have (a file whose content is already there is left alone). An output
 that names the target's folder is never kept, except the rosidl_adapter list, whose folder is
@@ -24,12 +25,9 @@ https://github.com/ros2/rosidl/blob/humble/rosidl_adapter/cmake/rosidl_adapt_int
 
 from __future__ import annotations
 
-# Imported on every configure call: only what a hit needs (gencache.py says why). json imports
-# re itself.
+# Imported on every configure call: only what a hit needs (gencache.py says why: no json, no re).
 import hashlib
-import json
 import os
-import re
 import sys
 
 from uros_build import gencache
@@ -40,7 +38,7 @@ if TYPE_CHECKING:
 
     from uros_build.gencache import StrPath
 
-FORMAT = 2
+FORMAT = 3  # 3: keys and manifests without JSON, the adapter's .msg files in the manifest
 ADAPTER_FLAGS = {"--package-name", "--arguments-file", "--output-dir", "--output-file"}
 OUT = "<out>"  # the scratch folder of a miss, in a kept output
 
@@ -71,8 +69,21 @@ def _flags(argv: Sequence[str]) -> dict[str, str] | None:
     return pairs if all(k.startswith("--") for k in pairs) else None
 
 
-# package.xml conditions (REP 149) name environment variables as $NAME
-_CONDITION_VARIABLE = re.compile(r"\$\{?([A-Za-z_][A-Za-z0-9_]*)")
+def condition_variables(text: str) -> tuple[str, ...]:
+    """The environment variables package.xml conditions name (REP 149: ``$NAME``, also
+    ``${NAME}``), what ``\\$\\{?([A-Za-z_][A-Za-z0-9_]*)`` finds, sorted; without re (a hit does
+    not import it)."""
+    names = set()
+    at = text.find("$")
+    while at >= 0:
+        start = at + 2 if text.startswith("${", at) else at + 1
+        end = start
+        while end < len(text) and text[end].isascii() and (text[end].isalnum() or text[end] == "_"):
+            end += 1
+        if end > start and not text[start].isdigit():
+            names.add(text[start:end])
+        at = text.find("$", at + 1)
+    return tuple(sorted(names))
 
 
 def recognise(argv: Sequence[str]) -> Call | None:
@@ -85,8 +96,9 @@ def recognise(argv: Sequence[str]) -> Call | None:
                 text = f.read()
         except OSError:
             return None
-        env = tuple(sorted(set(_CONDITION_VARIABLE.findall(text))))
-        return Call("package_xml", tuple(argv), (argv[0], argv[1]), env, (("out", argv[2]),))
+        return Call(
+            "package_xml", tuple(argv), (argv[0], argv[1]), condition_variables(text), (("out", argv[2]),)
+        )
     if argv[:2] == ["-m", "rosidl_adapter"]:
         flags = _flags(argv[2:])
         if flags is None or set(flags) != {
@@ -96,15 +108,25 @@ def recognise(argv: Sequence[str]) -> Call | None:
             "--output-file",
         }:
             return None
-        try:
-            with open(flags["--arguments-file"], encoding="utf-8") as f:
-                arguments = json.loads(f.read())
-            named = [os.path.join(*str(t).rsplit(":", 1)) for t in arguments["non_idl_tuples"]]
-        except (OSError, ValueError, KeyError, TypeError):
-            return None
         outputs = (("idl", flags["--output-dir"]), ("list", flags["--output-file"]))
-        return Call("rosidl_adapter", tuple(argv), (flags["--arguments-file"], *sorted(named)), (), outputs)
+        return Call("rosidl_adapter", tuple(argv), (flags["--arguments-file"],), (), outputs)
     return None
+
+
+def named_inputs(call: Call) -> list[str] | None:
+    """The files a call's arguments file names (rosidl_adapter's .msg/.srv/.action files): read at
+    a miss, listed in the manifest, their content in the second key. None when the arguments
+    file does not say (the call then runs as CMake asked)."""
+    if call.kind != "rosidl_adapter":
+        return []
+    import json
+
+    try:
+        with open(call.reads[0], encoding="utf-8") as f:
+            arguments = json.loads(f.read())
+        return sorted({os.path.join(*str(t).rsplit(":", 1)) for t in arguments["non_idl_tuples"]})
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
 
 
 def _scratch_argv(call: Call, scratch: str) -> list[str]:
@@ -130,16 +152,16 @@ def _content(path: str, top: str, ws: str) -> str:
 def _first_key(call: Call, target_dir: StrPath, workspace: StrPath) -> str:
     top, ws = os.fspath(target_dir), os.fspath(workspace)
     outputs = {path for _, path in call.outputs}
-    data = {
-        "format": FORMAT,
-        "kind": call.kind,
-        "argv": [OUT if a in outputs else gencache.normal(a, top, ws) for a in call.argv],
-        "reads": {gencache.normal(p, top, ws): _content(p, top, ws) for p in call.reads},
-        "env": {name: os.environ.get(name) for name in call.env},
-        "path": [gencache.normal(p, top, ws) for p in sys.path[1:]],  # [0] is the shim's
-        "python": list(sys.version_info[:3]),
-    }
-    return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()
+    return gencache.key_of(
+        "configure call",
+        FORMAT,
+        call.kind,
+        tuple(OUT if a in outputs else gencache.normal(a, top, ws) for a in call.argv),
+        tuple((gencache.normal(p, top, ws), _content(p, top, ws)) for p in call.reads),
+        tuple((name, os.environ.get(name)) for name in call.env),
+        tuple(gencache.normal(p, top, ws) for p in sys.path[1:]),  # [0] is the shim's
+        tuple(sys.version_info[:3]),
+    )
 
 
 def _shadowed(path: str) -> bool:
@@ -226,19 +248,23 @@ def run(argv: Sequence[str], cache_dir: StrPath, target_dir: StrPath, workspace:
     manifest = os.path.join(cache_dir, first[:2], f"{first}.code")
     try:
         with open(manifest, encoding="utf-8") as f:
-            listed = json.loads(f.read())
-        code = [gencache.expand(str(p), top, ws) for p in listed]
+            listed = f.read().split("\n")
+        code = [gencache.expand(p, top, ws) for p in listed if p]
         with open(
             os.path.join(cache_dir, first[:2], f"{_second_key(first, code, top, ws)}.entry"), "rb"
         ) as f:
             files: dict[str, bytes] | None = gencache.unpack_files(f.read())
-    except (OSError, ValueError, TypeError):
+    except (OSError, ValueError):
         files = None
     if files is not None and {name for name, _ in call.outputs if name != "idl"} <= set(files):
         _restore(files, call, ws)
         return "hit"
     import tempfile
 
+    inputs = named_inputs(call)
+    if inputs is None:
+        gencache.run_python(argv)
+        return "bypass"
     with tempfile.TemporaryDirectory(prefix="uros-call-") as tmp:
         try:
             gencache.run_python(_scratch_argv(call, tmp))
@@ -246,7 +272,7 @@ def run(argv: Sequence[str], cache_dir: StrPath, target_dir: StrPath, workspace:
             # fails as CMake asked it, naming its own files (or succeeds: then it is done)
             gencache.run_python(argv)
             return "bypass"
-        code = _module_files()
+        code = [*_module_files(), *inputs]
         files = {k: v.replace(tmp.encode(), OUT.encode()) for k, v in gencache.read_folder(tmp).items()}
     if any(top.encode() in v for v in files.values()):
         # an answer that names the target's own folder is not the same for every target
@@ -255,10 +281,13 @@ def run(argv: Sequence[str], cache_dir: StrPath, target_dir: StrPath, workspace:
     ws_bytes = os.path.join(ws, "").encode()
     files = {k: v.replace(ws_bytes, f"{gencache.WORKSPACE}/".encode()) for k, v in files.items()}
     try:
+        listing = [gencache.normal(p, top, ws) for p in code]
+        if any("\n" in p for p in listing):
+            raise ValueError("a path with a line break")
         entry = os.path.join(cache_dir, first[:2], f"{_second_key(first, code, top, ws)}.entry")
         gencache.store(entry, gencache.pack(files))
-        gencache.store(manifest, json.dumps([gencache.normal(p, top, ws) for p in code]).encode())
-    except OSError:
+        gencache.store(manifest, "\n".join(listing).encode())
+    except (OSError, ValueError):
         pass  # not kept: the next configure asks again
     _restore(files, call, ws)
     return "miss"

@@ -28,11 +28,12 @@ can make a build faster, never different or broken.
 from __future__ import annotations
 
 # Imported on every generator run and configure call: only what a hit needs, so that a hit costs
-# little more than Python's start (measured: bare start 15 ms; json, hashlib and os 31 ms; with
-# pathlib, tarfile, dataclasses and typing as before, 85 ms). A miss imports the rest (runpy,
-# pathlib, tempfile, pickle). Annotations only are imported for the type checker.
+# little more than Python's start (measured: start with hashlib and os 18-19 ms; json, which
+# imports re and enum, 10-13 ms more; with pathlib, tarfile, dataclasses and typing as before,
+# 85 ms). So a hit parses no JSON: keys are the repr of plain values, entries and indexes plain
+# text. A miss imports the rest (json, runpy, tempfile, pickle). Annotations only are imported
+# for the type checker.
 import hashlib
-import json
 import os
 import sys
 
@@ -43,7 +44,7 @@ if TYPE_CHECKING:
 
     StrPath: TypeAlias = "str | os.PathLike[str]"
 
-FORMAT = 2
+FORMAT = 3  # 3: keys, entries and indexes without JSON (2: JSON)
 ARGUMENTS_FLAG = "--generator-arguments-file"
 # third-party modules the generators import: their versions are part of the key
 GENERATOR_MODULES = ("empy", "lark", "lark-parser", "numpy")
@@ -66,6 +67,12 @@ def normal(text: str, target_dir: str, workspace: str = "") -> str:
 def expand(text: str, target_dir: str, workspace: str) -> str:
     """:func:`normal` undone for this target and workspace."""
     return text.replace(WORKSPACE + "/", os.path.join(workspace, "")).replace(PLACEHOLDER, target_dir)
+
+
+def key_of(*fields: object) -> str:
+    """The sha256 of ``fields``' repr: str, int, None and tuples of them only, whose repr says
+    each exactly and the same way every time (the interpreter's version is in every key)."""
+    return hashlib.sha256(repr(fields).encode()).hexdigest()
 
 
 def _named_files(arguments: Mapping[str, Any]) -> list[str]:
@@ -153,39 +160,45 @@ def module_versions(names: Iterable[str] = GENERATOR_MODULES) -> dict[str, str]:
     return out
 
 
-def run_key(
-    argv: Sequence[str],
-    arguments_text: str,
-    target_dir: StrPath,
-    modules: Mapping[str, str],
-    workspace: StrPath,
-) -> str:
-    """The content of everything the generator run reads, with the target's and the workspace's
-    folders taken out."""
-    top, ws = os.fspath(target_dir), os.fspath(workspace)
-    arguments = json.loads(arguments_text)
-    files = {normal(p, top, ws): sha(p) for p in [argv[0], *_named_files(arguments)]}
-    data = {
-        "format": FORMAT,
-        "argv": [normal(a, top, ws) for a in argv],
-        "arguments": normal(arguments_text, top, ws),
-        "files": files,
-        "python": list(sys.version_info[:2]),
-        "modules": dict(modules),
-        "installed python": _python_tree(target_dir),
-    }
-    return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()
+def first_key(argv: Sequence[str], arguments_text: str, target_dir: str, modules: str, workspace: str) -> str:
+    """A generator run's key from what a hit can tell without parsing the arguments: the command
+    line, the arguments file's text, the generator script, the interpreter, the third-party
+    modules' versions (``modules``: their JSON, as uros wrote it into the shim) and the generators'
+    installed Python packages; the target's and the workspace's folders taken out. The files the
+    arguments name are in :func:`second_key` (their list is a function of the text, kept beside
+    the entry at the first miss)."""
+    top, ws = target_dir, workspace
+    return key_of(
+        "generator run",
+        FORMAT,
+        tuple(normal(a, top, ws) for a in argv),
+        normal(arguments_text, top, ws),
+        sha(argv[0]),
+        tuple(sys.version_info[:2]),
+        modules,
+        _python_tree(target_dir),
+    )
 
 
-# An entry: this line, a JSON list of [name, size] in name order, a newline, then the contents one
-# after the other. Not a tar: reading one must not cost tarfile's import on every hit.
-ENTRY_MAGIC = b"uros-files 1\n"
+def second_key(first: str, named: Sequence[str], target_dir: str, workspace: str) -> str:
+    """``first`` with the content of every file the arguments name (templates, .idl files, the
+    interfaces depended on)."""
+    return key_of(first, tuple((normal(p, target_dir, workspace), sha(p)) for p in named))
+
+
+# An entry: this line, one line "SIZE NAME" per file in name order, an empty line, then the
+# contents one after the other. Not a tar (reading one must not cost tarfile's import on every
+# hit), not JSON (nor json's).
+ENTRY_MAGIC = b"uros-files 2\n"
 
 
 def pack(files: Mapping[str, bytes]) -> bytes:
-    """Files (relative names, contents; nothing else) as one entry, in name order."""
+    """Files (relative names, contents; nothing else) as one entry, in name order. ValueError for a
+    name with a line break (an entry could not say it)."""
     ordered = sorted(files.items())
-    header = json.dumps([[name, len(data)] for name, data in ordered]).encode()
+    if any("\n" in name or "\r" in name for name, _ in ordered):
+        raise ValueError("a file name with a line break")
+    header = "".join(f"{len(data)} {name}\n" for name, data in ordered).encode()
     return b"".join([ENTRY_MAGIC, header, b"\n", *(data for _, data in ordered)])
 
 
@@ -206,24 +219,24 @@ def unpack_files(data: bytes) -> dict[str, bytes]:
     or foreign file is never used)."""
     if not data.startswith(ENTRY_MAGIC):
         raise ValueError("not an entry")
-    end = data.find(b"\n", len(ENTRY_MAGIC))
-    listed = json.loads(data[len(ENTRY_MAGIC) : end]) if end > 0 else None
-    if not isinstance(listed, list):
-        raise ValueError("no list of files")
-    files: dict[str, bytes] = {}
-    at = end + 1
-    for item in listed:
-        if not (
-            isinstance(item, list)
-            and len(item) == 2
-            and isinstance(item[0], str)
-            and isinstance(item[1], int)
-        ):
-            raise ValueError(f"refused entry {item!r}")
-        name, size = item
+    listed: list[tuple[str, int]] = []
+    at = len(ENTRY_MAGIC)
+    while True:
+        end = data.find(b"\n", at)
+        if end < 0:
+            raise ValueError("no end of the list of files")
+        line, at = data[at:end], end + 1
+        if not line:
+            break
+        digits, space, name = line.decode("utf-8").partition(" ")  # UnicodeDecodeError is a ValueError
         parts = name.split("/")
-        if not name or name.startswith("/") or ".." in parts or "" in parts or size < 0:
+        if not space or not digits.isdigit() or not digits.isascii():
+            raise ValueError(f"refused entry line {line!r}")
+        if not name or name.startswith("/") or ".." in parts or "" in parts:
             raise ValueError(f"refused entry {name!r}")
+        listed.append((name, int(digits)))
+    files: dict[str, bytes] = {}
+    for name, size in listed:
         files[name] = data[at : at + size]
         at += size
     if at != len(data):
@@ -310,6 +323,8 @@ def _remember_parses(memo_dir: StrPath, modules: Mapping[str, str]) -> Callable[
     original = getattr(parser_module, "parse_idl_string", None)
     if original is None or parser_module.__file__ is None:
         return lambda: None
+    import json
+
     parser_code = _package_tree(os.path.dirname(parser_module.__file__))
     salt = json.dumps({"parser": parser_code, "modules": dict(modules)}, sort_keys=True)
     setattr(parser_module, "parse_idl_string", _parse_memo(original, memo_dir, salt))  # noqa: B010
@@ -349,52 +364,81 @@ def run_python(argv: Sequence[str]) -> None:
         sys.argv = saved
 
 
+INDEX = ".index"  # beside a generator run's entries: its output folder and the files it names
+
+
+def _taken(index: str, first: str, target_dir: str, workspace: str) -> tuple[str, dict[str, bytes]] | None:
+    """A hit: the output folder and the files of the entry of the run keyed ``first``, through its
+    index (the output folder and the named files, as the first miss listed them); None when there
+    is none, or anything about it is missing or cut."""
+    try:
+        with open(index, encoding="utf-8") as f:
+            output_dir, *named = f.read().split("\n")
+        files = [expand(p, target_dir, workspace) for p in named if p]
+        entry = os.path.join(
+            os.path.dirname(index), f"{second_key(first, files, target_dir, workspace)}.entry"
+        )
+        with open(entry, "rb") as f:
+            return expand(output_dir, target_dir, workspace), unpack_files(f.read())
+    except (OSError, ValueError):
+        return None
+
+
 def generate(
     argv: Sequence[str],
     cache_dir: StrPath,
     target_dir: StrPath,
-    modules: Mapping[str, str],
+    modules: str,
     workspace: StrPath,
 ) -> str:
     """One generator run through the cache; returns "hit", "miss" or "bypass" (cache unusable:
-    the generator ran as CMake asked). ``modules``: :func:`module_versions`."""
+    the generator ran as CMake asked). ``modules``: :func:`module_versions` as JSON (sorted keys),
+    as uros wrote it into the shim."""
+    top, ws = os.fspath(target_dir), os.fspath(workspace)
     try:
         with open(argv[2], encoding="utf-8") as f:
             arguments_text = f.read()
-        arguments = json.loads(arguments_text)
-        output_dir = str(arguments["output_dir"])
-        key = run_key(argv, arguments_text, target_dir, modules, workspace)
-    except (OSError, ValueError, KeyError, TypeError):
+        first = first_key(argv, arguments_text, top, modules, ws)
+    except (OSError, ValueError):
         _run_generator(argv)
         return "bypass"
-    entry = os.path.join(cache_dir, key[:2], f"{key}.entry")
-    try:
-        with open(entry, "rb") as f:
-            files: dict[str, bytes] | None = unpack_files(f.read())
-    except (OSError, ValueError):
-        files = None
-    if files is not None:
-        write_changed(files, output_dir)
+    index = os.path.join(os.fspath(cache_dir), first[:2], f"{first}{INDEX}")
+    taken = _taken(index, first, top, ws)
+    if taken is not None:
+        write_changed(taken[1], taken[0])
         return "hit"
     import contextlib
+    import json
     import tempfile
 
+    try:
+        arguments = json.loads(arguments_text)
+        output_dir = str(arguments["output_dir"])
+        named = _named_files(arguments)
+        versions = {str(k): str(v) for k, v in json.loads(modules).items()}
+    except (ValueError, KeyError, TypeError, AttributeError):
+        _run_generator(argv)
+        return "bypass"
     with tempfile.TemporaryDirectory(prefix="uros-gen-") as tmp:
         scratch = os.path.join(tmp, "out")
         os.mkdir(scratch)
         private = os.path.join(tmp, "arguments.json")
         with open(private, "w", encoding="utf-8") as f:
             f.write(json.dumps({**arguments, "output_dir": scratch}))
-        _run_generator([argv[0], argv[1], private, *argv[3:]], (os.path.join(cache_dir, "idl"), modules))
+        _run_generator([argv[0], argv[1], private, *argv[3:]], (os.path.join(cache_dir, "idl"), versions))
         files = read_folder(scratch)
-        data = pack(files)
-    named = [os.fspath(target_dir).encode(), tmp.encode(), os.path.join(os.fspath(workspace), "").encode()]
-    if any(folder in c for c in files.values() for folder in named):
+    named_folders = [top.encode(), tmp.encode(), os.path.join(ws, "").encode()]
+    if any(folder in c for c in files.values() for folder in named_folders):
         # a generator that writes folders into the code is not the same for every target and
         # workspace: it runs again as CMake asked, and nothing is kept
         _run_generator(argv)
         return "bypass"
-    with contextlib.suppress(OSError):  # not kept: the next target generates again
-        store(entry, data)
+    listing = [normal(output_dir, top, ws), *(normal(p, top, ws) for p in named)]
+    with contextlib.suppress(OSError, ValueError):  # not kept: the next target generates again
+        if any("\n" in line for line in listing):
+            raise ValueError("a path with a line break")
+        entry = os.path.join(os.path.dirname(index), f"{second_key(first, named, top, ws)}.entry")
+        store(entry, pack(files))
+        store(index, "\n".join(listing).encode())
     write_changed(files, output_dir)
     return "miss"

@@ -20,7 +20,6 @@ from __future__ import annotations
 
 # The shim imports this module on every call it sends to uros: only what a call needs, here and in
 # the caches' modules (gencache.py says why).
-import json
 import os
 import sys
 
@@ -93,6 +92,8 @@ def print_answers() -> None:
             answers[code] = sys.stdout.getvalue()
         finally:
             sys.stdout = saved
+    import json
+
     print(json.dumps(answers, sort_keys=True))
 
 
@@ -107,6 +108,8 @@ def answers_argv(python: str, code_dir: Path) -> list[str]:
 
 def parse_answers(text: str) -> tuple[dict[str, str], bool]:
     """:func:`print_answers`' output: the answers, and whether the interpreter has distutils."""
+    import json
+
     data = json.loads(text)
     if not isinstance(data, dict) or not isinstance(data.get("distutils"), bool):
         raise ValueError(f"not an answer: {text[:80]!r}")
@@ -138,6 +141,8 @@ def shim_text(
         f"import sys; sys.path.append({str(code_dir)!r}); "
         "from uros_build.pyshim import main; sys.exit(main(sys.argv[1:]))"
     )
+    import json
+
     versions = json.dumps(dict(modules), sort_keys=True)
     folders = " ".join(q(str(p)) for p in (cache_dir, target_dir, workspace))
     # Compiled modules kept in the cache's folder, even where PYTHONDONTWRITEBYTECODE is set (it
@@ -196,7 +201,7 @@ def main(args: Sequence[str]) -> int:
     cache, target, workspace = args[:3]
     modules, *argv = args[3:]
     if gencache.is_generator_run(argv):
-        result = gencache.generate(argv, cache, target, json.loads(modules), workspace)
+        result = gencache.generate(argv, cache, target, modules, workspace)
         line = f"{result} {os.path.basename(argv[0])} {argv[2]}"
     else:
         result = callcache.run(argv, os.path.join(cache, "calls"), target, workspace)

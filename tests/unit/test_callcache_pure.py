@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from uros_build import callcache
+from uros_build import callcache, gencache, pyshim
 
 PACKAGE_XML_2_CMAKE = """
 import os, pathlib, sys
@@ -162,6 +162,37 @@ def test_rosidl_adapter_answers_with_each_targets_own_folder(setup: Path) -> Non
     (ws / "mcu_ws/std_msgs/msg/Bool.msg").write_text("int8 data")
     assert callcache.run(argv4, cache, ws / ".uros/targets/cortex-m4f", ws) == "miss"
     assert (b4 / "rosidl_adapter/std_msgs/msg/Bool.idl").read_text() == "struct int8 data"
+
+
+def test_condition_variables_are_what_the_rep_149_pattern_finds() -> None:
+    import re
+
+    pattern = re.compile(r"\$\{?([A-Za-z_][A-Za-z0-9_]*)")
+    for text in (
+        XML,
+        '<depend condition="$ROS_VERSION == 2 and ${ROS_DISTRO} != humble">x</depend>',
+        "$1 $_a1 ${B} ${ $ $$C $é $Dé x$E_F9-g",
+        "",
+        "$",
+        "${",
+    ):
+        assert callcache.condition_variables(text) == tuple(sorted(set(pattern.findall(text)))), text
+
+
+def test_a_hit_imports_neither_json_nor_re() -> None:
+    """What a hit imports is most of its cost (gencache.py): the modules the shim imports on every
+    call import neither at their top."""
+    import ast
+
+    for module in (gencache, callcache, pyshim):
+        tree = ast.parse(Path(str(module.__file__)).read_text())
+        top = {
+            alias.name.split(".")[0]
+            for node in tree.body
+            if isinstance(node, ast.Import | ast.ImportFrom)
+            for alias in (node.names if isinstance(node, ast.Import) else [ast.alias(node.module or "")])
+        }
+        assert not top & {"json", "re", "dataclasses", "pathlib", "typing", "tempfile"}, module.__name__
 
 
 def test_other_calls_are_not_recognised() -> None:

@@ -14,6 +14,7 @@ import pytest
 from uros_build import gencache, pyshim
 
 MODULES = {"empy": "3.3.4", "lark": "1.1.1"}
+MODULES_JSON = json.dumps(MODULES, sort_keys=True)  # as uros writes it into the shim
 WS = Path("/nowhere/ws")  # the workspace's folder (the tests' targets are elsewhere)
 
 GENERATOR = """
@@ -80,37 +81,37 @@ def test_the_second_target_takes_the_first_ones_code(tmp_path: Path, counter: Pa
     argv4, m4 = _target(tmp_path / "ws", "cortex-m4f")
     assert gencache.is_generator_run(argv7)
 
-    assert gencache.generate(argv7, cache, m7, MODULES, WS) == "miss"
-    assert gencache.generate(argv4, cache, m4, MODULES, WS) == "hit"
+    assert gencache.generate(argv7, cache, m7, MODULES_JSON, WS) == "miss"
+    assert gencache.generate(argv4, cache, m4, MODULES_JSON, WS) == "hit"
     assert counter.read_text() == "x"  # the generator ran once for both targets
     assert _header(m4).read_bytes() == _header(m7).read_bytes()
     assert _header(m4).read_text().startswith("/* from msg/Bool.idl a b */ struct Bool")
 
     # a hit over a file already as it should be leaves its time alone (ninja's restat)
     before = _header(m4).stat().st_mtime_ns
-    assert gencache.generate(argv4, cache, m4, MODULES, WS) == "hit"
+    assert gencache.generate(argv4, cache, m4, MODULES_JSON, WS) == "hit"
     assert _header(m4).stat().st_mtime_ns == before
 
     # another .idl, another generator option, another parser: another key, the generator runs
     (m4 / "build" / "std_msgs" / "rosidl_adapter" / "msg" / "Bool.idl").write_text("struct Bool { int8 d; };")
-    assert gencache.generate(argv4, cache, m4, MODULES, WS) == "miss"
+    assert gencache.generate(argv4, cache, m4, MODULES_JSON, WS) == "miss"
     assert "int8" in _header(m4).read_text()
-    assert gencache.generate([*argv7[:4], "a"], cache, m7, MODULES, WS) == "miss"
+    assert gencache.generate([*argv7[:4], "a"], cache, m7, MODULES_JSON, WS) == "miss"
     (m7 / "install/lib/python3.11/site-packages/rosidl_parser/__init__.py").write_text("# parser 2\n")
-    assert gencache.generate(argv7, cache, m7, MODULES, WS) == "miss"
+    assert gencache.generate(argv7, cache, m7, MODULES_JSON, WS) == "miss"
     assert counter.read_text() == "xxxx"
     # another package's Python installed meanwhile (colcon's order varies): the same key
     for name in ("micro_ros_utilities", "rosidl_generator_dds_idl"):
         other = m7 / "install/lib/python3.11/site-packages" / name
         other.mkdir()
         (other / "__init__.py").write_text("")
-        assert gencache.generate(argv7, cache, m7, MODULES, WS) == "hit"
+        assert gencache.generate(argv7, cache, m7, MODULES_JSON, WS) == "hit"
 
 
 def test_code_that_names_its_folder_is_not_shared(tmp_path: Path, counter: Path) -> None:
     cache = tmp_path / "ws" / ".uros" / "gen-cache"
     argv, m7 = _target(tmp_path / "ws", "cortex-m7", idl="EMBED")
-    assert gencache.generate(argv, cache, m7, MODULES, WS) == "bypass"
+    assert gencache.generate(argv, cache, m7, MODULES_JSON, WS) == "bypass"
     assert str(_header(m7).parent.parent) in _header(m7).read_text()  # as CMake asked, its own folder
     assert not list(cache.rglob("*.entry"))
 
@@ -151,9 +152,12 @@ def test_the_shim_sends_only_generator_runs_to_the_cache(tmp_path: Path) -> None
 def test_other_generator_module_versions_are_another_key(tmp_path: Path, counter: Path) -> None:
     cache = tmp_path / "ws" / ".uros" / "gen-cache"
     argv, m7 = _target(tmp_path / "ws", "cortex-m7")
-    assert gencache.generate(argv, cache, m7, MODULES, WS) == "miss"
-    assert gencache.generate(argv, cache, m7, {**MODULES, "empy": "4.0"}, WS) == "miss"
-    assert gencache.generate(argv, cache, m7, MODULES, WS) == "hit"
+    assert gencache.generate(argv, cache, m7, MODULES_JSON, WS) == "miss"
+    assert (
+        gencache.generate(argv, cache, m7, json.dumps({**MODULES, "empy": "4.0"}, sort_keys=True), WS)
+        == "miss"
+    )
+    assert gencache.generate(argv, cache, m7, MODULES_JSON, WS) == "hit"
 
 
 PARSER = """
@@ -206,7 +210,7 @@ def test_the_idl_parses_of_a_miss_are_remembered(
         generators.append([str(script), *argv[1:3]])
     out = m7 / "build" / "std_msgs" / "rosidl_generator_c" / "std_msgs"
 
-    assert [gencache.generate(g, cache, m7, MODULES, WS) for g in generators] == ["miss"] * 3
+    assert [gencache.generate(g, cache, m7, MODULES_JSON, WS) for g in generators] == ["miss"] * 3
     assert parses.read_text() == "p"  # parsed once for three generators
     for g in generators:
         assert (
@@ -218,11 +222,11 @@ def test_the_idl_parses_of_a_miss_are_remembered(
     assert parser_module.parse_idl_string.__module__ == "rosidl_parser.parser"
 
     (m7 / "build/std_msgs/rosidl_adapter/msg/Bool.idl").write_text("struct Bool { int8 d; };")
-    assert gencache.generate(generators[0], cache, m7, MODULES, WS) == "miss"
+    assert gencache.generate(generators[0], cache, m7, MODULES_JSON, WS) == "miss"
     assert parses.read_text() == "pp"  # another text
     (site / "rosidl_parser" / "parser.py").write_text(PARSER.replace("VERSION = 1", "VERSION = 2"))
     monkeypatch.delitem(sys.modules, "rosidl_parser.parser")
-    assert gencache.generate(generators[1], cache, m7, MODULES, WS) == "miss"
+    assert gencache.generate(generators[1], cache, m7, MODULES_JSON, WS) == "miss"
     assert parses.read_text() == "ppp"  # another parser
     assert "'by': 2" in (out / "rosidl_typesupport_c.h").read_text()
 
@@ -232,8 +236,8 @@ def test_another_workspace_takes_the_same_code(tmp_path: Path, counter: Path) ->
     cache = tmp_path / "user-cache"
     argv1, t1 = _target(tmp_path / "ws1", "cortex-m7")
     argv2, t2 = _target(tmp_path / "checkout two", "cortex-m7")
-    assert gencache.generate(argv1, cache, t1, MODULES, tmp_path / "ws1") == "miss"
-    assert gencache.generate(argv2, cache, t2, MODULES, tmp_path / "checkout two") == "hit"
+    assert gencache.generate(argv1, cache, t1, MODULES_JSON, tmp_path / "ws1") == "miss"
+    assert gencache.generate(argv2, cache, t2, MODULES_JSON, tmp_path / "checkout two") == "hit"
     assert counter.read_text() == "x"
     assert _header(t2).read_bytes() == _header(t1).read_bytes()
 
@@ -249,12 +253,18 @@ def test_an_entry_holds_its_files_and_a_cut_or_foreign_one_is_refused(tmp_path: 
     for name in ("/abs", "a//b", "a/../b", ""):
         with pytest.raises(ValueError):
             gencache.unpack_files(gencache.pack({name: b"x"}))
+    with pytest.raises(ValueError):  # an entry could not say it: never kept
+        gencache.pack({"a\nb": b"x"})
+    header = gencache.ENTRY_MAGIC + b"13 a/b.h\n"  # the list of files cut before its end
+    for bad in (header, header.replace(b"13", b"-1") + b"\n", header.replace(b"13 ", b"13") + b"\n"):
+        with pytest.raises(ValueError):
+            gencache.unpack_files(bad)
     # a cut entry in the cache is a miss: the generator runs and the entry is written whole again
     cache = tmp_path / "cache"
     argv, m7 = _target(tmp_path / "ws", "cortex-m7")
-    assert gencache.generate(argv, cache, m7, MODULES, WS) == "miss"
+    assert gencache.generate(argv, cache, m7, MODULES_JSON, WS) == "miss"
     (entry,) = cache.rglob("*.entry")
     whole = entry.read_bytes()
     entry.write_bytes(whole[:-2])
-    assert gencache.generate(argv, cache, m7, MODULES, WS) == "miss"
+    assert gencache.generate(argv, cache, m7, MODULES_JSON, WS) == "miss"
     assert entry.read_bytes() == whole
