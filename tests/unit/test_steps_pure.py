@@ -69,6 +69,27 @@ def test_the_archive_plugin_is_gccs_own_when_the_archiver_is_gnu_ar(tmp_path: Pa
     assert found is not None and found.archive_plugin == ""
 
 
+def test_the_seed_is_found_again_when_its_archive_plugin_is_gone(tmp_path: Path) -> None:
+    plugin = tmp_path / "liblto_plugin.so"
+    plugin.write_bytes(b"")
+    gnu = f"{plugin}\nGNU ar (GNU Binutils for Debian) 2.40\n"
+    runner = FakeRunner(tmp_path / "log", {"cmake": _cmake_writes(("C", "CXX"), gnu)})
+    toolchain = tmp_path / "toolchain.cmake"
+    toolchain.write_text("set(CMAKE_SYSTEM_NAME Generic)\n")
+    folder = tmp_path / "target"
+    folder.mkdir()
+
+    def seed() -> str:
+        found = inputs._seed_compilers(folder, toolchain, ("gcc 1",), "cmake", runner, {})  # type: ignore[arg-type]
+        return found.read_text()
+
+    assert f"--plugin {plugin} qcs" in seed() and len(runner.calls) == 1
+    assert f"--plugin {plugin} qcs" in seed() and len(runner.calls) == 1  # kept: no configure
+    plugin.unlink()  # the seed would name a plugin that is no longer there: found again, without it
+    assert "--plugin" not in seed() and len(runner.calls) == 2
+    assert "--plugin" not in seed() and len(runner.calls) == 2
+
+
 def test_archive_plugin_only_for_gnu_ar_and_a_plain_absolute_path() -> None:
     gnu = "\nGNU ar (GNU Binutils) 2.40\n"
     assert hosttools.archive_plugin("/usr/lib/gcc/arm-none-eabi/12.2.1/liblto_plugin.so" + gnu) == (

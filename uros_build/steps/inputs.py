@@ -219,8 +219,12 @@ def _seed_compilers(
     stamp = folder / "toolchain-seeded.key"
     modules = folder / "compiler-seed"
     key = fp.digest(SEED_FORMAT, fp.file_sha256(toolchain_file), *identity)
-    if seed.is_file() and stamp.is_file() and stamp.read_text(encoding="utf-8").strip() == key:
-        return seed
+    if seed.is_file() and stamp.is_file():
+        # the stamp: the key, then the archive plugin the seed names ("" for none): one since
+        # removed (the compiler's own files changed without its driver) is found again
+        recorded, _, plugin = stamp.read_text(encoding="utf-8").partition("\n")
+        if recorded.strip() == key and (not plugin.strip() or os.path.isfile(plugin.strip())):
+            return seed
     generator = colcon.generator(env)
     found = hosttools.cmake_compiler_facts(
         runner, cmake, toolchain_file, folder / "compiler-facts", generator, env
@@ -235,7 +239,7 @@ def _seed_compilers(
         module = seed_module_text(lang, text, found.executable_format, written_by)
         write_if_changed(modules / f"CMakeDetermine{lang}Compiler.cmake", module)
     write_if_changed(seed, seeded_toolchain_text(toolchain_file, modules, written_by, found.archive_plugin))
-    write_if_changed(stamp, key + "\n")
+    write_if_changed(stamp, f"{key}\n{found.archive_plugin}\n")
     return seed
 
 
