@@ -285,12 +285,14 @@ class Runner:
         cwd: Path | None = None,
         env: Mapping[str, str] | None = None,
         hint: str | None = None,
+        label: str = "",
     ) -> str:
         """Run a tool whose output uros parses: stdout only, in the C locale; stderr goes to the
-        log (and into the error on failure), never into the parsed text."""
+        log (and into the error on failure), never into the parsed text. ``label`` prefixes its
+        lines in the log when queries run in parallel."""
         base = self._marked(env if env is not None else os.environ)
         base["LC_ALL"] = "C"
-        argv = self._prepare(argv, hint, cwd, base, "")
+        argv = self._prepare(argv, hint, cwd, base, label)
         started = time.monotonic()
         proc = self._start(argv, step, cwd, base, subprocess.PIPE)
         try:
@@ -301,8 +303,8 @@ class Runner:
             self._stop(proc)
             raise
         if err:
-            self.log("stderr:\n" + err)
-        self.log(f"exit {proc.returncode} after {time.monotonic() - started:.1f} s ({len(out)} bytes)")
+            self.log(f"{label}stderr:\n" + err)
+        self.log(f"{label}exit {proc.returncode} after {time.monotonic() - started:.1f} s ({len(out)} bytes)")
         if proc.returncode != 0:
             self._failed(step, proc.returncode, err.splitlines() or out.splitlines(), hint, cwd)
         return out

@@ -7,6 +7,7 @@ from __future__ import annotations
 import contextlib
 import time
 from collections.abc import Mapping
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -45,12 +46,19 @@ def _record_outside_headers(plan: BuildPlan, runner: Runner, setup: ColconSetup)
     if ninja is None:
         return depfiles.changed_packages({})[1]
     roots = (plan.workspace.root, plan.target_dir)
-    per_package: dict[str, list[str]] = {}
-    for folder in sorted(p for p in setup.build_base.iterdir() if (p / ".ninja_deps").is_file()):
+
+    def outside(folder: Path) -> list[str]:
         text = runner.query(
-            [ninja, "-C", str(folder), "-t", "deps"], step=f"read {folder.name}'s dependencies"
+            [ninja, "-C", str(folder), "-t", "deps"],
+            step=f"read {folder.name}'s dependencies",
+            label=f"[{folder.name}] ",
         )
-        per_package[folder.name] = depfiles.outside(depfiles.parse_ninja_deps(text), roots)
+        return depfiles.outside(depfiles.parse_ninja_deps(text), roots)
+
+    folders = sorted(p for p in setup.build_base.iterdir() if (p / ".ninja_deps").is_file())
+    # two at a time (~60 packages, each a ninja start and its parse): the runner logs from threads
+    with ThreadPoolExecutor(max_workers=2, thread_name_prefix="uros-deps") as pool:
+        per_package = dict(zip((f.name for f in folders), pool.map(outside, folders), strict=True))
     snap = depfiles.snapshot(per_package)
     write_if_changed(plan.target_dir / depfiles.RECORD, depfiles.record_text(snap))
     return depfiles.changed_packages(snap)[1]

@@ -10,6 +10,7 @@ import errno
 import shutil
 import time
 from collections.abc import Mapping
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -189,30 +190,38 @@ def _stage_output(
     )
     reused = _previous_library(plan, previous, merge_key) if not plan.rebuild else None
     abi_check: Mapping[str, Any]
-    if reused is not None:
-        console.step(f"no archive changed: reusing libmicroros.a of {plan.output}")
-        shutil.copy2(plan.output / reused.library.file, library)
-        lib_info = dataclasses.replace(reused.library)
-        abi_check = reused.abi_check
-    else:
-        console.step(f"merging {len(libs)} libraries into libmicroros.a")
-        report = merge_archives(runner, tools, libs, library, plan.target_dir / "merge")
-        # Before the output is swapped in: a library that fails the check never replaces a good one.
-        if profile is None:
-            abi_check = {
-                "checked": False,
-                "reason": "your own toolchain file: no target profile to compare with",
-            }
+    # The include tree (1,688 headers copied for micro-ROS) is made beside the merge and the checks,
+    # which mostly wait on ar, nm, readelf and size: one thread copies while they run. Nothing
+    # else writes staging/include; when the merge fails, the copy finishes before the error goes up.
+    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="uros-includes") as pool:
+        include_tree = pool.submit(
+            includes.flatten_includes,
+            install / "include",
+            staging / "include",
+            only=installtree.headers(setup.build_base, install, built),
+        )
+        if reused is not None:
+            console.step(f"no archive changed: reusing libmicroros.a of {plan.output}")
+            shutil.copy2(plan.output / reused.library.file, library)
+            lib_info = dataclasses.replace(reused.library)
+            abi_check = reused.abi_check
         else:
-            console.step(f"checking every object against {profile.name}'s ELF facts")
-            abi_check = abi.check_library(runner, library, profile)
-            console.info(abi.describe(abi_check))
-        lib_info = _library_info(runner, facts, profile, library, report)
+            console.step(f"merging {len(libs)} libraries into libmicroros.a")
+            report = merge_archives(runner, tools, libs, library, plan.target_dir / "merge")
+            # Before the output is swapped in: a library that fails the check never replaces a good one.
+            if profile is None:
+                abi_check = {
+                    "checked": False,
+                    "reason": "your own toolchain file: no target profile to compare with",
+                }
+            else:
+                console.step(f"checking every object against {profile.name}'s ELF facts")
+                abi_check = abi.check_library(runner, library, profile)
+                console.info(abi.describe(abi_check))
+            lib_info = _library_info(runner, facts, profile, library, report)
+        inc = include_tree.result()
     for warning in abi_check.get("warnings", ()):
         console.warn(warning)
-    inc = includes.flatten_includes(
-        install / "include", staging / "include", only=installtree.headers(setup.build_base, install, built)
-    )
     if profile is not None:
         firmware_tc = render_toolchain(
             ToolchainRequest(profile, micro_ros=False, command=f"uros toolchain render {profile.name}")
