@@ -374,6 +374,8 @@ def _taken(index: str, first: str, target_dir: str, workspace: str) -> tuple[str
     try:
         with open(index, encoding="utf-8") as f:
             output_dir, *named = f.read().split("\n")
+        if not output_dir:  # not an index uros wrote (it names the output folder first)
+            return None
         files = [expand(p, target_dir, workspace) for p in named if p]
         entry = os.path.join(
             os.path.dirname(index), f"{second_key(first, files, target_dir, workspace)}.entry"

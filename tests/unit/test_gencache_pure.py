@@ -263,6 +263,11 @@ def test_an_entry_holds_its_files_and_a_cut_or_foreign_one_is_refused(tmp_path: 
     cache = tmp_path / "cache"
     argv, m7 = _target(tmp_path / "ws", "cortex-m7")
     assert gencache.generate(argv, cache, m7, MODULES_JSON, WS) == "miss"
+    (index,) = cache.rglob(f"*{gencache.INDEX}")
+    kept = index.read_bytes()
+    index.write_bytes(b"")  # an index that names no output folder is not used: a miss
+    assert gencache.generate(argv, cache, m7, MODULES_JSON, WS) == "miss"
+    assert index.read_bytes() == kept  # written whole again
     (entry,) = cache.rglob("*.entry")
     whole = entry.read_bytes()
     entry.write_bytes(whole[:-2])
