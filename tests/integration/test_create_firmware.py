@@ -201,12 +201,10 @@ def test_target_prerequisites_are_checked_before_cloning(upstream: Path, tmp_pat
 def test_firmware_workspace_builds_end_to_end(upstream: Path, tmp_path: Path) -> None:
     """create-firmware + uros build through the firmware-workspace path (dev_ws, workspace meta,
     extra packages) with the real colcon and arm-none-eabi-gcc; the upstreams hold fixture packages."""
-    import shutil
-
+    from conftest import need
     from fixture_ws import make_fixture_workspace
 
-    if shutil.which("arm-none-eabi-gcc") is None:
-        pytest.skip("arm-none-eabi-gcc is not installed")
+    need("arm-none-eabi-gcc")
     # A host tool in the dev workspace: an MCU package finds it through dev_ws/install.
     host = tmp_path / "up" / "ament+ament_cmake"
     shutil.copytree(upstream / "ament+ament_cmake", host)
