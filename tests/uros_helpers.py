@@ -3,11 +3,14 @@
 from __future__ import annotations
 
 import os
+import shutil
 import signal
 import subprocess
 import sys
 from collections import Counter
 from pathlib import Path
+
+import pytest
 
 from uros_build import distros
 
@@ -142,3 +145,13 @@ def upstream_mirror(upstream: Path) -> list[str]:
         "--mirror-override",
         f"uros/tracetools={upstream}/ros_tracing+ros2_tracing",
     ]
+
+
+def need(*programs: str) -> None:
+    missing = [p for p in programs if shutil.which(p) is None]
+    if missing:
+        message = f"not installed: {', '.join(missing)} (.ci/run installs them)"
+        # .ci/run sets this after installing them: there a missing program is a broken CI, not a skip
+        if os.environ.get("UROS_TEST_TOOLS_REQUIRED") == "1":
+            pytest.fail(message)
+        pytest.skip(message)

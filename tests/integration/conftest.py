@@ -6,19 +6,9 @@ from pathlib import Path
 
 import pytest
 from fixture_ws import make_fixture_workspace
-from uros_helpers import run_uros
+from uros_helpers import need, run_uros
 
 pytestmark = pytest.mark.integration
-
-
-def need(*programs: str) -> None:
-    missing = [p for p in programs if shutil.which(p) is None]
-    if missing:
-        message = f"not installed: {', '.join(missing)} (.ci/run installs them)"
-        # .ci/run sets this after installing them: there a missing program is a broken CI, not a skip
-        if os.environ.get("UROS_TEST_TOOLS_REQUIRED") == "1":
-            pytest.fail(message)
-        pytest.skip(message)
 
 
 @pytest.fixture(scope="session")
@@ -35,7 +25,6 @@ def spanish_env(tmp_path_factory: pytest.TempPathFactory) -> dict[str, str]:
     """The environment of a Spanish-speaking user (es_ES.UTF-8): the installed locale, or one
     compiled with localedef into a temporary LOCPATH; skipped where neither is possible. Checked
     to be in effect: readelf prints "Máquina:" there."""
-    import os
     import subprocess
 
     need("readelf")

@@ -15,9 +15,8 @@ from pathlib import Path
 
 import filelock
 import pytest
-from conftest import need
 from fixture_ws import make_fixture_workspace
-from uros_helpers import env_without, run_uros
+from uros_helpers import env_without, need, run_uros
 
 pytestmark = pytest.mark.integration
 

@@ -16,8 +16,7 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
-from conftest import need
-from uros_helpers import run_uros
+from uros_helpers import need, run_uros
 
 from uros_build import cache
 

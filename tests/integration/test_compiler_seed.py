@@ -13,9 +13,8 @@ import subprocess
 from pathlib import Path
 
 import pytest
-from conftest import need
 from fixture_ws import make_fixture_workspace
-from uros_helpers import run_uros
+from uros_helpers import need, run_uros
 
 pytestmark = pytest.mark.integration
 

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 import yaml
-from uros_helpers import fake_upstream, git_commit, git_out, run_uros, upstream_mirror
+from uros_helpers import fake_upstream, git_commit, git_out, need, run_uros, upstream_mirror
 
 pytestmark = pytest.mark.integration
 
@@ -201,7 +201,6 @@ def test_target_prerequisites_are_checked_before_cloning(upstream: Path, tmp_pat
 def test_firmware_workspace_builds_end_to_end(upstream: Path, tmp_path: Path) -> None:
     """create-firmware + uros build through the firmware-workspace path (dev_ws, workspace meta,
     extra packages) with the real colcon and arm-none-eabi-gcc; the upstreams hold fixture packages."""
-    from conftest import need
     from fixture_ws import make_fixture_workspace
 
     need("arm-none-eabi-gcc")

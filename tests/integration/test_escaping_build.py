@@ -13,9 +13,8 @@ from typing import Any
 
 import pytest
 import yaml
-from conftest import need
 from fixture_ws import add_board_package, make_fixture_workspace
-from uros_helpers import REPO, run_uros
+from uros_helpers import REPO, need, run_uros
 
 pytestmark = pytest.mark.integration
 

@@ -12,10 +12,9 @@ import time
 from pathlib import Path
 
 import pytest
-from conftest import need
 from fixture_ws import make_fixture_workspace
 from test_trust_outputs import _in_namespace, _mount_namespace, _result, _uros_line
-from uros_helpers import run_uros
+from uros_helpers import need, run_uros
 
 pytestmark = pytest.mark.integration
 

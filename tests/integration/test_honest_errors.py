@@ -14,8 +14,7 @@ import time
 from pathlib import Path
 
 import pytest
-from conftest import need
-from uros_helpers import default_sigint, fake_upstream, run_uros, upstream_mirror
+from uros_helpers import default_sigint, fake_upstream, need, run_uros, upstream_mirror
 
 pytestmark = pytest.mark.integration
 

@@ -19,9 +19,8 @@ import textwrap
 from pathlib import Path
 
 import pytest
-from conftest import need
 from fake_idf import make_idf_build
-from uros_helpers import REPO, run_uros
+from uros_helpers import REPO, need, run_uros
 
 pytestmark = pytest.mark.integration
 

@@ -7,8 +7,7 @@ import subprocess
 from pathlib import Path
 
 import pytest
-from conftest import need
-from uros_helpers import run_uros
+from uros_helpers import need, run_uros
 
 pytestmark = pytest.mark.integration
 

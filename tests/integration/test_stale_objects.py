@@ -11,9 +11,8 @@ from pathlib import Path
 
 import pytest
 import yaml
-from conftest import need
 from fixture_ws import FIXTURE_MEMBERS, make_fixture_workspace
-from uros_helpers import REPO, defined_globals, run_uros
+from uros_helpers import REPO, defined_globals, need, run_uros
 
 pytestmark = pytest.mark.integration
 

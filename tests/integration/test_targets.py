@@ -15,9 +15,8 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import pytest
-from conftest import need
 from fixture_ws import FIXTURE_MEMBERS, add_board_package, make_fixture_workspace
-from uros_helpers import REPO, run_uros
+from uros_helpers import REPO, need, run_uros
 
 pytestmark = pytest.mark.integration
 

@@ -13,9 +13,8 @@ import sys
 from pathlib import Path
 
 import pytest
-from conftest import need
 from fixture_ws import make_fixture_workspace
-from uros_helpers import REPO, run_uros
+from uros_helpers import REPO, need, run_uros
 
 pytestmark = pytest.mark.integration
 
