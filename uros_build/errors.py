@@ -8,10 +8,12 @@ call uros can tell a bad flag (2) from a missing compiler (3) from a failed buil
 from __future__ import annotations
 
 import difflib
+import io
 import shutil
 import signal
 from collections.abc import Iterable, Mapping
-from pathlib import Path
+from pathlib import Path, PurePath
+from types import TracebackType
 
 
 class UrosError(Exception):
@@ -75,6 +77,33 @@ class DiskFull(UrosError):
         return error
 
     free: int | None = None  # bytes left on that disk, when it could be asked
+
+
+def file_being_written(tb: TracebackType | None) -> str | None:
+    """The file a failed write was writing, read off the traceback: the innermost frame that holds
+    one (pathlib's ``write_text``/``write_bytes`` as ``self``, or an open file object's name).
+
+    Python sets ``OSError.filename`` only where a path is passed (``open``, ``rename``); a write,
+    flush or close that hits a full disk raises ENOSPC without one
+    (https://docs.python.org/3/library/exceptions.html#OSError.filename), and guessing the run's
+    log instead blamed a disk with 73 GiB free for a full tmpfs (tests/integration/test_faults.py).
+    """
+    found: str | None = None
+    while tb is not None:  # outermost to innermost: the last match is the innermost
+        frame = tb.tb_frame
+        this = frame.f_locals.get("self")
+        if isinstance(this, PurePath) and str(frame.f_globals.get("__name__", "")).startswith("pathlib"):
+            found = str(this)
+        else:
+            # a file opened for writing (its name and mode stay readable once it is closed, and a
+            # failed close closes it too): the last one the function names, the one opened latest
+            for value in frame.f_locals.values():
+                name, mode = getattr(value, "name", None), str(getattr(value, "mode", ""))
+                writing = set(mode) & set("wax+")
+                if isinstance(value, io.IOBase) and isinstance(name, str | PurePath) and writing:
+                    found = str(name)
+        tb = tb.tb_next
+    return found
 
 
 DISK_FULL_HINT = (

@@ -241,12 +241,14 @@ class Runner:
         quiet: bool = False,
         label: str = "",
         on_line: Callable[[str], None] | None = None,
+        writes_to: Path | None = None,
     ) -> list[str]:
         """Run ``argv`` to completion, streaming its output; return the output lines.
 
         ``quiet`` keeps the ``+ argv`` echo out of the console (it is always in the log);
         ``label`` prefixes every logged line (``[uros/rclc] ``) when commands run in parallel;
-        ``on_line`` sees every line as it arrives (a build's progress).
+        ``on_line`` sees every line as it arrives (a build's progress); ``writes_to`` is where the
+        command writes (default ``cwd``): the disk a full-disk message that names no file is about.
         """
         env = self._marked(messages_in_c(env if env is not None else os.environ))
         argv = self._prepare(argv, hint, cwd, env, label)
@@ -274,7 +276,7 @@ class Runner:
             raise
         self.log(f"{label}exit {code} after {time.monotonic() - started:.1f} s")
         if code != 0:
-            self._failed(step, code, lines, hint, cwd)
+            self._failed(step, code, lines, hint, writes_to or cwd)
         return lines
 
     def query(
@@ -373,11 +375,11 @@ class Runner:
         raise interrupted(cause, f"{step} was interrupted", hint) from None
 
     def _failed(
-        self, step: str, code: int, lines: Sequence[str], hint: str | None, cwd: Path | None = None
+        self, step: str, code: int, lines: Sequence[str], hint: str | None, writes_to: Path | None = None
     ) -> NoReturn:
         full = disk_full_line(lines)
         if full is not None:
-            where = disk_full_path(full) or cwd or self.log_path.parent
+            where = disk_full_path(full) or writes_to or self.log_path.parent
             raise DiskFull.at(where, f"{step} failed: {full}")
         cause = first_error(lines)
         detail = f": {cause}" if cause else ""

@@ -14,9 +14,18 @@ import pytest
 
 from uros_build import outputs, swap
 from uros_build.damage import archive_damage, configure_damage
-from uros_build.errors import ConfigError, HungUp, Interrupted, Signalled, Terminated, disk_full_message
+from uros_build.errors import (
+    ConfigError,
+    DiskFull,
+    HungUp,
+    Interrupted,
+    Signalled,
+    Terminated,
+    disk_full_message,
+    file_being_written,
+)
 from uros_build.errors import interrupted as interrupted_error
-from uros_build.proc import disk_full_line, disk_full_path, environ_has
+from uros_build.proc import Runner, disk_full_line, disk_full_path, environ_has
 from uros_build.swap import Journal, Move, recovery_actions
 from uros_build.workspace import Workspace, lock_holder, target_key
 
@@ -375,6 +384,43 @@ def test_disk_full_is_one_line_with_the_path_and_the_free_space() -> None:
         == "no space left on device: writing /w/.uros/log/x.log (12.0 KiB free on the disk of /w/.uros/log/x.log)"
     )
     assert "\n" not in text
+
+
+@pytest.mark.skipif(not Path("/dev/full").exists(), reason="no /dev/full (Linux's always-full device)")
+def test_a_write_that_fills_the_disk_names_its_file(tmp_path: Path) -> None:
+    """A write, flush or close on a full disk raises ENOSPC with no filename: the file comes off the
+    traceback (pathlib's frame, or a file object open for writing), never the run's log."""
+    full = Path("/dev/full")
+    with pytest.raises(OSError) as pathlib_write:
+        full.write_text("x")
+    assert pathlib_write.value.filename is None
+    assert file_being_written(pathlib_write.value.__traceback__) == "/dev/full"
+
+    def copy_into_full() -> None:
+        with open(str(tmp_path / "source"), "w") as src:  # written first, and fine
+            src.write("kept")
+        with open(tmp_path / "source") as reading, open(full, "w") as out:
+            out.write(reading.read())
+
+    with pytest.raises(OSError) as own_write:
+        copy_into_full()
+    assert file_being_written(own_write.value.__traceback__) == "/dev/full"
+    assert file_being_written(None) is None
+
+
+def test_a_full_disk_a_tool_names_no_file_for_is_where_the_step_writes(tmp_path: Path) -> None:
+    """colcon says "Exception in shell extension 'sh': [Errno 28] No space left on device" with no
+    path: the disk is the step's (the target's trees), not the folder it ran in (the workspace)."""
+    trees = tmp_path / "ws" / ".uros" / "targets" / "cortex-m7"
+    trees.mkdir(parents=True)
+    runner = Runner(log_path=tmp_path / "ws" / ".uros" / "log" / "run.log")
+    line = "Exception in shell extension 'sh': [Errno 28] No space left on device"
+    with pytest.raises(DiskFull) as full:
+        runner._failed("colcon build", 1, [line], None, writes_to=trees)
+    assert full.value.message.endswith(f"free on the disk of {trees})"), full.value.message
+    with pytest.raises(DiskFull) as named:  # a path in the message still wins
+        runner._failed("colcon build", 1, [f"{line} [/o/x.log]"], None, writes_to=trees)
+    assert "disk of /o/x.log" in named.value.message
 
 
 def test_leftover_processes_are_found_by_their_exact_mark() -> None:

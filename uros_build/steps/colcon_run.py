@@ -148,6 +148,9 @@ def _run_colcon(
             setup.argv,
             step="colcon build",
             cwd=plan.workspace.root,
+            # colcon's build, install and log folders: a full disk that colcon reports without a
+            # path ("Exception in shell extension 'sh': [Errno 28] ...") is theirs, not the workspace's
+            writes_to=plan.target_dir,
             env=setup.env,
             hint=f"the full output is in {runner.log_path}",
             on_line=on_line,
