@@ -45,6 +45,19 @@ SCRUBBED_VARIABLES = (
 # reproducible-build dates).
 FINGERPRINTED_PREFIXES = ("CCACHE_",)
 FINGERPRINTED_VARIABLES = ("SOURCE_DATE_EPOCH",)
+# colcon writes every installed package's environment scripts once per shell extension it has, and
+# colcon-common-extensions brings bash, zsh and PowerShell beside sh and dsv: ~340 more files a
+# target (each rendered with empy), which nobody sources in a cross-compiled install tree. sh
+# (colcon's command environment on POSIX) and dsv stay, and bat (Windows' command environment; it
+# writes nothing elsewhere): ~3% less CPU for a second target, the same library
+# (docs/benchmarks.md). Extension names: <entry point group>.<name>
+# (https://github.com/colcon/colcon-core/blob/master/colcon_core/extension_point.py).
+UNUSED_SHELLS = (
+    "colcon_core.shell.bash",
+    "colcon_core.shell.zsh",
+    "colcon_core.shell.powershell",
+)
+_BLOCKLIST = "COLCON_EXTENSION_BLOCKLIST"
 _ROS_ROOT = "/opt/ros/"
 _PATH_LISTS = ("PATH", "PYTHONPATH", "LD_LIBRARY_PATH")
 
@@ -227,6 +240,9 @@ def build_env(
         env[name] = os.pathsep.join(kept)
     path = env.get("PATH", "")
     env["PATH"] = python_bin_dir + (os.pathsep + path if path else "")
+    # the user's own blocked extensions stay, first
+    blocked = [b for b in env.get(_BLOCKLIST, "").split(os.pathsep) if b]
+    env[_BLOCKLIST] = os.pathsep.join(blocked + [s for s in UNUSED_SHELLS if s not in blocked])
     if cmake_major is not None and cmake_major >= 4:
         # CMake 4 refuses cmake_minimum_required(VERSION < 3.5), as in the vendored libyaml and
         # uncrustify; this is CMake's documented escape hatch.

@@ -68,6 +68,24 @@ def test_env_scrubs_sourced_ros() -> None:
     assert "AMENT_PREFIX_PATH" in scrubbed and "PATH (ROS entries)" in scrubbed
 
 
+def test_env_leaves_out_shells_nobody_sources_and_keeps_the_users_blocklist() -> None:
+    env, _ = build_env({}, python_bin_dir="/b")
+    blocked = env["COLCON_EXTENSION_BLOCKLIST"].split(":")
+    assert blocked == ["colcon_core.shell.bash", "colcon_core.shell.zsh", "colcon_core.shell.powershell"]
+    # sh gives colcon its command environment on POSIX, bat on Windows; dsv is read by setup scripts
+    assert not {"colcon_core.shell.sh", "colcon_core.shell.dsv", "colcon_core.shell.bat"} & set(blocked)
+    mine = {
+        "COLCON_EXTENSION_BLOCKLIST": "colcon_core.event_handler.desktop_notification:colcon_core.shell.zsh"
+    }
+    env, _ = build_env(mine, python_bin_dir="/b")
+    assert env["COLCON_EXTENSION_BLOCKLIST"].split(":") == [
+        "colcon_core.event_handler.desktop_notification",
+        "colcon_core.shell.zsh",
+        "colcon_core.shell.bash",
+        "colcon_core.shell.powershell",
+    ]
+
+
 def test_env_git_insteadof() -> None:
     env, _ = build_env({}, python_bin_dir="/b", git_config={"url./m/x.insteadOf": "https://github.com/x"})
     assert env["GIT_CONFIG_COUNT"] == "1"
