@@ -106,6 +106,17 @@ def file_being_written(tb: TracebackType | None) -> str | None:
     return found
 
 
+def written_path(exc: OSError) -> str | None:
+    """The file a failed write was writing: a copy's or rename's destination (``filename2``: shutil's
+    sendfile copy puts the *source* in ``filename`` and the destination there,
+    https://github.com/python/cpython/blob/3.11/Lib/shutil.py `_fastcopy_sendfile`), else the path
+    the call named, else the file off the traceback (a write names none)."""
+    for name in (exc.filename2, exc.filename):
+        if isinstance(name, str | bytes | PurePath) and str(name):
+            return name.decode() if isinstance(name, bytes) else str(name)
+    return file_being_written(exc.__traceback__)
+
+
 DISK_FULL_HINT = (
     "free some space (or build on a larger disk) and run the same command again: "
     "uros repairs what the full disk cut short"

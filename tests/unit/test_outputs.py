@@ -23,6 +23,7 @@ from uros_build.errors import (
     Terminated,
     disk_full_message,
     file_being_written,
+    written_path,
 )
 from uros_build.errors import interrupted as interrupted_error
 from uros_build.proc import Runner, disk_full_line, disk_full_path, environ_has
@@ -406,6 +407,22 @@ def test_a_write_that_fills_the_disk_names_its_file(tmp_path: Path) -> None:
         copy_into_full()
     assert file_being_written(own_write.value.__traceback__) == "/dev/full"
     assert file_being_written(None) is None
+
+
+@pytest.mark.skipif(not Path("/dev/full").exists(), reason="no /dev/full (Linux's always-full device)")
+def test_a_full_disk_in_a_copy_names_the_destination(tmp_path: Path) -> None:
+    """shutil's sendfile copy reports ENOSPC with the source in filename and the destination in
+    filename2: the destination's disk is the full one (the output's, not the workspace's)."""
+    import errno
+
+    copy = OSError(errno.ENOSPC, "No space left on device")
+    copy.filename, copy.filename2 = "/ws/.uros/targets/m7/install/include/a.h", "/out/.staging/include/a.h"
+    assert written_path(copy) == "/out/.staging/include/a.h"
+    opened = OSError(errno.ENOSPC, "No space left on device", "/out/x.a")
+    assert written_path(opened) == "/out/x.a"
+    with pytest.raises(OSError) as written:
+        Path("/dev/full").write_bytes(b"x")
+    assert written_path(written.value) == "/dev/full"
 
 
 def test_a_full_disk_a_tool_names_no_file_for_is_where_the_step_writes(tmp_path: Path) -> None:

@@ -36,7 +36,7 @@ from uros_build.cli.data import (
     toolchain_render,
 )
 from uros_build.cli.sources import add_package, create_firmware, update
-from uros_build.errors import DiskFull, Signalled, UrosError, file_being_written, interrupted
+from uros_build.errors import DiskFull, Signalled, UrosError, interrupted, written_path
 
 
 @click.group(cls=Group, context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
@@ -124,7 +124,7 @@ def main(argv: list[str] | None = None) -> None:
             _internal_error(exc)
             sys.exit(1)
         # uros's own writes (the log, a staging folder, build-info.json) on a full disk
-        where = exc.filename or file_being_written(exc.__traceback__) or proc.current_log() or Path.cwd()
+        where = written_path(exc) or proc.current_log() or Path.cwd()
         full = DiskFull.at(where, f"writing {where}: {exc.strerror}")
         console.error(full.message, full.hint)
         sys.exit(full.exit_code)

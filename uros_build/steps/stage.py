@@ -46,6 +46,7 @@ from uros_build.errors import (
     DiskFull,
     StepFailed,
     interrupted,
+    written_path,
 )
 from uros_build.hosttools import HostFacts
 from uros_build.plan import BuildPlan, ProfileTarget, meta_transport
@@ -342,10 +343,13 @@ def merge_and_verify(
         )
     except OSError as exc:
         swap.remove_tree(staging)
-        # Python names no file for a failed write(): the disk of the step's folders with the
-        # least room is the full one (not the log's, which the catch-all would name)
-        if exc.errno not in (errno.ENOSPC, errno.EDQUOT) or exc.filename:
+        if exc.errno not in (errno.ENOSPC, errno.EDQUOT):
             raise
+        written = written_path(exc)
+        if written is not None:
+            raise DiskFull.at(written, f"writing {written}: {exc.strerror}") from exc
+        # no file to name: the disk of the step's folders with the least room is the full one (not
+        # the log's, which the catch-all would name)
         fullest = min((plan.target_dir, staging.parent), key=_free_bytes)
         raise DiskFull.at(fullest, f"merging the library in {fullest}: {exc.strerror}") from exc
     except BaseException:
