@@ -187,3 +187,14 @@ def test_two_different_headers_for_one_place_are_an_error(tmp_path: Path) -> Non
     (inc / "pkg" / "x.h").write_text("/* another */\n")
     with pytest.raises(VerifyError, match=r"two different headers flatten to .*/x\.h"):
         includes.flatten_includes(inc, tmp_path / "other")
+
+
+def test_a_build_waits_out_the_second_of_the_last_install() -> None:
+    """CMake's install treats files whose times share a second as up to date: a build that starts
+    within the second the last one ended waits for the next second, and never otherwise."""
+    from uros_build.steps.colcon_run import next_second_wait
+
+    assert next_second_wait(100.2, 100.5) == pytest.approx(0.52)
+    assert next_second_wait(100.99, 100.995) == pytest.approx(0.025)
+    assert next_second_wait(100.2, 101.5) == 0.0
+    assert next_second_wait(100.2, 250.0) == 0.0

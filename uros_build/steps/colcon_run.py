@@ -5,6 +5,7 @@ and compiled from the caches, the headers it read outside the workspace.
 from __future__ import annotations
 
 import contextlib
+import math
 import time
 from collections.abc import Mapping
 from concurrent.futures import ThreadPoolExecutor
@@ -97,6 +98,20 @@ def _say_generation(plan: BuildPlan) -> None:
         )
 
 
+# Touched whenever a colcon build of the target returns. CMake's install copies a file only when its
+# time differs from the installed copy's by a whole second (cmFileCopier::InstallFile,
+# cmFileTimeCache::DifferS: https://gitlab.kitware.com/cmake/cmake/-/blob/v3.25.1/Source/cmFileCopier.cxx),
+# so an archive or header rebuilt within the second of the last install stayed the old one in the
+# install tree, and in the library (seen: a source edited right after a build, test_faults).
+COLCON_ENDED = "colcon-ended"
+
+
+def next_second_wait(last_end: float, now: float) -> float:
+    """Seconds to wait before a colcon build so that every file it writes falls in a later second
+    than those of the build that ended at ``last_end`` (pure; 0 after that second)."""
+    return max(0.0, math.floor(last_end) + 1.0 + 0.02 - now)
+
+
 def _run_colcon(
     plan: BuildPlan, facts: HostFacts, runner: Runner, setup: ColconSetup, parts: Mapping[str, str]
 ) -> colcon.BuildProgress:
@@ -143,6 +158,9 @@ def _run_colcon(
     mark = plan.target_dir / DISK_FULL_MARK
     with contextlib.suppress(OSError):
         mark.write_text("a colcon build that may run out of disk\n", encoding="utf-8")
+    ended = plan.target_dir / COLCON_ENDED
+    with contextlib.suppress(OSError):
+        time.sleep(next_second_wait(ended.stat().st_mtime, time.time()))
     try:
         runner.run(
             setup.argv,
@@ -163,6 +181,8 @@ def _run_colcon(
         raise failure from None
     finally:
         view.stop()
+        with contextlib.suppress(OSError):
+            ended.touch()
     mark.unlink(missing_ok=True)
     elapsed = time.monotonic() - progress.started_at
     slowest = ", ".join(f"{name} {seconds:.1f} s" for name, seconds in progress.slowest(5))
