@@ -80,8 +80,8 @@ class DiskFull(UrosError):
 
 
 def file_being_written(tb: TracebackType | None) -> str | None:
-    """The file a failed write was writing, read off the traceback: the innermost frame that holds
-    one (pathlib's ``write_text``/``write_bytes`` as ``self``, or an open file object's name).
+    """The file a failed write was writing, read off the traceback: in the innermost frame that holds
+    one, the last file object open for writing (pathlib's ``write_text``/``write_bytes`` hold theirs).
 
     Python sets ``OSError.filename`` only where a path is passed (``open``, ``rename``); a write,
     flush or close that hits a full disk raises ENOSPC without one
@@ -90,18 +90,12 @@ def file_being_written(tb: TracebackType | None) -> str | None:
     """
     found: str | None = None
     while tb is not None:  # outermost to innermost: the last match is the innermost
-        frame = tb.tb_frame
-        this = frame.f_locals.get("self")
-        if isinstance(this, PurePath) and str(frame.f_globals.get("__name__", "")).startswith("pathlib"):
-            found = str(this)
-        else:
-            # a file opened for writing (its name and mode stay readable once it is closed, and a
-            # failed close closes it too): the last one the function names, the one opened latest
-            for value in frame.f_locals.values():
-                name, mode = getattr(value, "name", None), str(getattr(value, "mode", ""))
-                writing = set(mode) & set("wax+")
-                if isinstance(value, io.IOBase) and isinstance(name, str | PurePath) and writing:
-                    found = str(name)
+        # a file opened for writing (its name and mode stay readable once it is closed, and a
+        # failed close closes it too): the last one the function names, the one opened latest
+        for value in tb.tb_frame.f_locals.values():
+            name, mode = getattr(value, "name", None), str(getattr(value, "mode", ""))
+            if isinstance(value, io.IOBase) and isinstance(name, str | PurePath) and set(mode) & set("wax+"):
+                found = str(name)
         tb = tb.tb_next
     return found
 

@@ -343,13 +343,11 @@ def merge_and_verify(
         )
     except OSError as exc:
         swap.remove_tree(staging)
-        if exc.errno not in (errno.ENOSPC, errno.EDQUOT):
+        # a file named (a copy's destination, the path a call or write names) is main's to report;
+        # with none, the disk of the step's folders with the least room is the full one (not the
+        # log's, which main would name)
+        if exc.errno not in (errno.ENOSPC, errno.EDQUOT) or written_path(exc) is not None:
             raise
-        written = written_path(exc)
-        if written is not None:
-            raise DiskFull.at(written, f"writing {written}: {exc.strerror}") from exc
-        # no file to name: the disk of the step's folders with the least room is the full one (not
-        # the log's, which the catch-all would name)
         fullest = min((plan.target_dir, staging.parent), key=_free_bytes)
         raise DiskFull.at(fullest, f"merging the library in {fullest}: {exc.strerror}") from exc
     except BaseException:
