@@ -21,7 +21,7 @@ from fixture_ws import (
     FIXTURE_SYMBOLS,
     make_fixture_workspace,
 )
-from uros_helpers import default_sigint, defined_globals, run_uros
+from uros_helpers import default_sigint, defined_globals, need, run_uros
 
 pytestmark = pytest.mark.integration
 
@@ -240,3 +240,32 @@ def test_export_cmake_rewrites_and_copies(m7_build: Path, tmp_path: Path) -> Non
     run_uros("export", "cmake", "--from", str(out), "--output", str(dest))
     assert (dest / "libmicroros.a").is_file() and (dest / "include" / "fx_core" / "core.h").is_file()
     assert "CLOCK_MONOTONIC" not in (dest / "microros.cmake").read_text()
+
+
+def test_the_install_tree_holds_no_scripts_for_shells_nobody_sources(m7_build: Path) -> None:
+    """colcon runs without its bash, zsh and PowerShell extensions: a cross-compiled install tree
+    gets only sh and dsv environment files (346 fewer files a micro-ROS target)."""
+    install = m7_build / ".uros" / "targets" / "cortex-m7" / "install"
+    names = [p.name for p in install.rglob("*") if p.is_file()]
+    assert any(n.endswith(".dsv") for n in names) and any(n.endswith(".sh") for n in names)
+    assert not [n for n in names if n.endswith((".bash", ".zsh", ".ps1"))]
+
+
+def test_an_edit_right_after_a_build_reaches_the_library(tmp_path: Path) -> None:
+    """CMake's install leaves a file whose time is within a second of the installed copy's: an edit
+    built right after the last build (a scripted loop) must still reach libmicroros.a."""
+    need("arm-none-eabi-gcc", "cmake", "arm-none-eabi-nm")
+    ws = make_fixture_workspace(tmp_path / "ws")
+    args = ["build", "--toolchain", "cortex-m7", "--workspace", str(ws), "--packages-up-to", "fx_core"]
+    run_uros(*args)
+    core = ws / "mcu_ws" / "src" / "fx_core" / "src" / "core.c"
+    for i in range(5):  # each edit lands within a second of the last build more often than not
+        core.write_text(core.read_text() + f"int fx_core_step{i}(void) {{ return {i}; }}\n")
+        run_uros(*args)
+        nm = subprocess.run(
+            ["arm-none-eabi-nm", str(ws / "build" / "cortex-m7" / "libmicroros.a")],
+            capture_output=True,
+            text=True,
+            check=True,
+        ).stdout
+        assert f"fx_core_step{i}" in nm, f"edit {i} is not in the library"
