@@ -243,8 +243,9 @@ def test_export_cmake_rewrites_and_copies(m7_build: Path, tmp_path: Path) -> Non
 
 
 def test_the_install_tree_holds_no_scripts_for_shells_nobody_sources(m7_build: Path) -> None:
-    """colcon runs without its bash, zsh and PowerShell extensions: a cross-compiled install tree
-    gets only sh and dsv environment files (346 fewer files a micro-ROS target)."""
+    """colcon runs without its bash, zsh and PowerShell extensions: it writes only sh and dsv
+    environment files into a cross-compiled install tree (346 fewer files a micro-ROS target; the
+    local_setup.bash/.zsh ament_cmake packages install themselves stay, and the fixture has none)."""
     install = m7_build / ".uros" / "targets" / "cortex-m7" / "install"
     names = [p.name for p in install.rglob("*") if p.is_file()]
     assert any(n.endswith(".dsv") for n in names) and any(n.endswith(".sh") for n in names)
