@@ -27,7 +27,7 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))
 
-from uros_build import pyshim  # noqa: E402
+from uros_build.shim import pyshim  # noqa: E402
 
 
 def compile_commands(build: Path) -> list[list[str]]:
@@ -104,7 +104,7 @@ def main() -> None:
     print(f"| FindPython's version question, uros-python | {start_cost([str(shim), '-c', question]):.4f} |")
     # what each call uros-python sends to uros's caches does first: start and import the cache modules
     # (PYTHONDONTWRITEBYTECODE=1, as on this machine: compiled each time, or kept in a pycache_prefix)
-    entry = f"import sys; sys.path.append({str(HERE.parent)!r}); import uros_build.pyshim"
+    entry = f"import sys; sys.path.append({str(HERE.parent)!r}); import uros_build.shim.pyshim"
     plain = {**os.environ, "PYTHONDONTWRITEBYTECODE": "1"}
     kept = {**os.environ, "PYTHONDONTWRITEBYTECODE": ""}
     prefix = tempfile.mkdtemp(prefix="uros-bench-pycache-")

@@ -58,8 +58,8 @@ sys.path.insert(0, str(REPO / "tests" / "integration"))
 from test_real_sources import EXAMPLE, humble_mirror_args  # noqa: E402
 from uros_helpers import build_firmware_project  # noqa: E402
 
-from uros_build import distros as distros_mod  # noqa: E402
-from uros_build import wsfiles as workspace_mod  # noqa: E402
+from uros_build.sources import distros as distros_mod  # noqa: E402
+from uros_build.sources import wsfiles as workspace_mod  # noqa: E402
 
 SETUP_GIT = "/work/.mirror/micro-ROS+micro_ros_setup/repo"  # default; --setup-git overrides
 TARGET = "cortex-m7"

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from uros_build import distros
+from uros_build.sources import distros
 
 REPO = Path(__file__).resolve().parent.parent
 

@@ -15,4 +15,7 @@ FIRMWARE_DIR = Path("firmware")
 WORKSPACE_HELP = f"nearest folder upward with {WORKSPACE_MARKER}, else ./{FIRMWARE_DIR}"
 # What every micro-ROS firmware links, whatever messages it uses: `uros build --packages` and
 # `--for-firmware` add those of them the workspace has (colcon adds their dependencies).
+# Every output's record of its build (output/buildinfo.py reads and writes it; an ESP-IDF build folder
+# holding one is a uros output, not an IDF build).
+BUILD_INFO = "build-info.json"
 CORE_PACKAGES = ("rcl", "rclc", "rmw_microxrcedds", "micro_ros_utilities")

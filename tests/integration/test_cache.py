@@ -18,7 +18,7 @@ from pathlib import Path
 import pytest
 from uros_helpers import need, run_uros
 
-from uros_build import cache
+from uros_build.output import team_cache as cache
 
 pytestmark = pytest.mark.integration
 

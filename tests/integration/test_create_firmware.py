@@ -118,7 +118,7 @@ def test_add_package_keeps_in_sync(upstream: Path, tmp_path: Path) -> None:
     copy = fw / "mcu_ws/extra_packages/eic_demo_interface"
     assert (copy / "srv/GetTime.srv").is_file()
     (pkg / "msg/CmdVel.msg").write_text("int32 left_rpm\nint32 right_rpm\nint32 lift\n")
-    from uros_build.workspace import Workspace
+    from uros_build.sources.workspace import Workspace
 
     ws, cfg = Workspace.open_firmware(fw)
     ws.sync_extra_packages(cfg)  # what `uros build` does first

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from uros_build import options
+from uros_build.sources import options
 
 pytestmark = [pytest.mark.integration, pytest.mark.realsources]
 

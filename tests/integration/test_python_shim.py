@@ -16,7 +16,7 @@ import pytest
 from fixture_ws import make_fixture_workspace
 from uros_helpers import need, run_uros
 
-from uros_build import pyshim
+from uros_build.shim import pyshim
 
 pytestmark = pytest.mark.integration
 

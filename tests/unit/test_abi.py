@@ -12,9 +12,9 @@ from pathlib import Path
 
 import pytest
 
-from uros_build import abi
 from uros_build.errors import VerifyError
-from uros_build.profiles import ElfFacts, find_profile
+from uros_build.target import abi
+from uros_build.target.profiles import ElfFacts, find_profile
 
 DATA = Path(__file__).parent / "data"
 
@@ -168,7 +168,7 @@ def test_check_says_when_targets_cannot_be_told_apart() -> None:
 
 
 def test_look_alikes_among_the_shipped_targets() -> None:
-    from uros_build.profiles import shipped_profiles
+    from uros_build.target.profiles import shipped_profiles
 
     profiles = list(shipped_profiles().values())
     assert abi.look_alikes(find_profile("esp32"), profiles) == ["esp32s2", "esp32s3"]

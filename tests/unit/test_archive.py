@@ -18,10 +18,11 @@ from typing import cast
 
 import pytest
 
-from uros_build import archive
-from uros_build.archive import ArchiveContents, ArchiveListing, BinTools
 from uros_build.errors import VerifyError
+from uros_build.output import archive
+from uros_build.output.archive import ArchiveContents, ArchiveListing
 from uros_build.proc import Runner
+from uros_build.target.toolsearch import BinTools
 
 DATA = Path(__file__).parent / "data"
 INPUTS = ("libfx_core.a", "libfx_dup.a", "libfx_util.a")

@@ -8,14 +8,15 @@ from pathlib import Path
 
 import pytest
 
-from uros_build import colcon, interfaces, packages
-from uros_build.buildinfo import parse_build_info
+from uros_build.colcon import command as colcon
+from uros_build.config.plan import unknown_packages
 from uros_build.errors import ConfigError
-from uros_build.meta import Meta, parse_meta
-from uros_build.plan import unknown_packages
+from uros_build.output.buildinfo import parse_build_info
 from uros_build.proc import first_error
-from uros_build.workspace import check_file_target, check_folder_target
-from uros_build.wsfiles import parse_config
+from uros_build.sources import interfaces, packages
+from uros_build.sources.meta import Meta, parse_meta
+from uros_build.sources.workspace import check_file_target, check_folder_target
+from uros_build.sources.wsfiles import parse_config
 
 
 def test_a_cmake_error_carries_its_message() -> None:
@@ -168,7 +169,7 @@ def test_malformed_build_info_names_the_key(change: dict[str, object], expected:
 
 
 def test_build_info_idf_round_trip() -> None:
-    from uros_build.buildinfo import IdfInfo
+    from uros_build.output.buildinfo import IdfInfo
 
     idf = {"version": "5.3.1", "target": "esp32s3", "sdkconfig_sha256": "ab", "components": 39,
            "include_dirs": 68, "c_flags": ["-mlongcalls"], "cxx_flags": []}  # fmt: skip

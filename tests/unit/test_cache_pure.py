@@ -9,8 +9,8 @@ from pathlib import Path
 
 import pytest
 
-from uros_build import cache
 from uros_build.errors import ConfigError
+from uros_build.output import team_cache as cache
 
 
 def test_urls() -> None:

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from uros_build import callcache, gencache, pyshim
+from uros_build.shim import callcache, gencache, pyshim
 
 PACKAGE_XML_2_CMAKE = """
 import os, pathlib, sys

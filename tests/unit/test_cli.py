@@ -94,7 +94,7 @@ def test_listings_have_headers() -> None:
 def test_targets_show_prints_a_profile_to_copy(tmp_path: Path) -> None:
     import yaml
 
-    from uros_build.profiles import find_profile, parse_profile
+    from uros_build.target.profiles import find_profile, parse_profile
 
     runner = CliRunner()
     result = runner.invoke(cli, ["targets", "show", "cortex-m7"])

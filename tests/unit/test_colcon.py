@@ -4,7 +4,7 @@ from pathlib import Path
 
 from golden import check_golden
 
-from uros_build.colcon import ColconPlan, build_env, colcon_argv, kept_by_ignores
+from uros_build.colcon.command import ColconPlan, build_env, colcon_argv, kept_by_ignores
 
 
 def _plan(**kw: object) -> ColconPlan:
@@ -119,7 +119,7 @@ def test_first_error_prefers_compiler_and_rosidl_messages() -> None:
 
 
 def test_pure_python_packages_nothing_compiled_needs_are_skipped(tmp_path: Path) -> None:
-    from uros_build import packages
+    from uros_build.sources import packages
 
     def pkg(name: str, build_type: str, deps: list[str] = [], ignored: bool = False) -> None:  # noqa: B006
         d = tmp_path / name
@@ -151,7 +151,7 @@ def test_pure_python_packages_nothing_compiled_needs_are_skipped(tmp_path: Path)
 
 
 def test_parse_event_reads_console_start_end_lines() -> None:
-    from uros_build.colcon import JobEvent, parse_event
+    from uros_build.colcon.command import JobEvent, parse_event
 
     assert parse_event("Starting >>> fx_core") == JobEvent("start", "fx_core")
     assert parse_event("Finished <<< fx_core [0.52s]") == JobEvent("finish", "fx_core", 0.52)
@@ -167,7 +167,7 @@ def test_parse_event_reads_console_start_end_lines() -> None:
 
 
 def test_parse_duration() -> None:
-    from uros_build.colcon import parse_duration
+    from uros_build.colcon.command import parse_duration
 
     assert parse_duration("0.05s") == 0.05
     assert parse_duration("2min 1s") == 121.0
@@ -176,7 +176,7 @@ def test_parse_duration() -> None:
 
 
 def test_build_progress_tracks_running_finished_and_failed() -> None:
-    from uros_build.colcon import BuildProgress
+    from uros_build.colcon.command import BuildProgress
 
     p = BuildProgress(total=3, started_at=0.0)
     p.feed("Starting >>> a", 1.0)

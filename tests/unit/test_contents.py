@@ -4,8 +4,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from uros_build import clones, contents
-from uros_build.meta import Meta
+from uros_build.output import contents
+from uros_build.sources import clones
+from uros_build.sources.meta import Meta
 
 
 def _header(include: Path, rel: str, text: str = "") -> None:

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from uros_build import depfiles
+from uros_build.colcon import depfiles
 
 _DEPS = """CMakeFiles/fx_core.dir/src/core.c.obj: #deps 4, deps mtime 1795549807108232768 (VALID)
     /ws/mcu_ws/src/fx_core/src/core.c

@@ -6,9 +6,10 @@ from typing import Any
 
 import pytest
 
-from uros_build import distros, resources
-from uros_build.distros import Mirror, MirrorRule, Repo
+from uros_build import resources
 from uros_build.errors import ConfigError
+from uros_build.sources import distros
+from uros_build.sources.distros import Mirror, MirrorRule, Repo
 
 # micro_ros_setup's generate_lib lists (humble, config/client_ros2_packages.txt and
 # config/client_uros_packages.repos): what the mcu workspace must hold.
@@ -91,7 +92,7 @@ def test_every_distro_is_consistent(name: str) -> None:
     for repo in (*d.dev, *d.mcu):
         assert distros.owner_repo(repo.url), repo
     assert d.preset in ("humble", name)
-    from uros_build import meta
+    from uros_build.sources import meta
 
     meta.load_preset(d.preset)
 

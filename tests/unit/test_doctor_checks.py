@@ -5,8 +5,8 @@ from __future__ import annotations
 from pathlib import Path
 
 from uros_build.commands import doctor as d
-from uros_build.profiles import find_profile
-from uros_build.wsfiles import Lock, LockedRepo
+from uros_build.sources.wsfiles import Lock, LockedRepo
+from uros_build.target.profiles import find_profile
 
 
 def test_versions_and_tools() -> None:

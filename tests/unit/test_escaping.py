@@ -12,13 +12,13 @@ from pathlib import Path
 import pytest
 from cmake_text import flags_as_compiled, parse, set_values
 
-from uros_build import colcon
+from uros_build.colcon import command as colcon
 from uros_build.errors import ConfigError
-from uros_build.export import cmake_package_files, esp_idf_component_files
-from uros_build.profiles import find_profile, parse_profile
+from uros_build.output.export import cmake_package_files, esp_idf_component_files
+from uros_build.sources.workspace import check_build_folder
+from uros_build.target.profiles import find_profile, parse_profile
+from uros_build.target.toolchain import ToolchainRequest, link_unsafe_flags, render_toolchain
 from uros_build.templating import cmake_comment, cmake_flags, cmake_link_flags, cmake_quote
-from uros_build.toolchain import ToolchainRequest, link_unsafe_flags, render_toolchain
-from uros_build.workspace import check_build_folder
 
 HOSTILE = [
     'x") execute_process(COMMAND touch /tmp/uros-pwned) set(Y "',

@@ -1,4 +1,4 @@
-"""The ESP-IDF build-folder reader (uros_build/espidf.py) on build folders generated here: a small
+"""The ESP-IDF build-folder reader (uros_build/target/espidf.py) on build folders generated here: a small
 project_description.json, CMakeCache.txt, config/sdkconfig.h and IDF tree with the shapes IDF 5.3
 and 5.5 write (no IDF file is copied)."""
 
@@ -11,8 +11,8 @@ from typing import Any
 import pytest
 from fake_idf import make_idf_build
 
-from uros_build import espidf
 from uros_build.errors import ConfigError
+from uros_build.target import espidf
 
 _build = make_idf_build
 

@@ -3,7 +3,7 @@ from __future__ import annotations
 import pytest
 from golden import check_golden
 
-from uros_build.export import esp_idf_component_files
+from uros_build.output.export import esp_idf_component_files
 
 
 def test_esp_idf_component_golden() -> None:
@@ -22,7 +22,7 @@ def test_custom_transport_needs_no_lwip() -> None:
 
 
 def test_make_pkg_config_and_meson_text_escape_their_values() -> None:
-    from uros_build import export as ex
+    from uros_build.output import export as ex
 
     flags = ("-mcpu=cortex-m7", "-DNAME=$HOME", "-DHASH=a#b")
     mk = ex.make_fragment("cortex-m7", flags)["microros.mk"]
@@ -38,7 +38,7 @@ def test_make_pkg_config_and_meson_text_escape_their_values() -> None:
 
 
 def test_tool_prefix_and_meson_cpu_family() -> None:
-    from uros_build import export as ex
+    from uros_build.output import export as ex
 
     assert ex.tool_prefix("/usr/bin/arm-none-eabi-gcc") == "/usr/bin/arm-none-eabi-"
     assert ex.tool_prefix("xtensa-esp32s3-elf-gcc") == "xtensa-esp32s3-elf-"
@@ -60,13 +60,13 @@ def test_tool_prefix_and_meson_cpu_family() -> None:
     ],
 )
 def test_arduino_folders_as_its_builder_looks_for_them(flags: tuple[str, ...], folder: str) -> None:
-    from uros_build import export as ex
+    from uros_build.output import export as ex
 
     assert ex.arduino_folder(flags) == folder
 
 
 def test_arduino_needs_an_mcu_and_declares_a_precompiled_library() -> None:
-    from uros_build import export as ex
+    from uros_build.output import export as ex
 
     with pytest.raises(ValueError):
         ex.arduino_folder(("-march=rv32imc",))
@@ -105,7 +105,7 @@ def test_the_esp_idf_component_has_a_manifest_the_component_manager_reads() -> N
 def test_the_zephyr_module_follows_zephyrs_module_file_rules() -> None:
     import yaml
 
-    from uros_build import export as ex
+    from uros_build.output import export as ex
 
     files = ex.zephyr_module_files("cortex-m7")
     module = yaml.safe_load(files["zephyr/module.yml"])

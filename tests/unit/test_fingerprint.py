@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from uros_build import fingerprint as fp
+from uros_build.colcon import fingerprint as fp
 
 
 def _sources(root: Path) -> None:

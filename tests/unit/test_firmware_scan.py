@@ -6,8 +6,8 @@ from pathlib import Path
 
 import pytest
 
-from uros_build import firmware_scan
-from uros_build.firmware_scan import scan_folder, scan_text, snake_case
+from uros_build.sources import firmware_scan
+from uros_build.sources.firmware_scan import scan_folder, scan_text, snake_case
 
 REPO = Path(__file__).resolve().parents[2]
 

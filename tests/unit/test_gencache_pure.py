@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from uros_build import gencache, pyshim
+from uros_build.shim import gencache, pyshim
 
 MODULES = {"empy": "3.3.4", "lark": "1.1.1"}
 MODULES_JSON = json.dumps(MODULES, sort_keys=True)  # as uros writes it into the shim
@@ -132,7 +132,7 @@ def test_the_shim_sends_only_generator_runs_to_the_cache(tmp_path: Path) -> None
     assert "*'from distutils import sysconfig'*)" in text and "SETUPTOOLS_USE_DISTUTILS=stdlib" in text
     assert "SETUPTOOLS_USE_DISTUTILS" not in shim(False)
     # uros's own calls keep their compiled modules in the cache, even under PYTHONDONTWRITEBYTECODE
-    to_uros = [line for line in text.splitlines() if "from uros_build.pyshim import main" in line]
+    to_uros = [line for line in text.splitlines() if "from uros_build.shim.pyshim import main" in line]
     assert len(to_uros) == 3 and all(
         line.strip().startswith(
             f"PYTHONDONTWRITEBYTECODE= exec /venv/bin/python3 -X pycache_prefix='{tmp_path / 'c d' / 'pycache'}'"

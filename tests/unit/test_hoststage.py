@@ -9,10 +9,10 @@ from pathlib import Path
 
 import pytest
 
-from uros_build import hoststage, installtree
-from uros_build.colcon import ColconPlan, colcon_argv
+from uros_build.colcon import hoststage, installtree
+from uros_build.colcon.command import ColconPlan, colcon_argv
 from uros_build.errors import ConfigError
-from uros_build.packages import PackageInfo
+from uros_build.sources.packages import PackageInfo
 
 
 def _pkg(

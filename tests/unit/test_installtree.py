@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from uros_build import installtree
+from uros_build.colcon import installtree
 
 
 def _tree(tmp_path: Path) -> tuple[Path, Path]:

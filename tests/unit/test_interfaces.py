@@ -4,8 +4,8 @@ from pathlib import Path
 
 import pytest
 
-from uros_build import interfaces
 from uros_build.errors import ConfigError
+from uros_build.sources import interfaces
 
 
 def _file(tmp_path: Path, name: str, text: str) -> Path:

@@ -20,6 +20,16 @@ def test_no_module_imports_one_above_it() -> None:
     assert not wrong
 
 
+def test_the_top_of_the_package_holds_only_the_base() -> None:
+    # Everything else lives in the folder of its layer or domain (docs/architecture.md).
+    assert len(import_graph.top_level_files()) <= import_graph.TOP_LEVEL_LIMIT, import_graph.top_level_files()
+
+
+def test_every_folder_is_a_layer() -> None:
+    folders = sorted(p.name for p in import_graph.PACKAGE.iterdir() if (p / "__init__.py").is_file())
+    assert set(folders) <= {name for name, _ in import_graph.LAYERS}
+
+
 def test_commands_do_not_import_each_other() -> None:
     graph = import_graph.imports()
     assert not [

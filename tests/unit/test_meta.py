@@ -6,9 +6,9 @@ from pathlib import Path
 import pytest
 from golden import check_golden
 
-from uros_build import meta
 from uros_build.errors import ConfigError
-from uros_build.profiles import find_profile
+from uros_build.sources import meta
+from uros_build.target.profiles import find_profile
 
 
 def test_default_cortex_m7_meta_golden() -> None:

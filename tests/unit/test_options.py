@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import pytest
 
-from uros_build import options
 from uros_build.errors import ConfigError
+from uros_build.sources import options
 
 
 def _known() -> dict[str, dict[str, options.KnownOption]]:

@@ -12,8 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from uros_build import outputs, swap
-from uros_build.damage import archive_damage, configure_damage
+from uros_build.colcon.damage import archive_damage, configure_damage
 from uros_build.errors import (
     ConfigError,
     DiskFull,
@@ -26,9 +25,11 @@ from uros_build.errors import (
     written_path,
 )
 from uros_build.errors import interrupted as interrupted_error
+from uros_build.output import folders as outputs
+from uros_build.output import swap
+from uros_build.output.swap import Journal, Move, recovery_actions
 from uros_build.proc import Runner, disk_full_line, disk_full_path, environ_has
-from uros_build.swap import Journal, Move, recovery_actions
-from uros_build.workspace import Workspace, lock_holder, target_key
+from uros_build.sources.workspace import Workspace, lock_holder, target_key
 
 DEAD = 2**22 + 1000  # above the largest pid_max Linux allows: never a live process
 

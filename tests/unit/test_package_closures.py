@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from uros_build import packages
-from uros_build.packages import PackageInfo
+from uros_build.sources import packages
+from uros_build.sources.packages import PackageInfo
 
 TAGS = ("depend", "build_depend", "buildtool_depend", "exec_depend", "test_depend", "build_export_depend",
         "buildtool_export_depend", "group_depend", "member_of_group")  # fmt: skip

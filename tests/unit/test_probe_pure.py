@@ -7,9 +7,9 @@ from pathlib import Path
 
 import pytest
 
-from uros_build import probe
 from uros_build.commands import doctor
 from uros_build.errors import ConfigError
+from uros_build.target import machines as probe
 
 
 def test_the_shipped_machine_table() -> None:

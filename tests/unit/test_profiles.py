@@ -6,7 +6,7 @@ import pytest
 import yaml
 
 from uros_build.errors import ConfigError
-from uros_build.profiles import derive_profile, find_profile, load_profile_file, shipped_profiles
+from uros_build.target.profiles import derive_profile, find_profile, load_profile_file, shipped_profiles
 
 
 def _write(tmp_path: Path, data: object) -> Path:

@@ -11,9 +11,10 @@ import jsonschema
 import pytest
 import yaml
 
-from uros_build import distros, resources, wsfiles
+from uros_build import resources
 from uros_build.errors import ConfigError
-from uros_build.profiles import ElfFacts, MicroRosFlags, TargetProfile, parse_profile
+from uros_build.sources import distros, wsfiles
+from uros_build.target.profiles import ElfFacts, MicroRosFlags, TargetProfile, parse_profile
 
 
 def _schema(name: str) -> dict[str, Any]:

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from uros_build.settings import BuildArgs, Chosen, build_settings, pick
-from uros_build.wsfiles import WorkspaceConfig
+from uros_build.config.settings import BuildArgs, Chosen, build_settings, pick
+from uros_build.sources.wsfiles import WorkspaceConfig
 
 ROOT = Path("/ws")
 CFG = WorkspaceConfig(

@@ -6,8 +6,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from uros_build import sizes
-from uros_build.sizes import Sizes
+from uros_build.output import sizes
+from uros_build.output.sizes import Sizes
 
 DATA = Path(__file__).parent / "data"
 INPUTS = ("libfx_core.a", "libfx_dup.a", "libfx_flat.a", "libfx_time.a", "libfx_util.a")

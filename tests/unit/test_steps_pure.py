@@ -11,9 +11,10 @@ from typing import Any
 import pytest
 from fake_runner import FakeRunner
 
-from uros_build import fingerprint as fp
-from uros_build import hosttools, includes
+from uros_build.colcon import fingerprint as fp
+from uros_build.colcon import hosttools
 from uros_build.errors import VerifyError
+from uros_build.output import includes
 from uros_build.steps import inputs, team_cache
 
 C_FACTS = 'set(CMAKE_C_COMPILER "/usr/bin/arm-none-eabi-gcc")\nset(CMAKE_C_COMPILER_ID "GNU")\n'

@@ -5,16 +5,16 @@ from pathlib import Path
 
 from golden import check_golden
 
-from uros_build.espidf import IdfProject
-from uros_build.profiles import find_profile
-from uros_build.templating import cmake_flags
-from uros_build.toolchain import (
+from uros_build.target.espidf import IdfProject
+from uros_build.target.profiles import find_profile
+from uros_build.target.toolchain import (
     ToolchainRequest,
     microros_flags,
     render_toolchain,
     seed_module_text,
     seeded_toolchain_text,
 )
+from uros_build.templating import cmake_flags
 
 
 def test_cortex_m7_micro_ros_toolchain_golden() -> None:

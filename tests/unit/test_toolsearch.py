@@ -5,8 +5,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from uros_build.profiles import find_profile
-from uros_build.toolsearch import search_compiler, searched_places, version_key
+from uros_build.target.profiles import find_profile
+from uros_build.target.toolsearch import search_compiler, searched_places, version_key
 
 
 def _tool(root: Path, relative: str, executable: bool = True) -> Path:

@@ -6,11 +6,11 @@ from pathlib import Path
 
 import pytest
 
-from uros_build.clones import UPDATE_REFS, checkout_argv, fetch_argv, fetched_commit_argv
 from uros_build.commands.update import Move, describe
-from uros_build.distros import Repo, Source
 from uros_build.errors import ConfigError
-from uros_build.wsfiles import with_distro
+from uros_build.sources.clones import UPDATE_REFS, checkout_argv, fetch_argv, fetched_commit_argv
+from uros_build.sources.distros import Repo, Source
+from uros_build.sources.wsfiles import with_distro
 
 _REPO = Repo("uros/rcl", "https://github.com/micro-ROS/rcl", "humble")
 

@@ -7,11 +7,11 @@ from pathlib import Path
 
 import pytest
 
-from uros_build.clones import clone_argv
-from uros_build.distros import Repo, Source
 from uros_build.errors import ConfigError
-from uros_build.workspace import dev_env, sync_tree
-from uros_build.wsfiles import (
+from uros_build.sources.clones import clone_argv
+from uros_build.sources.distros import Repo, Source
+from uros_build.sources.workspace import dev_env, sync_tree
+from uros_build.sources.wsfiles import (
     Lock,
     WorkspaceConfig,
     config_text,
@@ -100,7 +100,7 @@ def test_parse_lock_keeps_every_field() -> None:
 
 
 def test_clone_state_reads_head_and_changes() -> None:
-    from uros_build.wsfiles import clone_state
+    from uros_build.sources.wsfiles import clone_state
 
     clean = "# branch.oid 0123abc\n# branch.head humble\n"
     assert clone_state(clean) == ("0123abc", 0)
@@ -159,8 +159,8 @@ def test_workspace_config_defaults() -> None:
 
 def test_clean_counts_and_recognises_only_uros_outputs(tmp_path: Path) -> None:
     from uros_build.commands.clean import human
-    from uros_build.outputs import is_uros_output, write_marker
-    from uros_build.workspace import tree_bytes
+    from uros_build.output.folders import is_uros_output, write_marker
+    from uros_build.sources.workspace import tree_bytes
 
     out = tmp_path / "out"
     out.mkdir()
@@ -198,13 +198,13 @@ def test_clean_counts_and_recognises_only_uros_outputs(tmp_path: Path) -> None:
     ],
 )
 def test_with_extra_package_is_a_line_edit(text: str, expected: str) -> None:
-    from uros_build.wsfiles import with_extra_package
+    from uros_build.sources.wsfiles import with_extra_package
 
     assert with_extra_package(text, "/p q", "uros.yaml") == expected
 
 
 def test_with_extra_package_refuses_what_a_line_edit_cannot_extend() -> None:
-    from uros_build.wsfiles import with_extra_package
+    from uros_build.sources.wsfiles import with_extra_package
 
     with pytest.raises(ConfigError, match="cannot add /p to this list"):
         with_extra_package("distro: humble\nextra_packages: [\n  /x]\n", "/p", "uros.yaml")

@@ -18,7 +18,7 @@ from uros_build.cli.common import (
 from uros_build.commands import add_package as add_package_cmd
 from uros_build.commands import create_firmware as create_cmd
 from uros_build.commands import update as update_cmd
-from uros_build.sourceplan import CreateArgs, UpdateArgs
+from uros_build.config.sourceplan import CreateArgs, UpdateArgs
 
 
 def _git_jobs(what: str) -> Decorator:

@@ -11,18 +11,16 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from uros_build import (
-    console,
-)
-from uros_build import fingerprint as fp
+from uros_build import console
+from uros_build.colcon import fingerprint as fp
+from uros_build.config.plan import BuildPlan, plan_build
+from uros_build.config.settings import BuildArgs, expand_targets
 from uros_build.errors import (
     Interrupted,
     UrosError,
 )
-from uros_build.plan import BuildPlan, plan_build
-from uros_build.settings import BuildArgs, expand_targets
+from uros_build.sources.workspace import locked
 from uros_build.steps import colcon_run, inputs, prepare, stage, start, team_cache
-from uros_build.workspace import locked
 
 
 @dataclass(frozen=True)

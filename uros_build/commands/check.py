@@ -6,10 +6,11 @@ import json
 import sys
 from pathlib import Path
 
-from uros_build import abi, console
+from uros_build import console
 from uros_build.errors import ConfigError, VerifyError
 from uros_build.proc import Runner, new_run_log, user_log_dir
-from uros_build.profiles import find_profile, load_profile_file
+from uros_build.target import abi
+from uros_build.target.profiles import find_profile, load_profile_file
 
 
 def check_library(

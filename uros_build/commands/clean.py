@@ -11,10 +11,12 @@ import re
 import shutil
 from pathlib import Path
 
-from uros_build import console, outputs, swap
+from uros_build import console
+from uros_build.config.settings import BuildArgs, expand_targets, resolve_workspace
 from uros_build.errors import ConfigError, did_you_mean
-from uros_build.settings import BuildArgs, expand_targets, resolve_workspace
-from uros_build.workspace import Workspace, locked, target_key, tree_bytes
+from uros_build.output import folders as outputs
+from uros_build.output import swap
+from uros_build.sources.workspace import Workspace, locked, target_key, tree_bytes
 
 
 def human(n: int) -> str:

@@ -11,14 +11,16 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import replace
 from pathlib import Path
 
-from uros_build import clones, console, hosttools
-from uros_build import meta as meta_mod
-from uros_build.distros import Source
+from uros_build import console
+from uros_build.colcon import hosttools
+from uros_build.config.sourceplan import CreateArgs, CreatePlan, plan_create
 from uros_build.errors import StepFailed, UrosError
 from uros_build.proc import Runner, new_run_log, user_log_dir
-from uros_build.sourceplan import CreateArgs, CreatePlan, plan_create
-from uros_build.workspace import PENDING, USER_META, Workspace, sync_tree
-from uros_build.wsfiles import CONFIG, EXTRA, LOCK, Lock, WorkspaceConfig, save_config
+from uros_build.sources import clones
+from uros_build.sources import meta as meta_mod
+from uros_build.sources.distros import Source
+from uros_build.sources.workspace import PENDING, USER_META, Workspace, sync_tree
+from uros_build.sources.wsfiles import CONFIG, EXTRA, LOCK, Lock, WorkspaceConfig, save_config
 
 
 def _clone_all(

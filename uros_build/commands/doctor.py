@@ -19,17 +19,19 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
-from uros_build import colcon, hosttools, outputs
-from uros_build import fingerprint as fp
-from uros_build.buildinfo import BUILD_INFO
+from uros_build.colcon import command as colcon
+from uros_build.colcon import fingerprint as fp
+from uros_build.colcon import hosttools
+from uros_build.config.plan import resolve_target
+from uros_build.config.settings import BuildArgs, expand_targets, resolve_workspace
+from uros_build.defaults import BUILD_INFO
 from uros_build.errors import MissingToolError, StepFailed, UrosError, VerifyError
-from uros_build.plan import resolve_target
+from uros_build.output import folders as outputs
 from uros_build.proc import Runner, new_run_log, user_log_dir
-from uros_build.profiles import TargetProfile
-from uros_build.settings import BuildArgs, expand_targets, resolve_workspace
+from uros_build.sources.workspace import Workspace
+from uros_build.sources.wsfiles import CONFIG, Lock, load_config, read_lock
 from uros_build.steps import inputs as inputs_step
-from uros_build.workspace import Workspace
-from uros_build.wsfiles import CONFIG, Lock, load_config, read_lock
+from uros_build.target.profiles import TargetProfile
 
 OK, WARN, FAIL, SKIP = "ok", "warn", "FAIL", "skip"
 

@@ -7,10 +7,12 @@ import shutil
 from collections.abc import Callable
 from pathlib import Path
 
-from uros_build import console, export, outputs, swap
-from uros_build.buildinfo import BuildInfo, read_build_info
+from uros_build import console
 from uros_build.errors import ConfigError
-from uros_build.workspace import check_folder_target
+from uros_build.output import export, swap
+from uros_build.output import folders as outputs
+from uros_build.output.buildinfo import BuildInfo, read_build_info
+from uros_build.sources.workspace import check_folder_target
 
 
 def _check_complete(src: Path, info: BuildInfo, flag: str) -> None:

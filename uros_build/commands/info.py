@@ -10,9 +10,9 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from uros_build import contents
-from uros_build.buildinfo import BuildInfo, read_build_info
-from uros_build.plan import resolve_output
+from uros_build.config.plan import resolve_output
+from uros_build.output import contents
+from uros_build.output.buildinfo import BuildInfo, read_build_info
 
 
 def gather(out: Path) -> dict[str, Any]:

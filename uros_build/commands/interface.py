@@ -4,9 +4,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from uros_build import console, interfaces
+from uros_build import console
 from uros_build.errors import ConfigError
-from uros_build.workspace import check_folder_target
+from uros_build.sources import interfaces
+from uros_build.sources.workspace import check_folder_target
 
 
 def interface_new(name: str, msgs: list[Path], srvs: list[Path], output: Path | None, force: bool) -> Path:

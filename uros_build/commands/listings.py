@@ -7,18 +7,24 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from uros_build import console, contents, defaults, loader
-from uros_build import distros as distros_mod
-from uros_build import meta as meta_mod
-from uros_build import options as options_mod
-from uros_build import packages as packages_mod
+from uros_build import console, defaults, loader
+from uros_build.config.plan import meta_for, resolve_target
+from uros_build.config.settings import resolve_workspace
 from uros_build.errors import ConfigError
-from uros_build.plan import meta_for, resolve_target
-from uros_build.profiles import OR_PROFILE_FILE, find_profile, load_profile_file, shipped_profiles
-from uros_build.settings import resolve_workspace
-from uros_build.toolchain import CLOCK_HEADER_NAME, CLOCK_HEADER_TEXT, ToolchainRequest, render_toolchain
-from uros_build.workspace import check_file_target
-from uros_build.wsfiles import write_if_changed
+from uros_build.output import contents
+from uros_build.sources import distros as distros_mod
+from uros_build.sources import meta as meta_mod
+from uros_build.sources import options as options_mod
+from uros_build.sources import packages as packages_mod
+from uros_build.sources.workspace import check_file_target
+from uros_build.sources.wsfiles import write_if_changed
+from uros_build.target.profiles import OR_PROFILE_FILE, find_profile, load_profile_file, shipped_profiles
+from uros_build.target.toolchain import (
+    CLOCK_HEADER_NAME,
+    CLOCK_HEADER_TEXT,
+    ToolchainRequest,
+    render_toolchain,
+)
 
 
 def targets_table() -> list[dict[str, Any]]:

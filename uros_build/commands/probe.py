@@ -18,13 +18,13 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 from uros_build import console
-from uros_build import probe as probe_mod
-from uros_build.buildinfo import read_build_info
+from uros_build.colcon.fingerprint import digest
+from uros_build.config.plan import resolve_output
 from uros_build.errors import MissingToolError, StepFailed, VerifyError
-from uros_build.fingerprint import digest
-from uros_build.plan import resolve_output
+from uros_build.output.buildinfo import read_build_info
 from uros_build.proc import Background, Runner, new_run_log, user_log_dir
-from uros_build.workspace import workspace_of_output
+from uros_build.sources.workspace import workspace_of_output
+from uros_build.target import machines as probe_mod
 
 AGENT_VARIABLE = "UROS_AGENT"
 _AGENT_HINT = (

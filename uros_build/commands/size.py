@@ -8,14 +8,15 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from uros_build import loader, sizes
-from uros_build.buildinfo import BuildInfo, read_build_info
+from uros_build import loader
+from uros_build.config.plan import resolve_output
 from uros_build.errors import ConfigError
-from uros_build.outputs import is_uros_output
-from uros_build.plan import resolve_output
+from uros_build.output import sizes
+from uros_build.output.buildinfo import BuildInfo, read_build_info
+from uros_build.output.folders import is_uros_output
+from uros_build.output.sizes import Sizes
 from uros_build.proc import Runner, new_run_log, user_log_dir
-from uros_build.sizes import Sizes
-from uros_build.workspace import Workspace, workspace_of_output
+from uros_build.sources.workspace import Workspace, workspace_of_output
 
 LIBRARY = "libmicroros.a"
 

@@ -11,12 +11,13 @@ from collections.abc import Mapping
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
-from uros_build import clones, console, distros
-from uros_build.distros import Source
+from uros_build import console
+from uros_build.config.sourceplan import UpdateArgs, UpdatePlan, plan_update
 from uros_build.errors import ConfigError, StepFailed, UrosError
 from uros_build.proc import Runner, new_run_log
-from uros_build.sourceplan import UpdateArgs, UpdatePlan, plan_update
-from uros_build.wsfiles import CONFIG, LOCK, Lock, LockedRepo, with_distro, write_if_changed
+from uros_build.sources import clones, distros
+from uros_build.sources.distros import Source
+from uros_build.sources.wsfiles import CONFIG, LOCK, Lock, LockedRepo, with_distro, write_if_changed
 
 
 @dataclass(frozen=True)

@@ -12,21 +12,19 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
-from uros_build import (
-    colcon,
-    console,
-    depfiles,
-    installtree,
-    pyshim,
-)
+from uros_build import console
+from uros_build.colcon import command as colcon
+from uros_build.colcon import depfiles, installtree
+from uros_build.colcon.hosttools import HostFacts
+from uros_build.config.plan import BuildPlan
 from uros_build.errors import (
     DiskFull,
     StepFailed,
     VerifyError,
 )
-from uros_build.hosttools import HostFacts
-from uros_build.plan import BuildPlan
 from uros_build.proc import Runner, disk_full_line, disk_full_path, first_error
+from uros_build.shim import pyshim
+from uros_build.sources.wsfiles import write_if_changed
 from uros_build.steps.inputs import (
     CCACHE_STATS,
     ColconSetup,
@@ -36,7 +34,6 @@ from uros_build.steps.inputs import (
     ready_host_stage,
 )
 from uros_build.steps.prepare import DISK_FULL_MARK, drop_removed_packages
-from uros_build.wsfiles import write_if_changed
 
 
 def _record_outside_headers(plan: BuildPlan, runner: Runner, setup: ColconSetup) -> str:

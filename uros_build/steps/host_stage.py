@@ -9,14 +9,16 @@ from collections.abc import Mapping, Sequence
 from contextlib import AbstractContextManager
 from pathlib import Path
 
-from uros_build import __version__, colcon, console, hoststage
-from uros_build import fingerprint as fp
-from uros_build import packages as packages_mod
+from uros_build import __version__, console
+from uros_build.colcon import command as colcon
+from uros_build.colcon import fingerprint as fp
+from uros_build.colcon import hoststage
+from uros_build.colcon.hosttools import HostFacts
+from uros_build.config.plan import BuildPlan
 from uros_build.errors import StepFailed
-from uros_build.hosttools import HostFacts
-from uros_build.plan import BuildPlan
 from uros_build.proc import Runner
-from uros_build.workspace import DEV_MARKER, locked
+from uros_build.sources import packages as packages_mod
+from uros_build.sources.workspace import DEV_MARKER, locked
 
 
 def stage_for(

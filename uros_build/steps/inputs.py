@@ -15,34 +15,31 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import uros_build
-from uros_build import (
-    __version__,
-    colcon,
-    console,
-    gencache,
-    hoststage,
-    hosttools,
-    pyshim,
-)
-from uros_build import fingerprint as fp
-from uros_build import meta as meta_mod
-from uros_build import packages as packages_mod
-from uros_build.buildinfo import (
-    read_build_info,
-)
+from uros_build import __version__, console
+from uros_build.colcon import command as colcon
+from uros_build.colcon import fingerprint as fp
+from uros_build.colcon import hoststage, hosttools
+from uros_build.colcon.hosttools import HostFacts
+from uros_build.config.plan import BuildPlan, ProfileTarget, meta_transport
 from uros_build.errors import (
     ConfigError,
 )
-from uros_build.hosttools import HostFacts
-from uros_build.plan import BuildPlan, ProfileTarget, meta_transport
+from uros_build.output.buildinfo import (
+    read_build_info,
+)
 from uros_build.proc import Runner
+from uros_build.shim import gencache, pyshim
+from uros_build.sources import meta as meta_mod
+from uros_build.sources import packages as packages_mod
+from uros_build.sources.workspace import DEV_MARKER, Workspace
+from uros_build.sources.wsfiles import CONFIG, write_if_changed
 from uros_build.steps import host_stage
 from uros_build.steps.prepare import (
     compiler_identity,
     drop_readers_of_changed_headers,
     forget_configured_flags,
 )
-from uros_build.toolchain import (
+from uros_build.target.toolchain import (
     CLOCK_HEADER_NAME,
     CLOCK_HEADER_TEXT,
     ToolchainRequest,
@@ -50,8 +47,6 @@ from uros_build.toolchain import (
     seed_module_text,
     seeded_toolchain_text,
 )
-from uros_build.workspace import DEV_MARKER, Workspace
-from uros_build.wsfiles import CONFIG, write_if_changed
 
 
 @dataclass(frozen=True)

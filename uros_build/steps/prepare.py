@@ -8,19 +8,16 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from uros_build import (
-    console,
-    depfiles,
-    installtree,
-    swap,
-)
-from uros_build import fingerprint as fp
-from uros_build import packages as packages_mod
-from uros_build.damage import damaged_archives, damaged_configures
-from uros_build.hosttools import HostFacts
-from uros_build.plan import BuildPlan
+from uros_build import console
+from uros_build.colcon import depfiles, installtree
+from uros_build.colcon import fingerprint as fp
+from uros_build.colcon.damage import damaged_archives, damaged_configures
+from uros_build.colcon.hosttools import HostFacts
+from uros_build.config.plan import BuildPlan
+from uros_build.output import swap
 from uros_build.proc import stop_leftovers
-from uros_build.wsfiles import write_if_changed
+from uros_build.sources import packages as packages_mod
+from uros_build.sources.wsfiles import write_if_changed
 
 
 def compiler_identity(facts: HostFacts) -> str:

@@ -15,24 +15,24 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from uros_build import (
-    __version__,
-    abi,
-    clones,
-    colcon,
-    console,
-    contents,
-    export,
-    hosttools,
-    includes,
-    installtree,
-    outputs,
-    swap,
+from uros_build import __version__, console
+from uros_build.colcon import command as colcon
+from uros_build.colcon import fingerprint as fp
+from uros_build.colcon import hosttools, installtree
+from uros_build.colcon.hosttools import HostFacts
+from uros_build.config.plan import BuildPlan, ProfileTarget, meta_transport
+from uros_build.defaults import BUILD_INFO
+from uros_build.errors import (
+    ConfigError,
+    DiskFull,
+    StepFailed,
+    interrupted,
+    written_path,
 )
-from uros_build import fingerprint as fp
-from uros_build.archive import BinTools, MergeReport, merge_archives
-from uros_build.buildinfo import (
-    BUILD_INFO,
+from uros_build.output import contents, export, includes, swap
+from uros_build.output import folders as outputs
+from uros_build.output.archive import MergeReport, merge_archives
+from uros_build.output.buildinfo import (
     BuildInfo,
     Compiler,
     Flags,
@@ -41,28 +41,22 @@ from uros_build.buildinfo import (
     Library,
     read_build_info,
 )
-from uros_build.errors import (
-    ConfigError,
-    DiskFull,
-    StepFailed,
-    interrupted,
-    written_path,
-)
-from uros_build.hosttools import HostFacts
-from uros_build.plan import BuildPlan, ProfileTarget, meta_transport
 from uros_build.proc import Runner
-from uros_build.profiles import TargetProfile
+from uros_build.sources import clones
+from uros_build.sources.workspace import locked
+from uros_build.sources.wsfiles import read_lock
 from uros_build.steps.colcon_run import Compiled
 from uros_build.steps.inputs import ColconSetup, Inputs
-from uros_build.toolchain import (
+from uros_build.target import abi
+from uros_build.target.profiles import TargetProfile
+from uros_build.target.toolchain import (
     CLOCK_HEADER_NAME,
     ToolchainRequest,
     microros_flags,
     render_toolchain,
     tool_paths,
 )
-from uros_build.workspace import locked
-from uros_build.wsfiles import read_lock
+from uros_build.target.toolsearch import BinTools
 
 
 @dataclass(frozen=True)

@@ -3,9 +3,10 @@ and target facts, the extra packages and the dev workspace (built once, shared b
 
 from __future__ import annotations
 
-from uros_build import console, hosttools
-from uros_build.hosttools import HostFacts
-from uros_build.plan import BuildPlan
+from uros_build import console
+from uros_build.colcon import hosttools
+from uros_build.colcon.hosttools import HostFacts
+from uros_build.config.plan import BuildPlan
 from uros_build.proc import Runner
 
 

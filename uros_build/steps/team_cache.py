@@ -8,27 +8,25 @@ import dataclasses
 import hashlib
 from pathlib import Path
 
-from uros_build import (
-    abi,
-    console,
-    depfiles,
-    outputs,
-    swap,
-)
-from uros_build import cache as cache_mod
-from uros_build import fingerprint as fp
-from uros_build.buildinfo import (
-    BuildInfo,
-    read_build_info,
-)
-from uros_build.cache import CacheSettings, CacheUnusable
+from uros_build import console
+from uros_build.colcon import depfiles
+from uros_build.colcon import fingerprint as fp
+from uros_build.config.plan import BuildPlan
 from uros_build.errors import (
     ConfigError,
     VerifyError,
 )
-from uros_build.plan import BuildPlan
+from uros_build.output import folders as outputs
+from uros_build.output import swap
+from uros_build.output import team_cache as cache_mod
+from uros_build.output.buildinfo import (
+    BuildInfo,
+    read_build_info,
+)
+from uros_build.output.team_cache import CacheSettings, CacheUnusable
 from uros_build.proc import Runner
 from uros_build.steps.stage import Staged
+from uros_build.target import abi
 
 
 def _from_cache(runner: Runner, plan: BuildPlan, settings: CacheSettings, key: str) -> Staged | None:

@@ -10,7 +10,7 @@ from dataclasses import astuple, dataclass
 
 from uros_build import loader, resources
 from uros_build.errors import ConfigError, did_you_mean
-from uros_build.meta import split_set
+from uros_build.sources.meta import split_set
 
 TYPES = ("int", "bool", "string")
 _BOOLS = ("ON", "OFF", "TRUE", "FALSE", "1", "0", "YES", "NO")

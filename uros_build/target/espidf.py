@@ -38,7 +38,7 @@ from pathlib import Path
 from typing import Any
 
 from uros_build import loader
-from uros_build.buildinfo import BUILD_INFO
+from uros_build.defaults import BUILD_INFO
 from uros_build.errors import ConfigError
 
 DESCRIPTION = "project_description.json"

@@ -10,7 +10,8 @@ import shutil
 from pathlib import Path
 
 from uros_build import __version__, templating
-from uros_build.buildinfo import BUILD_INFO, BuildInfo
+from uros_build.defaults import BUILD_INFO
+from uros_build.output.buildinfo import BuildInfo
 
 CMAKE_FILES = ("microrosConfig.cmake", "microrosConfigVersion.cmake", "microros.cmake")
 ESP_IDF_COMPONENT_FILE = "CMakeLists.txt"

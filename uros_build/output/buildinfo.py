@@ -14,9 +14,9 @@ from pathlib import Path
 from typing import Any
 
 from uros_build import loader
+from uros_build.defaults import BUILD_INFO
 from uros_build.errors import ConfigError
 
-BUILD_INFO = "build-info.json"
 # Written into every output uros creates: how the output guard tells a uros output from a user's
 # folder that merely holds a file called build-info.json.
 GENERATOR = "uros"

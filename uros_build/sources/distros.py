@@ -15,8 +15,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from uros_build import loader, meta, resources
+from uros_build import loader, resources
 from uros_build.errors import ConfigError, did_you_mean
+from uros_build.sources import meta
 
 _DISTRO_KEYS = {"name", "status", "preset", "colcon_ignore", "dev_colcon_ignore", "build_time_clones"}
 # built-here: built end to end by uros's authors (the distro.yaml says where it is recorded);

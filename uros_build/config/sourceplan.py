@@ -11,18 +11,26 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from uros_build import defaults, loader
-from uros_build import distros as distros_mod
-from uros_build.distros import Distro, Mirror, Source
+from uros_build.config.settings import (
+    resolve_workspace,
+)
 from uros_build.errors import ConfigError
-from uros_build.profiles import (
+from uros_build.sources import distros as distros_mod
+from uros_build.sources.distros import Distro, Mirror, Source
+from uros_build.sources.workspace import PENDING, Workspace, check_build_folder, check_extra_package
+from uros_build.sources.wsfiles import (
+    CONFIG,
+    LOCK,
+    Lock,
+    WorkspaceConfig,
+    load_config,
+    parse_config,
+    read_lock,
+)
+from uros_build.target.profiles import (
     TargetProfile,
     find_profile,
 )
-from uros_build.settings import (
-    resolve_workspace,
-)
-from uros_build.workspace import PENDING, Workspace, check_build_folder, check_extra_package
-from uros_build.wsfiles import CONFIG, LOCK, Lock, WorkspaceConfig, load_config, parse_config, read_lock
 
 # ---------------------------------------------------------------------------------------------
 # uros create-firmware

@@ -12,7 +12,7 @@ import re
 from collections.abc import Mapping
 from pathlib import Path
 
-from uros_build.meta import Meta
+from uros_build.sources.meta import Meta
 
 INTERFACE_KINDS = ("msg", "srv", "action")
 

@@ -16,18 +16,21 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from uros_build import abi, colcon, console, fingerprint, toolsearch
-from uros_build import distros as distros_mod
-from uros_build import packages as packages_mod
-from uros_build.archive import BinTools
-from uros_build.distros import Distro
+from uros_build import console
+from uros_build.colcon import command as colcon
+from uros_build.colcon import fingerprint
 from uros_build.errors import MissingToolError, StepFailed, UrosError
-from uros_build.packages import PackageInfo
 from uros_build.proc import Runner
-from uros_build.profiles import TargetProfile
-from uros_build.toolchain import tool_paths
-from uros_build.workspace import Workspace, dev_env
-from uros_build.wsfiles import WorkspaceConfig
+from uros_build.sources import distros as distros_mod
+from uros_build.sources import packages as packages_mod
+from uros_build.sources.distros import Distro
+from uros_build.sources.packages import PackageInfo
+from uros_build.sources.workspace import Workspace, dev_env
+from uros_build.sources.wsfiles import WorkspaceConfig
+from uros_build.target import abi, toolsearch
+from uros_build.target.profiles import TargetProfile
+from uros_build.target.toolchain import tool_paths
+from uros_build.target.toolsearch import BinTools
 
 
 @dataclass(frozen=True)

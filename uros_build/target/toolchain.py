@@ -7,8 +7,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from uros_build import __version__, templating
-from uros_build.espidf import IdfProject
-from uros_build.profiles import TargetProfile
+from uros_build.target.espidf import IdfProject
+from uros_build.target.profiles import TargetProfile
 
 CLOCK_HEADER_NAME = "uros_clock_gettime.h"
 

@@ -31,7 +31,7 @@ import filelock
 
 from uros_build import console, proc
 from uros_build.errors import ConfigError
-from uros_build.wsfiles import CONFIG, EXTRA, LOCK, WorkspaceConfig, load_config
+from uros_build.sources.wsfiles import CONFIG, EXTRA, LOCK, WorkspaceConfig, load_config
 
 USER_META = "colcon.meta"
 # written by create-firmware before it clones (a lock without commits), removed when it is done: a

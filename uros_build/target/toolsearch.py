@@ -14,9 +14,19 @@ import json
 import os
 import re
 from collections.abc import Mapping
+from dataclasses import dataclass
 from pathlib import Path
 
-from uros_build.profiles import TargetProfile
+from uros_build.target.profiles import TargetProfile
+
+
+@dataclass(frozen=True)
+class BinTools:
+    """The target's binutils (as the toolchain names them): what merges and reads its archives."""
+
+    ar: str
+    ranlib: str
+    nm: str
 
 
 def search_roots(env: Mapping[str, str], home: Path) -> dict[str, str | None]:

@@ -27,8 +27,8 @@ from typing import Generic, TypeVar
 
 from uros_build import defaults
 from uros_build.errors import ConfigError
-from uros_build.workspace import Workspace
-from uros_build.wsfiles import CONFIG, WorkspaceConfig, find_workspace, load_config
+from uros_build.sources.workspace import Workspace
+from uros_build.sources.wsfiles import CONFIG, WorkspaceConfig, find_workspace, load_config
 
 T = TypeVar("T")
 

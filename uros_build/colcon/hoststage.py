@@ -25,10 +25,11 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from uros_build import fingerprint as fp
-from uros_build import installtree, loader, resources
+from uros_build import loader, resources
+from uros_build.colcon import fingerprint as fp
+from uros_build.colcon import installtree
 from uros_build.errors import ConfigError
-from uros_build.packages import PackageInfo
+from uros_build.sources.packages import PackageInfo
 
 SWITCH = "UROS_HOST_STAGE"  # "off": every package is configured and installed for each target
 FORMAT = "1"

@@ -12,34 +12,36 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-from uros_build import cache as cache_mod
-from uros_build import defaults, espidf, firmware_scan
-from uros_build import distros as distros_mod
-from uros_build import meta as meta_mod
-from uros_build import options as options_mod
-from uros_build import packages as packages_mod
-from uros_build.cache import CacheSettings
-from uros_build.distros import Distro
-from uros_build.errors import ConfigError, did_you_mean
-from uros_build.espidf import IdfProject
-from uros_build.outputs import check_output_dir, check_output_owner, is_uros_output, target_keys
-from uros_build.packages import PackageInfo
-from uros_build.profiles import (
-    TargetProfile,
-    derive_profile,
-    find_profile,
-    load_profile_file,
-    shipped_profiles,
-)
-from uros_build.settings import (
+from uros_build import defaults
+from uros_build.config.settings import (
     BuildArgs,
     Chosen,
     build_settings,
     open_workspace,
     resolve_workspace,
 )
-from uros_build.workspace import Workspace, check_folder_target, target_key
-from uros_build.wsfiles import CONFIG, WorkspaceConfig, load_config
+from uros_build.errors import ConfigError, did_you_mean
+from uros_build.output import team_cache as cache_mod
+from uros_build.output.folders import check_output_dir, check_output_owner, is_uros_output, target_keys
+from uros_build.output.team_cache import CacheSettings
+from uros_build.sources import distros as distros_mod
+from uros_build.sources import firmware_scan
+from uros_build.sources import meta as meta_mod
+from uros_build.sources import options as options_mod
+from uros_build.sources import packages as packages_mod
+from uros_build.sources.distros import Distro
+from uros_build.sources.packages import PackageInfo
+from uros_build.sources.workspace import Workspace, check_folder_target, target_key
+from uros_build.sources.wsfiles import CONFIG, WorkspaceConfig, load_config
+from uros_build.target import espidf
+from uros_build.target.espidf import IdfProject
+from uros_build.target.profiles import (
+    TargetProfile,
+    derive_profile,
+    find_profile,
+    load_profile_file,
+    shipped_profiles,
+)
 
 # ---------------------------------------------------------------------------------------------
 # the workspace: one default for every command

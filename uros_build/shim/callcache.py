@@ -30,13 +30,13 @@ import hashlib
 import os
 import sys
 
-from uros_build import gencache
+from uros_build.shim import gencache
 
 TYPE_CHECKING = False
 if TYPE_CHECKING:
     from collections.abc import Iterable, Mapping, Sequence
 
-    from uros_build.gencache import StrPath
+    from uros_build.shim.gencache import StrPath
 
 FORMAT = 3  # 3: keys and manifests without JSON, the adapter's .msg files in the manifest
 ADAPTER_FLAGS = {"--package-name", "--arguments-file", "--output-dir", "--output-file"}
@@ -203,7 +203,8 @@ def _module_files() -> list[str]:
     paths = sysconfig.get_paths()
     stdlib = _folders([paths["stdlib"], paths["platstdlib"]])
     installed = _folders([paths["purelib"], paths["platlib"], *site.getsitepackages()])
-    own = _folders([os.path.dirname(os.path.abspath(__file__))])
+    # uros_build as a whole (this file sits in uros_build/shim/): the package, not only this folder
+    own = _folders([os.path.dirname(os.path.dirname(os.path.abspath(__file__)))])
     files = set()
     for module in list(sys.modules.values()):
         path = getattr(module, "__file__", None)

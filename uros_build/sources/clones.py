@@ -9,10 +9,10 @@ import shutil
 from collections.abc import Iterable
 from pathlib import Path
 
-from uros_build.distros import Source
 from uros_build.errors import ConfigError
 from uros_build.proc import Runner
-from uros_build.wsfiles import LOCK, Lock, clone_state
+from uros_build.sources.distros import Source
+from uros_build.sources.wsfiles import LOCK, Lock, clone_state
 
 # git's own advice ("You are in 'detached HEAD' state...") is noise for clones uros pins
 _QUIET = ("-c", "advice.detachedHead=false")

@@ -24,7 +24,7 @@ from typing import Any
 
 from uros_build import __version__, console, proc
 from uros_build.errors import StepFailed, interrupted
-from uros_build.outputs import (
+from uros_build.output.folders import (
     JOURNAL,
     TEMP_INSIDE,
     entries,

@@ -22,7 +22,7 @@ from typing import Any
 
 from uros_build.errors import VerifyError
 from uros_build.proc import Runner
-from uros_build.profiles import ElfFacts, TargetProfile, shipped_profiles
+from uros_build.target.profiles import ElfFacts, TargetProfile, shipped_profiles
 
 READELF = "readelf"
 READELF_HINT = "install GNU binutils (it reads every target's objects): apt-get install binutils"

@@ -23,7 +23,7 @@ from __future__ import annotations
 import os
 import sys
 
-from uros_build import callcache, gencache
+from uros_build.shim import callcache, gencache
 
 TYPE_CHECKING = False
 if TYPE_CHECKING:
@@ -101,7 +101,7 @@ def answers_argv(python: str, code_dir: Path) -> list[str]:
     """The command line that runs :func:`print_answers` with ``python``."""
     entry = (
         f"import sys; sys.path.append({str(code_dir)!r}); "
-        "from uros_build.pyshim import print_answers; print_answers()"
+        "from uros_build.shim.pyshim import print_answers; print_answers()"
     )
     return [python, "-c", entry]
 
@@ -139,7 +139,7 @@ def shim_text(
     q = shlex.quote
     entry = (
         f"import sys; sys.path.append({str(code_dir)!r}); "
-        "from uros_build.pyshim import main; sys.exit(main(sys.argv[1:]))"
+        "from uros_build.shim.pyshim import main; sys.exit(main(sys.argv[1:]))"
     )
     import json
 
@@ -176,7 +176,7 @@ def shim_text(
             "#!/bin/sh",
             f"# Written by {written_by}: the Python of this target's CMake builds. rosidl generator",
             "# runs and ament's and rosidl_adapter's configure calls go through uros's caches",
-            "# (uros_build/pyshim.py); FindPython's questions about the interpreter itself are",
+            "# (uros_build/shim/pyshim.py); FindPython's questions about the interpreter itself are",
             "# answered with what it answered once for this build; all else is the real Python.",
             *answered,
             f'if [ "$2" = {gencache.ARGUMENTS_FLAG} ] && [ -n "$3" ]; then',

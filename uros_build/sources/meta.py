@@ -14,7 +14,7 @@ from typing import Any
 
 from uros_build import __version__, defaults, loader, resources
 from uros_build.errors import ConfigError, did_you_mean
-from uros_build.profiles import TargetProfile
+from uros_build.target.profiles import TargetProfile
 
 MetaValue = tuple[str, ...] | str | bool | int | float
 _LIST_KEYS_MERGED_BY_DEFINE = ("cmake-args",)

@@ -7,7 +7,7 @@ word (12 of 1,093 in a real Humble build). Here every member, each instance of a
 too, is given a unique name, and the result is checked: the same number of members and the same
 multiset of defined global symbols as all inputs together.
 
-Plan, then execute (as in :mod:`uros_build.abi`): :func:`parse_ar` reads an archive's members
+Plan, then execute (as in :mod:`uros_build.target.abi`): :func:`parse_ar` reads an archive's members
 (what ``ar t`` lists and what ``ar x`` writes, from the file itself), :func:`parse_defined_globals`
 reads ``nm`` text, :func:`plan_merge` decides every output name, :func:`verify_merge` compares
 inputs with the output; all are pure. Only :func:`merge_archives` runs commands, and few of them:
@@ -29,13 +29,7 @@ from typing import BinaryIO
 
 from uros_build.errors import VerifyError
 from uros_build.proc import Runner
-
-
-@dataclass(frozen=True)
-class BinTools:
-    ar: str
-    ranlib: str
-    nm: str
+from uros_build.target.toolsearch import BinTools
 
 
 @dataclass(frozen=True)

@@ -16,11 +16,11 @@ from typing import Any
 import yaml
 
 from uros_build import __version__, defaults, loader
-from uros_build import distros as distros_mod
-from uros_build.distros import Mirror, Source
 from uros_build.errors import ConfigError, did_you_mean
-from uros_build.meta import split_set
-from uros_build.profiles import TRANSPORTS
+from uros_build.sources import distros as distros_mod
+from uros_build.sources.distros import Mirror, Source
+from uros_build.sources.meta import split_set
+from uros_build.target.profiles import TRANSPORTS
 
 CONFIG = defaults.WORKSPACE_MARKER  # "uros.yaml"
 LOCK = "uros.lock"

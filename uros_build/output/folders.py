@@ -20,10 +20,11 @@ from collections.abc import Collection
 from pathlib import Path
 
 from uros_build import __version__
-from uros_build.buildinfo import BUILD_INFO, parse_build_info
+from uros_build.colcon.fingerprint import file_sha256
+from uros_build.defaults import BUILD_INFO
 from uros_build.errors import ConfigError
-from uros_build.fingerprint import file_sha256
-from uros_build.workspace import Workspace, nearest_existing
+from uros_build.output.buildinfo import parse_build_info
+from uros_build.sources.workspace import Workspace, nearest_existing
 
 MARKER = ".uros-output"
 JOURNAL = ".uros-swap"  # a swap of the entries inside an output folder (swap.py)
