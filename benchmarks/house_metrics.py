@@ -85,6 +85,14 @@ if __name__ == "__main__":
 
         ws = make_fixture_workspace(args.fixture)
         args.build = True
-        args.argv = ["build", "--toolchain", "cortex-m7", "--workspace", str(ws), "--meta", str(ws / "fixture.meta")]
+        args.argv = [
+            "build",
+            "--toolchain",
+            "cortex-m7",
+            "--workspace",
+            str(ws),
+            "--meta",
+            str(ws / "fixture.meta"),
+        ]
     if args.build:
         trip(args.argv)
