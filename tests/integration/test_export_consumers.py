@@ -54,35 +54,94 @@ def test_a_make_firmware_links(exported: Path, tmp_path: Path) -> None:
     assert "MICROROS_TARGET := cortex-m7\n" in text and "-mfloat-abi=hard" in text
 
 
+def _pkg_config(folder: Path, *args: str) -> list[str]:
+    env = {**os.environ, "PKG_CONFIG_PATH": str(folder)}
+    out = subprocess.run(
+        ["pkg-config", *args, "microros"], capture_output=True, text=True, env=env, check=True
+    )
+    return shlex.split(out.stdout)
+
+
+_M7 = ["-mcpu=cortex-m7", "-mthumb", "-mfpu=fpv5-d16", "-mfloat-abi=hard"]
+_M4F = ["-mcpu=cortex-m4", "-mthumb", "-mfpu=fpv4-sp-d16", "-mfloat-abi=hard"]
+
+
 def test_pkg_config_answers_what_links(exported: Path, tmp_path: Path) -> None:
+    """Issue 34, item 6: `$(pkg-config --cflags --libs microros)` alone links (the CPU flags were only
+    in a variable, and the link failed "uses VFP register arguments")."""
     need("pkg-config", "arm-none-eabi-gcc")
-    env = {**os.environ, "PKG_CONFIG_PATH": str(exported)}
-
-    def ask(*args: str) -> list[str]:
-        out = subprocess.run(
-            ["pkg-config", *args, "microros"], capture_output=True, text=True, env=env, check=True
-        )
-        return shlex.split(out.stdout)
-
-    cflags, libs, cpu = ask("--cflags"), ask("--libs"), ask("--variable=cpu_flags")
-    assert cflags == [f"-I{exported}/include"] and libs == [f"{exported}/libmicroros.a"]
-    assert cpu == ["-mcpu=cortex-m7", "-mthumb", "-mfpu=fpv5-d16", "-mfloat-abi=hard"]
+    cflags, libs = _pkg_config(exported, "--cflags"), _pkg_config(exported, "--libs")
+    assert cflags == [*_M7, f"-I{exported}/include"] and libs == [*_M7, f"{exported}/libmicroros.a"]
+    assert _pkg_config(exported, "--variable=cpu_flags") == _M7
     (tmp_path / "main.c").write_text(_MAIN)
     elf = tmp_path / "app.elf"
-    subprocess.run(
-        [
-            "arm-none-eabi-gcc",
-            *cpu,
-            *cflags,
-            str(tmp_path / "main.c"),
-            *libs,
-            "--specs=nosys.specs",
-            "-o",
-            str(elf),
-        ],
-        check=True,
-    )
+    both = _pkg_config(exported, "--cflags", "--libs")
+    argv = ["arm-none-eabi-gcc", str(tmp_path / "main.c"), *both, "--specs=nosys.specs", "-o", str(elf)]
+    subprocess.run(argv, check=True)
     _calls_the_library(elf)
+    assert run_uros("check", str(elf), "--toolchain", "cortex-m7").returncode == 0
+
+
+def test_uros_check_catches_a_firmware_for_another_core(exported: Path, tmp_path: Path) -> None:
+    """Issue 34, item 6: an M4F firmware compiled with its own flags links the M7 library without a
+    word from GNU ld; `uros check app.elf --toolchain cortex-m4f` is the guard (exit 5)."""
+    need("arm-none-eabi-gcc")
+    (tmp_path / "main.c").write_text(_MAIN)
+    elf = tmp_path / "m4f.elf"
+    include, library = f"-I{exported}/include", str(exported / "libmicroros.a")
+    argv = ["arm-none-eabi-gcc", *_M4F, include, str(tmp_path / "main.c"), library, "--specs=nosys.specs"]
+    subprocess.run([*argv, "-o", str(elf)], check=True)  # links: ld says nothing
+    proc = run_uros("check", str(elf), "--toolchain", "cortex-m4f", check=False)
+    assert proc.returncode == 5, proc.stderr
+    assert "Tag_FP_arch is FPv5/FP-D16 for ARMv8, cortex-m4f expects VFPv4-D16" in proc.stderr
+
+
+_FIRMWARE_TOOLCHAIN = """set(CMAKE_SYSTEM_NAME Generic)
+set(CMAKE_SYSTEM_PROCESSOR arm)
+set(CMAKE_C_COMPILER arm-none-eabi-gcc)
+set(CMAKE_TRY_COMPILE_TARGET_TYPE STATIC_LIBRARY)
+set(CMAKE_C_FLAGS_INIT "{flags}")
+set(CMAKE_EXE_LINKER_FLAGS_INIT "--specs=nosys.specs")
+"""
+
+
+@pytest.mark.parametrize("how", ["toolchain", "add_compile_options"])
+def test_the_cmake_package_refuses_a_firmware_for_another_core(
+    m7_build: Path, tmp_path: Path, how: str
+) -> None:
+    """Issue 34, item 6: find_package(microros) of the M7 library in an M4F firmware stops at
+    configure time with one line naming the flag (it linked silently); the M7 firmware links."""
+    need("cmake", "ninja", "arm-none-eabi-gcc")
+    out = m7_build / "build" / "cortex-m7"
+    for core, flags in (("m4f", _M4F), ("m7", _M7)):
+        proj = tmp_path / core
+        proj.mkdir()
+        (proj / "main.c").write_text(_MAIN)
+        in_toolchain, options = (" ".join(flags), "") if how == "toolchain" else ("-mthumb", " ".join(flags))
+        (proj / "tc.cmake").write_text(_FIRMWARE_TOOLCHAIN.format(flags=in_toolchain))
+        (proj / "CMakeLists.txt").write_text(
+            "cmake_minimum_required(VERSION 3.16)\nproject(app C)\n"
+            + (f"add_compile_options({options})\n" if options else "")
+            + "find_package(microros CONFIG REQUIRED)\n"
+            "add_executable(app main.c)\ntarget_link_libraries(app PRIVATE microros::microros)\n"
+            + (f"target_link_options(app PRIVATE {options})\n" if options else "")
+        )
+        configure = subprocess.run(
+            ["cmake", "-S", str(proj), "-B", str(proj / "b"), "-G", "Ninja",
+             f"-DCMAKE_TOOLCHAIN_FILE={proj / 'tc.cmake'}", f"-DCMAKE_PREFIX_PATH={out}"],
+            capture_output=True, text=True,
+        )  # fmt: skip
+        if core == "m4f":
+            assert configure.returncode != 0
+            assert (
+                f"microros: {out}/libmicroros.a is built for cortex-m7 (-mcpu=cortex-m7), this firmware "
+                "compiles C with -mcpu=cortex-m4: build micro-ROS for this core"
+                in " ".join(configure.stderr.split())
+            ), configure.stderr  # CMake wraps the one message line
+        else:
+            assert configure.returncode == 0, configure.stderr
+            subprocess.run(["cmake", "--build", str(proj / "b")], check=True, capture_output=True)
+            _calls_the_library(proj / "b" / "app")
 
 
 def test_a_meson_cross_build_finds_the_dependency(exported: Path, tmp_path: Path) -> None:

@@ -117,3 +117,19 @@ def test_the_zephyr_module_follows_zephyrs_module_file_rules() -> None:
     )
     assert "if(CONFIG_MICRO_ROS_UROS)" in files["CMakeLists.txt"]
     assert files["Kconfig"].splitlines()[1] == "config MICRO_ROS_UROS"
+
+
+def test_the_cmake_package_names_the_librarys_abi_flags() -> None:
+    """The configure-time guard compares these with the firmware's flags (issue 34, item 6)."""
+    from cmake_text import set_values
+
+    from uros_build.output import export as ex
+
+    m7 = ("-mcpu=cortex-m7", "-mthumb", "-mfpu=fpv5-d16", "-mfloat-abi=hard")
+    assert ex.abi_flags(m7) == {"mcpu": "cortex-m7", "mfpu": "fpv5-d16", "mfloat-abi": "hard", "mabi": ""}
+    assert (
+        ex.abi_flags(("-march=rv32imc", "-mabi=ilp32", "-mabi=ilp32e"))["mabi"] == "ilp32e"
+    )  # GCC: last wins
+    values = set_values(ex.cmake_package_files("cortex-m7", m7)["microros.cmake"])
+    assert values["_microros_want_mcpu"] == "cortex-m7" and values["_microros_want_mfloat-abi"] == "hard"
+    assert values["_microros_want_mabi"] == ""

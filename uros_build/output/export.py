@@ -17,12 +17,27 @@ CMAKE_FILES = ("microrosConfig.cmake", "microrosConfigVersion.cmake", "microros.
 ESP_IDF_COMPONENT_FILE = "CMakeLists.txt"
 
 
+ABI_FLAGS = ("mcpu", "mfpu", "mfloat-abi", "mabi")
+
+
+def abi_flags(cpu_flags: tuple[str, ...]) -> dict[str, str]:
+    """-mcpu/-mfpu/-mfloat-abi/-mabi -> the value the library was built with ('' when it names
+    none; the last one wins, as with GCC) (pure)."""
+    found = dict.fromkeys(ABI_FLAGS, "")
+    for flag in cpu_flags:
+        name, sep, value = flag[1:].partition("=")
+        if flag.startswith("-") and sep and name in found:
+            found[name] = value
+    return found
+
+
 def cmake_package_files(target: str, cpu_flags: tuple[str, ...]) -> dict[str, str]:
     """File name -> text of the CMake package (pure)."""
     ctx = {
         "version": __version__,
         "target": target,
         "cpu_flags": list(cpu_flags),
+        "abi": abi_flags(cpu_flags),
         "package_version": __version__,
     }
     return {name: templating.render(f"{name}.j2", **ctx) for name in CMAKE_FILES}
