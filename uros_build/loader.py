@@ -35,8 +35,25 @@ class LineDict(dict[Any, Any]):
     key_lines: dict[str, int]
 
 
+class DuplicateKey(yaml.MarkedYAMLError):
+    """A key given twice in one mapping: YAML's own rule (keys are unique), which PyYAML does not
+    enforce (https://github.com/yaml/pyyaml/issues/165): the last one would silently win."""
+
+    def __init__(self, key: str, first: int, mark: yaml.Mark) -> None:
+        super().__init__(problem=f"{key}: given twice (first on line {first})", problem_mark=mark)
+        self.key = key
+
+
 class _LineLoader(yaml.SafeLoader):
     def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict[Any, Any]:
+        seen: dict[tuple[str, str], int] = {}
+        for key_node, _value in node.value:
+            # a merge key (<<) may bring keys that the mapping itself then overrides: YAML allows that
+            if isinstance(key_node, yaml.ScalarNode) and key_node.tag != "tag:yaml.org,2002:merge":
+                ident = (key_node.tag, key_node.value)
+                if ident in seen:
+                    raise DuplicateKey(str(key_node.value), seen[ident], key_node.start_mark)
+                seen[ident] = key_node.start_mark.line + 1
         out = LineDict()
         out.update(super().construct_mapping(node, deep=deep))
         out.key_lines = {str(k.value): k.start_mark.line + 1 for k, _v in node.value}
@@ -51,6 +68,13 @@ def load_yaml(path: Path, flag: str = "", hint: str | None = None) -> Any:
     text = read_text(path, flag, hint)
     try:
         return yaml.load(text, Loader=_LineLoader)  # a SafeLoader: plain data types only
+    except DuplicateKey as exc:
+        prefix = f"{flag} " if flag else ""
+        line = exc.problem_mark.line + 1 if exc.problem_mark is not None else 0
+        raise ConfigError(
+            f"{prefix}{path}:{line}: {exc.problem}",
+            f"keep one {exc.key}: (YAML would use only the last, silently)",
+        ) from None
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f":{mark.line + 1}:{mark.column + 1}" if mark is not None else ""

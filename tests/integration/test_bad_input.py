@@ -69,6 +69,19 @@ def _msg(text: bytes | str, name: str = "Wheel.msg") -> Setup:
     return setup
 
 
+def _profile(extra: str) -> Setup:
+    def setup(tmp: Path) -> list[str]:
+        board = _file(
+            tmp,
+            "board.yaml",
+            "name: board\ndescription: a board\ncompiler_prefix: arm-none-eabi-\nsystem_processor: arm\n"
+            "cpu_flags: [-mcpu=cortex-m4, -mthumb]\nelf: {machine: ARM}\n" + extra,
+        )
+        return ["build", "--profile", str(board), "--workspace", str(_ws(tmp))]
+
+    return setup
+
+
 def _a_file(tmp: Path) -> Path:
     return _file(tmp, "notes.txt", "mine\n")
 
@@ -196,6 +209,69 @@ CASES: dict[str, tuple[Setup, int, str]] = {
         _broken_package_xml,
         2,
         "fx_dup/package.xml: not a valid package.xml (no element found: line 1",
+    ),
+    # round 3's small items (issue 34, 7): each was accepted without a word (or failed deep in CMake)
+    "uros.yaml a key given twice": (
+        _uros_yaml("distro: humble\ntarget: cortex-m7\ntransport: udp\ntarget: rp2040\n"),
+        2,
+        "uros.yaml:4: target: given twice (first on line 2)",
+    ),
+    "--profile a key given twice": (
+        _profile("optimization: -O2\noptimization: -Os\n"),
+        2,
+        "board.yaml:8: optimization: given twice (first on line 7)",
+    ),
+    "--profile c_standard 12": (
+        _profile("c_standard: 12\n"),
+        2,
+        "board.yaml: c_standard: 12 is not one of CMake's: 90, 99, 11, 17, 23",
+    ),
+    "--profile optimization -O4": (
+        _profile("optimization: -O4\n"),
+        2,
+        "board.yaml: optimization: '-O4' is not one of GCC's levels",
+    ),
+    "--profile a define with a space": (
+        _profile("defines: [FOO BAR]\n"),
+        2,
+        "board.yaml: defines: 'FOO BAR' is not a define: NAME or NAME=VALUE",
+    ),
+    "--meta cmake-argz": (
+        lambda tmp: _build(
+            tmp, "--meta", str(_file(tmp, "z.meta", '{"names": {"fx_time": {"cmake-argz": ["-DA=1"]}}}'))
+        ),
+        2,
+        "z.meta: names.fx_time.cmake-argz: unknown key (colcon would ignore it) (did you mean cmake-args",
+    ),
+    ".msg a field twice": (
+        _msg("int32 rpm\nfloat32 torque\nint32 rpm\n"),
+        2,
+        "Wheel.msg:3: field 'rpm' is already defined on line 1",
+    ),
+    ".msg a string left open": (
+        _msg('string name "left # the left wheel\n'),
+        2,
+        "Wheel.msg:1: default value '\"left': the string is not closed",
+    ),
+    "uros.yaml set: a word for a count": (
+        _uros_yaml("distro: humble\nset: [rmw_microxrcedds.RMW_UXRCE_MAX_NODES=many]\n"),
+        2,
+        "uros.yaml: set: rmw_microxrcedds.RMW_UXRCE_MAX_NODES=many: RMW_UXRCE_MAX_NODES must be a whole number",
+    ),
+    "--set a negative count": (
+        lambda tmp: _build(tmp, "--set", "rmw_microxrcedds.RMW_UXRCE_MAX_NODES=-1"),
+        2,
+        "--set rmw_microxrcedds.RMW_UXRCE_MAX_NODES=-1: RMW_UXRCE_MAX_NODES must be 0 or more, got -1",
+    ),
+    "--set an option name with a space": (
+        lambda tmp: _build(tmp, "--set", "fx_core.FOO BAR=1"),
+        2,
+        "--set 'fx_core.FOO BAR=1': 'FOO BAR' is not a CMake option name",
+    ),
+    "interface new the same .msg twice": (
+        lambda tmp: [*_msg("int32 rpm\n")(tmp), "--msg", str(tmp / "Wheel.msg")],
+        2,
+        "Wheel.msg: a second Wheel.msg (the first: --msg ",
     ),
 }
 

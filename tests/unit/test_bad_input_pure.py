@@ -9,14 +9,14 @@ from pathlib import Path
 import pytest
 
 from uros_build.colcon import command as colcon
-from uros_build.config.plan import unknown_packages
+from uros_build.config.plan import set_origins, unknown_packages
 from uros_build.errors import ConfigError
 from uros_build.output.buildinfo import parse_build_info
 from uros_build.proc import first_error
 from uros_build.sources import interfaces, packages
 from uros_build.sources.meta import Meta, parse_meta
 from uros_build.sources.workspace import check_file_target, check_folder_target
-from uros_build.sources.wsfiles import parse_config
+from uros_build.sources.wsfiles import WorkspaceConfig, parse_config
 
 
 def test_a_cmake_error_carries_its_message() -> None:
@@ -69,6 +69,13 @@ def test_set_and_meta_entries_naming_no_package() -> None:
         "--meta my.meta: names.fx_tme: no package fx_tme in the workspace (closest: fx_time, fx_core)",
         "--set fx_cor.X=1: no package fx_cor in the workspace (closest: fx_core)",
         "--set zzz.Q=1: no package zzz in the workspace",
+    ]
+    cfg = WorkspaceConfig(distro="humble", set=("zzz.Q=1", "rcl.Y=2", "fx_cor.X=1"))
+    origins = set_origins(cfg, Path("/w"), ("fx_cor.X=1",))  # also on the command line: --set
+    assert origins == {"zzz.Q=1": "/w/uros.yaml: set:", "rcl.Y=2": "/w/uros.yaml: set:"}
+    assert unknown_packages([], ("zzz.Q=1", "fx_cor.X=1"), names, origins) == [
+        "/w/uros.yaml: set: zzz.Q=1: no package zzz in the workspace",
+        "--set fx_cor.X=1: no package fx_cor in the workspace (closest: fx_core)",
     ]
 
 

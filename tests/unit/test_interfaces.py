@@ -54,6 +54,18 @@ def test_dependencies_become_depends(tmp_path: Path) -> None:
         ("Bad.msg", "int32 a 3.5\n", r"Bad.msg:1: default value '3.5' is not an integer for type int32"),
         ("Bad.msg", "uint8 a 256\n", r"default value '256' is outside 0..255"),
         ("Bad.msg", "float32 a x\n", r"is not a number"),
+        # round 3 (issue 34, 7): rosidl refused these deep in CMake, or kept a stray quote
+        ("Bad.msg", "int32 a\nint32 b\nfloat32 a\n", r"Bad.msg:3: field 'a' is already defined on line 1"),
+        ("Bad.msg", "int32 A=1\nint32 A=2\n", r"Bad.msg:2: constant 'A' is already defined on line 1"),
+        ("Bad.srv", "int32 a\nint32 a\n---\nint32 r\n", r"Bad.srv:2: field 'a' is already defined on line 1"),
+        ("Bad.msg", 'string name "left\n', r"Bad.msg:1: default value '\"left': the string is not closed"),
+        ("Bad.msg", "string name 'a # b'\n", r"Bad.msg:1: default value \"'a\": the string is not closed"),
+        ("Bad.msg", 'string S = "x\n', r"Bad.msg:1: constant value '\"x': the string is not closed"),
+        (
+            "Bad.msg",
+            'string s "a"b"\n',
+            r"Bad.msg:1: default value '\"a\"b\"': a \" inside the string is not",
+        ),
     ],
 )
 def test_bad_interface_files(tmp_path: Path, name: str, text: str, expected: str) -> None:
@@ -65,3 +77,20 @@ def test_bad_interface_files(tmp_path: Path, name: str, text: str, expected: str
 def test_bad_package_name() -> None:
     with pytest.raises(ConfigError, match="not a valid package name"):
         interfaces.package_files("MyMsgs", [interfaces.InterfaceFile("msg", "A", "int32 a\n", ())])
+
+
+def test_a_request_and_its_response_may_share_a_name(tmp_path: Path) -> None:
+    srv = _file(tmp_path, "Echo.srv", "string text 'hi'\nint32 A=1\n---\nstring text \"it's\"\nint32 A=2\n")
+    assert interfaces.read_interface(srv, "srv").name == "Echo"
+
+
+def test_the_same_interface_file_twice_is_refused(tmp_path: Path) -> None:
+    """Both went to msg/Wheel.msg: one of two different files was lost without a word."""
+    first = _file(tmp_path, "Wheel.msg", "int32 rpm\n")
+    (tmp_path / "b").mkdir()
+    second = _file(tmp_path / "b", "Wheel.msg", "int32 speed\n")
+    for again in (first, second):
+        files = [interfaces.read_interface(first, "msg"), interfaces.read_interface(again, "msg")]
+        with pytest.raises(ConfigError) as info:
+            interfaces.package_files("my_msgs", files)
+        assert info.value.message == f"--msg {again}: a second Wheel.msg (the first: --msg {first})"

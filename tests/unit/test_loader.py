@@ -143,3 +143,27 @@ def test_mapping_list() -> None:
     assert err.message == "f: a[1]: url: is required but missing"
     err = _error(loader.mapping_list, {"a": ["u"]}, "a", "f")
     assert err.message == "f: a[0]: must be a mapping (key: value lines), got 'u'"
+
+
+@pytest.mark.parametrize(
+    ("text", "line", "key"),
+    [
+        ("distro: humble\ntarget: cortex-m7\ntarget: rp2040\n", 3, "target"),  # the last won, silently
+        ("mirror:\n  rules: []\n  overrides: {}\n  rules: [a]\n", 4, "rules"),  # nested
+        ("set: [a.B=1]\ndistro: humble\n'set': [a.B=2]\n", 3, "set"),  # quoted or not: one key
+        ("a: {x: 1, x: 2}\n", 1, "x"),  # flow style
+    ],
+)
+def test_a_key_given_twice_names_its_line(tmp_path: Path, text: str, line: int, key: str) -> None:
+    """Round 3 (issue 34, 7): every YAML file uros reads (uros.yaml, --config, profiles, meta/)."""
+    path = tmp_path / "uros.yaml"
+    path.write_text(text, encoding="utf-8")
+    err = _error(loader.load_yaml, path, "--config", "fix it")
+    assert err.message.startswith(f"--config {path}:{line}: {key}: given twice (first on line "), err.message
+    assert err.hint == f"keep one {key}: (YAML would use only the last, silently)"
+
+
+def test_a_merge_key_may_be_overridden(tmp_path: Path) -> None:
+    path = tmp_path / "p.yaml"
+    path.write_text("base: &b {x: 1, y: 2}\nother:\n  <<: *b\n  x: 3\n", encoding="utf-8")
+    assert loader.load_yaml(path)["other"] == {"x": 3, "y": 2}

@@ -40,8 +40,12 @@ def test_set_option() -> None:
 
 
 def test_dump_is_deterministic_and_sorted() -> None:
-    a = meta.parse_meta('{"names": {"b": {"cmake-args": ["-DX=1"]}, "a": {"x": true}}}', "m")
-    b = meta.parse_meta('{"names": {"a": {"x": true}, "b": {"cmake-args": ["-DX=1"]}}}', "m")
+    a = meta.parse_meta(
+        '{"names": {"b": {"cmake-args": ["-DX=1"]}, "a": {"cmake-force-configure": true}}}', "m"
+    )
+    b = meta.parse_meta(
+        '{"names": {"a": {"cmake-force-configure": true}, "b": {"cmake-args": ["-DX=1"]}}}', "m"
+    )
     assert meta.dump_meta(a) == meta.dump_meta(b)
     assert meta.dump_meta(a).index('"a"') < meta.dump_meta(a).index('"b"')
 
@@ -59,6 +63,35 @@ def test_dump_is_deterministic_and_sorted() -> None:
 def test_bad_meta_names_file_and_problem(text: str, expected: str) -> None:
     with pytest.raises(ConfigError, match=expected):
         meta.parse_meta(text, "m.meta")
+
+
+def test_an_unknown_package_key_names_file_package_and_key() -> None:
+    """Round 3 (issue 34, 7): colcon drops a key it does not know, so "cmake-argz" built with nothing set."""
+    text = '{"names": {"rcl": {"cmake-args": ["-DA=1"], "cmake-argz": ["-DB=2"]}}}'
+    with pytest.raises(ConfigError) as info:
+        meta.parse_meta(text, "my.meta")
+    assert info.value.message == (
+        "my.meta: names.rcl.cmake-argz: unknown key (colcon would ignore it) (did you mean cmake-args, "
+        "cmake-target or ament-cmake-args?)"
+    )
+    assert info.value.hint is not None and "cmake-args" in info.value.hint and "ctest-args" in info.value.hint
+    # a comment key, as at the top level, and every key colcon reads
+    assert meta.parse_meta('{"names": {"rcl": {"_why": "x", "ctest-args": ["-V"]}}}', "m").names == {
+        "rcl": {"ctest-args": ("-V",)}
+    }
+
+
+def test_the_package_keys_are_colcons() -> None:
+    """What colcon's build and test tasks take from a package's entry (asked of colcon itself)."""
+    import argparse
+
+    from colcon_core.task import add_task_arguments
+
+    for task, keys in (("build", meta.BUILD_KEYS), ("test", meta.TEST_KEYS)):
+        parser = argparse.ArgumentParser()
+        add_task_arguments(parser, f"colcon_core.task.{task}")
+        names = {a.option_strings[0][2:] for a in parser._actions if a.option_strings != ["-h", "--help"]}
+        assert names == set(keys), task
 
 
 def test_meta_file_problems_are_one_line(tmp_path: Path) -> None:

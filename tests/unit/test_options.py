@@ -38,6 +38,20 @@ def test_unknown_option_of_a_known_package_is_a_warning_with_the_closest() -> No
         ("rmw_microxrcedds.RMW_UXRCE_STREAM_HISTORY=3", "must be a power of two"),
         ("rmw_microxrcedds.RMW_UXRCE_TRANSPORT=can", "must be one of udp, tcp, serial, custom"),
         ("microxrcedds_client.UCLIENT_PROFILE_DISCOVERY=maybe", "must be ON or OFF"),
+        # round 3 (issue 34, 7): accepted, and compiled into a negative pool size or a C error
+        ("rmw_microxrcedds.RMW_UXRCE_MAX_NODES=-1", r"RMW_UXRCE_MAX_NODES must be 0 or more, got -1$"),
+        ("rmw_microxrcedds.RMW_UXRCE_MAX_TOPICS=-2", r"RMW_UXRCE_MAX_TOPICS must be -1 or more, got -2$"),
+        ("rmw_microxrcedds.RMW_UXRCE_MAX_NODES=1_000", r"must be a whole number \(0 or more\), got '1_000'"),
+        ("rmw_microxrcedds.RMW_UXRCE_MAX_NODES=+4", r"must be a whole number \(0 or more\), got '\+4'"),
+        (
+            "rmw_microxrcedds.RMW_UXRCE_MAX_NODES=FOO BAR",
+            r"must be a whole number \(0 or more\), got 'FOO BAR'",
+        ),
+        ("rmw_microxrcedds.RMW_UXRCE_MAX_NODES=\u0664", r"must be a whole number"),  # an Arabic-Indic 4
+        ("rmw_microxrcedds.FOO BAR=1", r"'FOO BAR' is not a CMake option name"),
+        ("rmw microxrcedds.X=1", r"'rmw microxrcedds' is not a package name"),
+        ("rmw_microxrcedds.RMW_UXRCE_MAX_NODES=4 ", r"starts or ends with a space"),
+        ("fx.NAME=a\nb", r"holds a line break"),
     ],
 )
 def test_clearly_wrong_values_are_errors(item: str, message: str) -> None:
@@ -57,3 +71,16 @@ def test_a_broken_options_file_is_one_line() -> None:
             {"packages": {"p": {"X": {"default": "3", "cost": "c", "type": "int", "power_of_two": True}}}},
             "o.yaml",
         )
+
+
+def test_a_set_from_uros_yaml_is_named_so() -> None:
+    """Round 3 (issue 34, 7): uros.yaml's set: entries were blamed on a --set the user never typed."""
+    item = "rmw_microxrcedds.RMW_UXRCE_MAX_NODES=many"
+    with pytest.raises(ConfigError) as info:
+        options.check_sets([item], _known(), {item: "/w/uros.yaml: set:"})
+    assert info.value.message.startswith(f"/w/uros.yaml: set: {item}: RMW_UXRCE_MAX_NODES must be")
+    typo = "rmw_microxrcedds.RMW_UXRCE_MAX_NODE=2"
+    assert options.check_sets([typo], _known(), {typo: "/w/uros.yaml: set:"})[0].startswith(
+        f"/w/uros.yaml: set: {typo}: rmw_microxrcedds has no option"
+    )
+    assert options.check_sets(["rmw_microxrcedds.RMW_UXRCE_MAX_TOPICS=-1", "fx.NAME=a b"], _known()) == []

@@ -47,7 +47,19 @@ def test_minimal_profile(tmp_path: Path) -> None:
         ({"cpu_flags": "-mcpu=cortex-m4"}, r"board.yaml: cpu_flags: must be a list of strings"),
         ({"transport": "can"}, r"board.yaml: transport: 'can' is not one of"),
         ({"elf": {"machine": "ARM", "flags": []}}, r"board.yaml:\d+: elf.flags: unknown key"),
-        ({"optimization": "fast"}, r"board.yaml: optimization: 'fast' is not a -O flag"),
+        ({"optimization": "fast"}, r"board.yaml: optimization: 'fast' is not one of GCC's levels: -O, -O0"),
+        # round 3 (issue 34, 7): these reached CMake or GCC unchecked
+        ({"optimization": "-O4"}, r"board.yaml: optimization: '-O4' is not one of GCC's levels"),
+        ({"optimization": "-Os -g"}, r"board.yaml: optimization: '-Os -g' is not one of GCC's levels"),
+        ({"c_standard": 12}, r"board.yaml: c_standard: 12 is not one of CMake's: 90, 99, 11, 17, 23"),
+        ({"cxx_standard": 15}, r"board.yaml: cxx_standard: 15 is not one of CMake's: 98, 11"),
+        ({"c_standard": "11"}, r"board.yaml: c_standard: must be a whole number"),
+        ({"defines": ["FOO BAR"]}, r"board.yaml: defines: 'FOO BAR' is not a define: NAME or NAME=VALUE"),
+        ({"defines": ["-DFOO"]}, r"board.yaml: defines: '-DFOO' is not a define"),
+        ({"defines": ["A=1\nB"]}, r"board.yaml: defines: 'A=1\\nB' is not a define"),
+        ({"defines": [""]}, r"board.yaml: defines: '' is not a define"),
+        ({"defines": "FOO"}, r"board.yaml: defines: must be a list of strings"),
+        ({"micro_ros": {"defines": ["1X=2"]}}, r"board.yaml: micro_ros.defines: '1X=2' is not a define"),
         ({"native_64bit_atomics": "yes"}, r"native_64bit_atomics: must be true or false"),
         ({"elf": {"machine": "ARM", "xtensa_abi": "2"}}, r"elf.xtensa_abi: '2' is not 0"),
         (
@@ -192,3 +204,11 @@ def test_derive_standalone_from_the_prefix() -> None:
         derive_profile(None, None, ("-O2",))
     with pytest.raises(ConfigError, match="command line: c_flags: '' is not a single compiler flag"):
         derive_profile(find_profile("cortex-m7"), None, ("",))
+
+
+def test_defines_that_are_defines_load(tmp_path: Path) -> None:
+    good = ["USE_FOO", "FOO_SIZE=4", 'NAME="a b"', "__attribute__(x)=", "EMPTY=", "F(a, b)=a+b"]
+    p = load_profile_file(
+        _write(tmp_path, {**_base(), "defines": good, "c_standard": 17, "optimization": "-O2"})
+    )
+    assert p.defines == tuple(good) and p.c_standard == 17 and p.optimization == "-O2"

@@ -121,6 +121,12 @@ def test_profile_with_an_unknown_key_fails_the_schema() -> None:
         {"elf": {"machine": "ARM", "attributes": {"Tag_CPU_arch": 7}}},
         {"micro_ros": {"declare_clock_gettime": "yes"}},
         {"elf": {}},
+        {"optimization": "-O4"},
+        {"c_standard": 12},
+        {"cxx_standard": 15},
+        {"defines": ["FOO BAR"]},
+        {"defines": ["A=1\nB"]},
+        {"micro_ros": {"defines": ["-DX"]}},
     ],
 )
 def test_schema_and_loader_reject_the_same_values(change: dict[str, Any]) -> None:
@@ -128,6 +134,22 @@ def test_schema_and_loader_reject_the_same_values(change: dict[str, Any]) -> Non
     assert _errors("profile.schema.json", data) != []
     with pytest.raises(ConfigError):
         parse_profile(data, "board.yaml")
+
+
+def test_profile_schema_allows_what_the_loader_allows() -> None:
+    from uros_build.target import profiles
+
+    props = _schema("profile.schema.json")["properties"]
+    assert props["optimization"]["enum"] == list(profiles.OPTIMIZATIONS)
+    assert props["c_standard"]["enum"] == list(profiles.C_STANDARDS)
+    assert props["cxx_standard"]["enum"] == list(profiles.CXX_STANDARDS)
+    good = {
+        **_minimal_profile(),
+        "defines": ["A", "B=1", "C(x)=x", 'D="a b"'],
+        "micro_ros": {"defines": ["E="]},
+    }
+    assert _errors("profile.schema.json", good) == []
+    parse_profile(good, "board.yaml")
 
 
 def test_minimal_profile_passes_both() -> None:
@@ -188,6 +210,8 @@ def test_uros_schema_equals_the_workspace_config() -> None:
         ({"distro": "humble", "extra_packages": "../pkg"}, "'../pkg' is not of type 'array'"),
         ({"distro": "humble", "transport": "can"}, "'can' is not one of"),
         ({"distro": "humble", "set": ["RMW_UXRCE_MAX_NODES=2"]}, "does not match"),
+        ({"distro": "humble", "set": ["rcl.FOO BAR=2"]}, "does not match"),
+        ({"distro": "humble", "set": ["rcl.FOO=2 "]}, "does not match"),
         ({"distro": "humble", "target": "cortex-m7", "targets": ["rp2040"]}, "should not be valid"),
         ({"distro": "humble", "targets": "rp2040"}, "'rp2040' is not of type 'array'"),
         ({"distro": "humble", "idf_build": ["build"]}, "['build'] is not of type 'string'"),

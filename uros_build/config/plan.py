@@ -9,6 +9,7 @@ packages' clones (`uros build` syncs them before its lock), the host tools, the 
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -232,9 +233,15 @@ def _closest(name: str, names: set[str]) -> str:
     return f" (closest: {', '.join(near)})" if near else ""
 
 
-def unknown_packages(metas: list[meta_mod.Meta], sets: tuple[str, ...], names: set[str]) -> list[str]:
+def unknown_packages(
+    metas: list[meta_mod.Meta],
+    sets: tuple[str, ...],
+    names: set[str],
+    origins: Mapping[str, str] | None = None,
+) -> list[str]:
     """Warnings for --meta and --set entries that name no package of the workspace: colcon
-    ignores them without a word, so a typo would silently build with the default (pure)."""
+    ignores them without a word, so a typo would silently build with the default (pure).
+    ``origins``: a set entry -> where it was given, when not --set (uros.yaml's set:)."""
     out = []
     for meta in metas:
         for pkg in meta.names:
@@ -242,10 +249,17 @@ def unknown_packages(metas: list[meta_mod.Meta], sets: tuple[str, ...], names: s
                 near = _closest(pkg, names)
                 out.append(f"--meta {meta.source}: names.{pkg}: no package {pkg} in the workspace{near}")
     for item in sets:
-        pkg = meta_mod.split_set(item).package
+        where = (origins or {}).get(item, "--set")
+        pkg = meta_mod.split_set(item, where).package
         if pkg not in names:
-            out.append(f"--set {item}: no package {pkg} in the workspace{_closest(pkg, names)}")
+            out.append(f"{where} {item}: no package {pkg} in the workspace{_closest(pkg, names)}")
     return out
+
+
+def set_origins(cfg: WorkspaceConfig | None, root: Path, given: tuple[str, ...]) -> dict[str, str]:
+    """The set: entries of uros.yaml that the command line does not repeat -> ``uros.yaml: set:``,
+    so that a message about one names the file it is in, not a --set the user never typed."""
+    return {s: f"{root / CONFIG}: set:" for s in (cfg.set if cfg else ()) if s not in given}
 
 
 def idf_project(chosen: Chosen[Path | None], target: Target) -> IdfProject | None:
@@ -370,8 +384,9 @@ def plan_build(args: BuildArgs) -> BuildPlan:
                 f"--packages-up-to {pkg}: no package {pkg} in {ws.source_dir}{_closest(pkg, names)}",
                 "name a package of the workspace (a folder with a package.xml or a CMakeLists.txt)",
             )
-    warnings = unknown_packages(given_metas, sets, names)
-    warnings += options_mod.check_sets(sets, options_mod.by_package(options_mod.known_options()))
+    origins = set_origins(cfg, ws.root, args.sets)
+    warnings = unknown_packages(given_metas, sets, names, origins)
+    warnings += options_mod.check_sets(sets, options_mod.by_package(options_mod.known_options()), origins)
     selection = _select(args, settings.packages, ws, packages, names)
     out = (args.output or ws.default_output(target.key)).resolve()
     flag = "--output" if args.output else "the output folder"

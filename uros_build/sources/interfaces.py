@@ -34,10 +34,14 @@ class InterfaceFile:
     name: str  # CamelCase type name
     text: str
     dependencies: tuple[str, ...]  # packages its fields refer to
+    source: str = ""  # the flag and file it came from, for messages
 
 
 def _check_lines(lines: list[tuple[int, str]], source: str) -> set[str]:
+    """The dependencies of one message (a .msg, or one half of a .srv); a ConfigError naming the
+    line of the first problem."""
     deps: set[str] = set()
+    names: dict[str, int] = {}  # field or constant -> its line: rosidl refuses a name given twice
     for number, raw in lines:
         line = raw.split("#", 1)[0].strip()
         if not line:
@@ -65,6 +69,7 @@ def _check_lines(lines: list[tuple[int, str]], source: str) -> set[str]:
                 raise ConfigError(
                     f"{source}:{number}: constant {name!r} must have a primitive type, no array"
                 )
+            _once(names, name, number, source, "constant")
             value = rest.split("=", 1)[1].strip()
             _check_default(base, value, f"{source}:{number}", "constant value")
             continue
@@ -74,9 +79,21 @@ def _check_lines(lines: list[tuple[int, str]], source: str) -> set[str]:
                 f"{source}:{number}: field name {name!r} is invalid",
                 "field names are lower_snake_case, start with a letter, no double or trailing underscore",
             )
+        _once(names, name, number, source, "field")
         if default and match.group("array") is None:
             _check_default(base, default[0].strip(), f"{source}:{number}")
     return deps
+
+
+def _once(names: dict[str, int], name: str, number: int, source: str, what: str) -> None:
+    """rosidl_adapter's MessageSpecification refuses duplicate field names (and constant names),
+    deep in a CMake stack; uros names both lines."""
+    if name in names:
+        raise ConfigError(
+            f"{source}:{number}: {what} {name!r} is already defined on line {names[name]}",
+            "give every field and constant of a message its own name",
+        )
+    names[name] = number
 
 
 _INTEGERS = {"byte", "char", "int8", "uint8", "int16", "uint16", "int32", "uint32", "int64", "uint64"}
@@ -107,8 +124,30 @@ def _check_default(type_name: str, value: str, where: str, what: str = "default 
             problem = "is not a number"
     elif type_name == "bool" and value.lower() not in ("true", "false", "0", "1"):
         problem = "is not true/false"
+    elif type_name in ("string", "wstring"):
+        _check_string(value, where, what)
     if problem:
         raise ConfigError(f"{where}: {what} {value!r} {problem} for type {type_name}")
+
+
+def _check_string(value: str, where: str, what: str) -> None:
+    """rosidl takes a string value between quotes (' or "), with inner quotes of that kind escaped
+    (parse_primitive_value_string); one that opens a quote and never closes it is kept as it
+    stands, quote included, which no one means. A '#' ends the line even inside quotes: rosidl
+    cuts comments first, so ``"a # b"`` reaches it as ``"a``."""
+    quote = value[:1]
+    if quote not in ("'", '"'):
+        return
+    if len(value) < 2 or not value.endswith(quote):
+        raise ConfigError(
+            f"{where}: {what} {value!r}: the string is not closed",
+            f"end it with {quote}; a '#' starts a comment even inside quotes (rosidl cuts the line there)",
+        )
+    if re.search(rf"(?<!\\){quote}", value[1:-1]):
+        raise ConfigError(
+            f"{where}: {what} {value!r}: a {quote} inside the string is not escaped",
+            f"write it as \\{quote}, or quote the string with the other kind of quote",
+        )
 
 
 def read_interface(path: Path, kind: str) -> InterfaceFile:
@@ -127,8 +166,16 @@ def read_interface(path: Path, kind: str) -> InterfaceFile:
         separators = [n for n, line in lines if line.strip() == "---"]
         if len(separators) != 1:
             raise ConfigError(f"{path}: a .srv needs one '---' line between request and response")
-    deps = _check_lines([(n, line) for n, line in lines if line.strip() != "---"], str(path))
-    return InterfaceFile(kind, path.stem, text, tuple(sorted(deps)))
+    deps: set[str] = set()
+    # a .srv's request and response are two messages: each may use a name the other uses
+    part: list[tuple[int, str]] = []
+    for number, line in [*lines, (0, "---")]:
+        if line.strip() == "---":
+            deps |= _check_lines(part, str(path))
+            part = []
+        else:
+            part.append((number, line))
+    return InterfaceFile(kind, path.stem, text, tuple(sorted(deps)), f"{flag} {path}")
 
 
 def package_files(name: str, files: list[InterfaceFile]) -> dict[str, str]:
@@ -137,6 +184,14 @@ def package_files(name: str, files: list[InterfaceFile]) -> dict[str, str]:
         raise ConfigError(f"interface new: {name!r} is not a valid package name", "use lower_snake_case")
     if not files:
         raise ConfigError("interface new: no interface files given", "pass --msg FILE.msg and/or --srv FILE")
+    given: dict[tuple[str, str], InterfaceFile] = {}
+    for f in files:
+        first = given.setdefault((f.kind, f.name), f)
+        if first is not f:  # both would be written to msg/<Name>.msg: one would be lost
+            raise ConfigError(
+                f"{f.source}: a second {f.name}.{f.kind} (the first: {first.source})",
+                f"give each {f.kind} file once, and different types different names",
+            )
     deps = sorted({d for f in files for d in f.dependencies} - {name})
     depend_xml = "".join(f"  <depend>{d}</depend>\n" for d in deps)
     package_xml = f"""<?xml version="1.0"?>

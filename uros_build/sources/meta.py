@@ -7,6 +7,7 @@ understand, and a ``--metas`` path that does not exist. uros refuses both, namin
 from __future__ import annotations
 
 import json
+import re
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -18,6 +19,26 @@ from uros_build.target.profiles import TargetProfile
 
 MetaValue = tuple[str, ...] | str | bool | int | float
 _LIST_KEYS_MERGED_BY_DEFINE = ("cmake-args",)
+
+# What colcon reads from a package's entry in a colcon.meta: the arguments of its build and test
+# tasks (colcon_core.task.add_task_arguments for 'colcon_core.task.build' and '.test': a meta file
+# may serve `colcon test` too), and the dependency and hook keys of
+# colcon_core.package_augmentation.update_descriptor. colcon drops any other key without a word,
+# so a typo ("cmake-argz") would build with nothing set. tests/unit/test_meta.py asks colcon.
+BUILD_KEYS = (
+    "ament-cmake-args",
+    "catkin-cmake-args",
+    "catkin-skip-building-tests",
+    "cmake-args",
+    "cmake-clean-cache",
+    "cmake-clean-first",
+    "cmake-force-configure",
+    "cmake-target",
+    "cmake-target-skip-unavailable",
+)
+TEST_KEYS = ("ctest-args", "pytest-args", "pytest-with-coverage", "python-testing", "unittest-args")
+DESCRIPTOR_KEYS = ("build-dependencies", "dependencies", "hooks", "run-dependencies", "test-dependencies")
+PACKAGE_KEYS = tuple(sorted((*BUILD_KEYS, *TEST_KEYS, *DESCRIPTOR_KEYS)))
 
 
 @dataclass(frozen=True)
@@ -62,6 +83,14 @@ def parse_meta(text: str, source: str) -> Meta:
             raise ConfigError(f"{source}: names.{pkg} must be an object of colcon options", hint)
         out[pkg] = {}
         for opt, value in options.items():
+            if opt.startswith(("_", "//")):  # a comment, as at the top level
+                continue
+            if opt not in PACKAGE_KEYS:
+                near = did_you_mean(opt, PACKAGE_KEYS)
+                raise ConfigError(
+                    f"{source}: names.{pkg}.{opt}: unknown key (colcon would ignore it){near}",
+                    f"known: {', '.join(PACKAGE_KEYS)}",
+                )
             if isinstance(value, list):
                 if not all(isinstance(v, str) for v in value):
                     raise ConfigError(f"{source}: names.{pkg}.{opt} must be a list of strings", hint)
@@ -152,14 +181,30 @@ class SetItem:
     value: str
 
 
+# A package name (colcon's, as uros.yaml's packages: takes them) and a CMake variable name: what a
+# -D can set from the command line and a C header can use. A space or another character there
+# reached CMake as a variable no package reads, silently.
+_SET_PACKAGE = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_-]*")
+_SET_OPTION = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+
+
 def split_set(item: str, where: str = "--set") -> SetItem:
     """``PKG.OPTION=VALUE`` -> its parts; a ConfigError naming ``where`` when it is not that."""
     pkg, dot, rest = item.partition(".")
     name, eq, value = rest.partition("=")
+    example = "for example --set rmw_microxrcedds.RMW_UXRCE_MAX_NODES=2"
     if not (pkg and dot and name and eq):
+        raise ConfigError(f"{where} {item!r}: expected PACKAGE.OPTION=VALUE", example)
+    if not _SET_PACKAGE.fullmatch(pkg):
+        raise ConfigError(f"{where} {item!r}: {pkg!r} is not a package name", example)
+    if not _SET_OPTION.fullmatch(name):
         raise ConfigError(
-            f"{where} {item!r}: expected PACKAGE.OPTION=VALUE",
-            "for example --set rmw_microxrcedds.RMW_UXRCE_MAX_NODES=2",
+            f"{where} {item!r}: {name!r} is not a CMake option name (letters, digits and '_')", example
+        )
+    if value != value.strip() or any(ord(c) < 32 or ord(c) == 127 for c in value):
+        raise ConfigError(
+            f"{where} {item!r}: the value of {name} starts or ends with a space or holds a line break",
+            "give the value as CMake should see it: PACKAGE.OPTION=VALUE, nothing around it",
         )
     return SetItem(pkg, name, value)
 

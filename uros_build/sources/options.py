@@ -5,6 +5,7 @@ their upstream defaults and what they cost, loaded into frozen dataclasses; and 
 from __future__ import annotations
 
 import functools
+import re
 from collections.abc import Iterable, Mapping
 from dataclasses import astuple, dataclass
 
@@ -14,6 +15,9 @@ from uros_build.sources.meta import split_set
 
 TYPES = ("int", "bool", "string")
 _BOOLS = ("ON", "OFF", "TRUE", "FALSE", "1", "0", "YES", "NO")
+# A whole number as CMake passes it on into a C #define: Python's int() also takes " 4", "1_000",
+# "+4" and other scripts' digits, which the compiler then rejects (or reads otherwise).
+_WHOLE = re.compile(r"-?[0-9]+")
 
 
 @dataclass(frozen=True)
@@ -25,16 +29,18 @@ class KnownOption:
     type: str = "string"  # int, bool or string
     choices: tuple[str, ...] = ()
     power_of_two: bool = False
+    minimum: int = 0  # int options are counts, sizes and times: none is negative unless it says
 
     def problem(self, value: str) -> str | None:
         """Why ``value`` cannot be right for this option, or None."""
         if self.choices and value not in self.choices:
             return f"must be one of {', '.join(self.choices)}"
         if self.type == "int":
-            try:
-                number = int(value)
-            except ValueError:
-                return "must be a whole number"
+            if not _WHOLE.fullmatch(value):
+                return f"must be a whole number ({self.minimum} or more), got {value!r}"
+            number = int(value)
+            if number < self.minimum:
+                return f"must be {self.minimum} or more, got {number}"
             if self.power_of_two and (number < 1 or number & (number - 1)):
                 return "must be a power of two (1, 2, 4, 8, ...)"
         if self.type == "bool" and value.upper() not in _BOOLS:
@@ -50,7 +56,10 @@ def parse_options(data: object, source: str) -> tuple[KnownOption, ...]:
         for name, entry in loader.mapping(options, where).items():
             item_where = f"{where}.{name}"
             item = loader.mapping(
-                entry, item_where, {"default", "cost", "type", "choices", "power_of_two"}, ("default", "cost")
+                entry,
+                item_where,
+                {"default", "cost", "type", "choices", "power_of_two", "minimum"},
+                ("default", "cost"),
             )
             default = item["default"]
             if not isinstance(default, str):
@@ -63,6 +72,7 @@ def parse_options(data: object, source: str) -> tuple[KnownOption, ...]:
                 type=loader.one_of(item, "type", item_where, TYPES, "string"),
                 choices=loader.string_list(item, "choices", item_where),
                 power_of_two=loader.boolean(item, "power_of_two", item_where),
+                minimum=loader.integer(item, "minimum", item_where, 0),
             )
             if option.default and option.problem(option.default):
                 raise ConfigError(
@@ -85,25 +95,31 @@ def by_package(options: Iterable[KnownOption]) -> dict[str, dict[str, KnownOptio
     return out
 
 
-def check_sets(sets: Iterable[str], known: Mapping[str, Mapping[str, KnownOption]]) -> list[str]:
+def check_sets(
+    sets: Iterable[str],
+    known: Mapping[str, Mapping[str, KnownOption]],
+    origins: Mapping[str, str] | None = None,
+) -> list[str]:
     """Warnings for PKG.OPTION=VALUE entries naming an option uros does not know for a package it
     knows (a typo builds with the default, silently: CMake only lists unused variables); a value
-    that cannot be right (not a number, not a power of two, not one of the choices) is an error."""
+    that cannot be right (not a number, negative, not a power of two, not one of the choices) is an
+    error. ``origins``: item -> where it was given (uros.yaml's ``set:``; else ``--set``)."""
     warnings = []
     for item in sets:
-        package, name, value = astuple(split_set(item))
+        where = (origins or {}).get(item, "--set")
+        package, name, value = astuple(split_set(item, where))
         if package not in known:
             continue
         option = known[package].get(name)
         if option is None:
             near = did_you_mean(name, known[package])
             warnings.append(
-                f"--set {item}: {package} has no option {name} that uros knows{near} (`uros meta options`)"
+                f"{where} {item}: {package} has no option {name} that uros knows{near} (`uros meta options`)"
             )
             continue
         problem = option.problem(value)
         if problem is not None:
             raise ConfigError(
-                f"--set {item}: {name} {problem}", f"`uros meta options` lists {package}'s options"
+                f"{where} {item}: {name} {problem}", f"`uros meta options` lists {package}'s options"
             )
     return warnings

@@ -173,13 +173,47 @@ def check_name(name: str, source: Path | str) -> str:
     return name
 
 
+# GCC's -O levels (https://gcc.gnu.org/onlinedocs/gcc/Optimize-Options.html): anything else is
+# a typo that GCC would reject in every compile, or another flag passed where a level goes.
+OPTIMIZATIONS = ("-O", "-O0", "-O1", "-O2", "-O3", "-Os", "-Oz", "-Og", "-Ofast")
+# The values CMake's C_STANDARD and CXX_STANDARD take (CMake 3.25): another is refused by CMake
+# only when a target is configured, deep in the build.
+C_STANDARDS = (90, 99, 11, 17, 23)
+CXX_STANDARDS = (98, 11, 14, 17, 20, 23, 26)
+# One -D each: a macro name (function-like ones too, e.g. "__attribute__(x)="), then =VALUE; no
+# control character, which would end a build.ninja line.
+DEFINE = re.compile(r"[A-Za-z_][A-Za-z0-9_]*(\([A-Za-z0-9_, .]*\))?(=[^\x00-\x1f\x7f]*)?")
+
+
 def _validate(profile: TargetProfile, source: Path | str) -> TargetProfile:
     """Checks across fields, shared by profile files and command-line derivation."""
     check_name(profile.name, source)
     if profile.transport not in TRANSPORTS:
         raise _fail(source, "transport", f"{profile.transport!r} is not one of {', '.join(TRANSPORTS)}")
-    if not profile.optimization.startswith("-O"):
-        raise _fail(source, "optimization", f"{profile.optimization!r} is not a -O flag")
+    if profile.optimization not in OPTIMIZATIONS:
+        raise _fail(
+            source,
+            "optimization",
+            f"{profile.optimization!r} is not one of GCC's levels: {', '.join(OPTIMIZATIONS)}",
+            "e.g. optimization: -Os (small) or -O2 (fast)",
+        )
+    for key, allowed in (("c_standard", C_STANDARDS), ("cxx_standard", CXX_STANDARDS)):
+        if getattr(profile, key) not in allowed:
+            raise _fail(
+                source,
+                key,
+                f"{getattr(profile, key)!r} is not one of CMake's: {', '.join(map(str, allowed))}",
+                f"e.g. {key}: {allowed[2]}",
+            )
+    for key, defines in (("defines", profile.defines), ("micro_ros.defines", profile.micro_ros.defines)):
+        for define in defines:
+            if not DEFINE.fullmatch(define):
+                raise _fail(
+                    source,
+                    key,
+                    f"{define!r} is not a define: NAME or NAME=VALUE (NAME a C identifier, no line breaks)",
+                    f"e.g. {key}: [USE_FOO, FOO_SIZE=4] (each becomes -D<define>)",
+                )
     # A triplet prefix, optionally with its folder (/opt/arm-gnu-toolchain/bin/arm-none-eabi-).
     if not re.fullmatch(r"[^\n\r\0]*/?[A-Za-z0-9_.+-]+-", profile.compiler_prefix):
         raise _fail(
