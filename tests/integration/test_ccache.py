@@ -8,12 +8,15 @@ from __future__ import annotations
 
 import json
 import os
+import shlex
 import shutil
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
 from fixture_ws import make_fixture_workspace
-from uros_helpers import need, run_uros
+from uros_helpers import REPO, env_without, need, run_uros
 
 pytestmark = pytest.mark.integration
 
@@ -77,8 +80,6 @@ def test_another_checkout_hits_every_compile_and_the_library_keeps_its_bytes(tmp
 
     lib = Path("build") / "cortex-m7" / "libmicroros.a"
     assert (one / lib).read_bytes() == (two / lib).read_bytes() == (plain / lib).read_bytes()
-    import subprocess
-
     strings = subprocess.run(
         ["arm-none-eabi-strings", "-a", str(two / lib)], capture_output=True, text=True
     ).stdout
@@ -86,3 +87,125 @@ def test_another_checkout_hits_every_compile_and_the_library_keeps_its_bytes(tmp
     assert "gen/where_gen.c" in strings.split()  # generated ones: their path in the build folder
     assert str(tmp_path) not in strings and "../" not in strings
     shutil.rmtree(tmp_path / "ccache")
+
+
+def _build(ws: Path, env: dict[str, str], *more: str, check: bool = True) -> subprocess.CompletedProcess[str]:
+    args = ["build", "--toolchain", "cortex-m7", "-w", str(ws), "--meta", str(ws / "fixture.meta"), *more]
+    return run_uros(*args, env=env, check=check)
+
+
+MARK_PACKAGE_XML = PACKAGE_XML.replace("fx_where", "fx_mark")
+MARK_CMAKE = """\
+cmake_minimum_required(VERSION 3.16)
+project(fx_mark C)
+add_library(fx_mark STATIC mark.c)
+install(TARGETS fx_mark ARCHIVE DESTINATION lib)
+"""
+
+
+def _compiler_folder(folder: Path, mark: str) -> Path:
+    """arm-none-eabi-* linked into ``folder``, with a gcc that is a driver script around the real
+    one adding ``-DFX_MARK="<mark>"`` (as distributions' wrapper drivers do): two such compilers
+    with marks of one length have the same size, and os.utime gives them the same mtime."""
+    folder.mkdir(parents=True, exist_ok=True)
+    for tool in ("g++", "ar", "ranlib", "nm", "objcopy", "size", "readelf"):
+        link = folder / f"arm-none-eabi-{tool}"
+        if not link.exists():
+            link.symlink_to(shutil.which(f"arm-none-eabi-{tool}") or f"/usr/bin/arm-none-eabi-{tool}")
+    real = shutil.which("arm-none-eabi-gcc")
+    new = folder / "arm-none-eabi-gcc.new"
+    new.write_text(f'#!/bin/sh\nexec {real} \'-DFX_MARK="{mark}"\' "$@"\n')
+    new.chmod(0o755)
+    os.utime(new, ns=(1_600_000_000_000_000_000, 1_600_000_000_000_000_000))
+    os.replace(new, folder / "arm-none-eabi-gcc")  # a new file at the path: as an upgrade installs one
+    return folder / "arm-none-eabi-"
+
+
+def test_a_compiler_replaced_with_the_same_size_and_mtime_never_gets_the_old_objects(tmp_path: Path) -> None:
+    """Issue 34, item 7: ccache's default compiler check is the driver's size and mtime, so a
+    compiler replaced by one with the same size and mtime got the old compiler's objects back
+    (uros saw the change and rebuilt every package, and ccache served each compile). uros sets
+    ccache's compiler check to the driver's content."""
+    need("arm-none-eabi-gcc", "cmake", "ccache", "arm-none-eabi-strings")
+    env = {**os.environ, "CCACHE_DIR": str(tmp_path / "ccache")}
+    ws = make_fixture_workspace(tmp_path / "ws")
+    pkg = ws / "mcu_ws" / "src" / "fx_mark"
+    pkg.mkdir(parents=True)
+    (pkg / "package.xml").write_text(MARK_PACKAGE_XML)
+    (pkg / "CMakeLists.txt").write_text(MARK_CMAKE)
+    (pkg / "mark.c").write_text("const char *fx_mark(void) { return FX_MARK; }\n")
+    prefix = _compiler_folder(tmp_path / "bin", "compiler-one")
+    lib = ws / "build" / "cortex-m7-custom" / "libmicroros.a"  # a derived target's folder
+    _build(ws, env, "--compiler-prefix", str(prefix), "--ccache")
+    assert b"compiler-one" in lib.read_bytes()
+    _compiler_folder(tmp_path / "bin", "compiler-two")
+    second = _build(ws, env, "--compiler-prefix", str(prefix), "--ccache").stderr
+    assert "the compiler changed" in second, second
+    data = lib.read_bytes()
+    assert b"compiler-two" in data and b"compiler-one" not in data
+
+
+def _ccache_warnings(stderr: str) -> list[str]:
+    return [line for line in stderr.splitlines() if line.startswith("warning:") and "ccache" in line]
+
+
+def test_ccache_trouble_falls_back_to_compiling_without_it(tmp_path: Path) -> None:
+    """Issue 34, item 7: with ccache uninstalled every build failed `[code=126]` (each package's
+    CMakeCache.txt held the launcher's path), `--no-ccache` included, until `--rebuild`; an
+    unusable CCACHE_DIR (a regular file, a read-only mount) failed the build. Each now compiles
+    without ccache, with one warning where ccache was wanted, and the library is the same bytes."""
+    need("arm-none-eabi-gcc", "cmake", "ccache")
+    ws = make_fixture_workspace(tmp_path / "ws")
+    tools = tmp_path / "tools"  # the ccache this build finds, and the user then uninstalls
+    tools.mkdir()
+    (tools / "ccache").symlink_to(shutil.which("ccache") or "/usr/bin/ccache")
+    env = env_without(("ccache",), tmp_path / "shadow")
+    env["PATH"] = f"{tools}{os.pathsep}{env['PATH']}"
+    env["CCACHE_DIR"] = str(tmp_path / "ccache")
+    lib = ws / "build" / "cortex-m7" / "libmicroros.a"
+    assert "ccache: 0 of" in _build(ws, env).stderr
+    built = lib.read_bytes()
+    source = ws / "mcu_ws" / "src" / "fx_core" / "src" / "core.c"
+
+    def edit() -> None:  # a comment at the end: compiled again, the same object
+        source.write_text(source.read_text() + "/* edited */\n")
+
+    (tools / "ccache").unlink()  # uninstalled: its path stays in every package's CMakeCache.txt
+    for more in (("--no-ccache",), ()):
+        edit()
+        done = _build(ws, env, *more, check=False)
+        assert done.returncode == 0, done.stderr
+        assert "ccache:" not in done.stderr and not _ccache_warnings(done.stderr)
+        assert lib.read_bytes() == built
+
+    (tools / "ccache").symlink_to(shutil.which("ccache", path=os.environ["PATH"]) or "/usr/bin/ccache")
+    assert "ccache: " in _build(ws, env).stderr
+    not_a_folder = tmp_path / "ccache-file"
+    not_a_folder.write_text("a file where ccache keeps its cache\n")
+    edit()
+    done = _build(ws, {**env, "CCACHE_DIR": str(not_a_folder)}, check=False)
+    assert done.returncode == 0, done.stderr
+    (warning,) = _ccache_warnings(done.stderr)
+    assert str(not_a_folder) in warning and "compiling without it" in warning, warning
+    assert lib.read_bytes() == built
+
+    # a read-only mount (root: a folder's mode does not stop root), in a mount namespace
+    read_only = tmp_path / "ccache-ro"
+    read_only.mkdir()
+    out = tmp_path / "ro"
+    argv = [sys.executable, "-m", "uros_build", "build", "--toolchain", "cortex-m7", "-w", str(ws)]
+    argv += ["--meta", str(ws / "fixture.meta")]
+    script = (
+        f"mount --bind {read_only} {read_only} && mount -o remount,ro,bind {read_only} || exit 99\n"
+        f"{shlex.join(argv)} >{out}.out 2>{out}.err; echo $? >{out}.rc\n"
+    )
+    edit()
+    env_ro = {**env, "CCACHE_DIR": str(read_only), "PYTHONPATH": str(REPO)}
+    done = subprocess.run(["unshare", "-m", "sh", "-c", script], env=env_ro, capture_output=True, text=True)
+    if done.returncode == 99 or not Path(f"{out}.rc").is_file():
+        pytest.skip(f"no mount namespace here: {done.stderr}")
+    err = Path(f"{out}.err").read_text()
+    assert Path(f"{out}.rc").read_text().strip() == "0", err
+    (warning,) = _ccache_warnings(err)
+    assert str(read_only) in warning, warning
+    assert lib.read_bytes() == built

@@ -4,7 +4,15 @@ from pathlib import Path
 
 from golden import check_golden
 
-from uros_build.colcon.command import ColconPlan, build_env, colcon_argv, kept_by_ignores
+from uros_build.colcon.command import (
+    ColconPlan,
+    build_env,
+    ccache_env,
+    ccache_settings,
+    ccache_trouble,
+    colcon_argv,
+    kept_by_ignores,
+)
 
 
 def _plan(**kw: object) -> ColconPlan:
@@ -215,3 +223,52 @@ def test_env_scrubs_what_gcc_reads_behind_the_command_line() -> None:
     env, scrubbed = build_env(base, python_bin_dir="/venv/bin")
     assert not {"CPATH", "C_INCLUDE_PATH", "LIBRARY_PATH", "GCC_EXEC_PREFIX"} & set(env)
     assert {"CPATH", "C_INCLUDE_PATH", "LIBRARY_PATH", "GCC_EXEC_PREFIX"} <= set(scrubbed)
+
+
+def test_ccache_knows_the_compiler_by_its_content() -> None:
+    """ccache's default check (size and mtime) gave a replaced compiler of the same size and mtime
+    the old one's objects (issue 34, item 7)."""
+    env = ccache_env(Path("/ws"), Path("/ws/.uros/stats.log"))
+    assert env["CCACHE_COMPILERCHECK"] == "content" and env["CCACHE_INODECACHE"] == "true"
+
+
+def test_no_launcher_is_said_as_an_empty_one() -> None:
+    """A package's CMakeCache.txt keeps the last configure's launcher: a build without ccache
+    must clear it, or ccache uninstalled fails every compile (issue 34, item 7)."""
+    plan = ColconPlan(
+        base_paths=(Path("/ws/src"),),
+        build_base=Path("/b"),
+        install_base=Path("/i"),
+        log_base=Path("/l"),
+        metas=(),
+        toolchain_file=None,
+        python="/py",
+    )
+    assert "-DCMAKE_C_COMPILER_LAUNCHER=" in colcon_argv(plan)
+    assert "-DCMAKE_CXX_COMPILER_LAUNCHER=" in colcon_argv(plan)
+    with_ccache = colcon_argv(ColconPlan(**{**plan.__dict__, "compiler_launcher": "/usr/bin/ccache"}))
+    assert "-DCMAKE_C_COMPILER_LAUNCHER=/usr/bin/ccache" in with_ccache
+
+
+def test_ccache_trouble_names_the_folder_it_cannot_use(tmp_path: Path) -> None:
+    shown = ccache_settings(
+        "(default) absolute_paths_in_stderr = false\n"
+        f"(environment) cache_dir = {tmp_path}/cache\n"
+        f"(default) temporary_dir = {tmp_path}/cache/tmp\n"
+        "(default) read_only = false\n"
+    )
+    assert shown["cache_dir"] == f"{tmp_path}/cache"
+    assert ccache_trouble(shown) is None  # not made yet: ccache makes it in tmp_path
+    (tmp_path / "cache").write_text("a file\n")
+    trouble = ccache_trouble(shown)
+    assert trouble == f"its cache_dir {tmp_path}/cache: {tmp_path}/cache is not a folder"
+    (tmp_path / "cache").unlink()
+    (tmp_path / "cache").mkdir()
+    assert ccache_trouble(shown) is None
+    # read_only: ccache writes no cache, only its temporary folder
+    assert ccache_trouble({"cache_dir": f"{tmp_path}/cache/x/y", "read_only": "true"}) is None
+    (tmp_path / "f").write_text("")
+    assert (
+        ccache_trouble({"temporary_dir": f"{tmp_path}/f/t"})
+        == f"its temporary_dir {tmp_path}/f/t: {tmp_path}/f is not a folder"
+    )

@@ -21,9 +21,7 @@ from uros_build.colcon import fingerprint as fp
 from uros_build.colcon import hoststage, hosttools
 from uros_build.colcon.hosttools import HostFacts
 from uros_build.config.plan import BuildPlan, ProfileTarget, meta_transport
-from uros_build.errors import (
-    ConfigError,
-)
+from uros_build.errors import ConfigError, DiskFull, StepFailed
 from uros_build.output.buildinfo import (
     read_build_info,
 )
@@ -157,9 +155,25 @@ def _ccache(plan: BuildPlan, env: Mapping[str, str], runner: Runner) -> str | No
     toolchain file does not carry the path maps that keep the library the same under ccache."""
     if plan.ccache is False or not isinstance(plan.target, ProfileTarget):
         return None
-    if plan.ccache:
-        return runner.which("ccache", path=env.get("PATH"))
-    return shutil.which("ccache", path=env.get("PATH"))
+    found = (
+        runner.which("ccache", path=env.get("PATH"))
+        if plan.ccache
+        else shutil.which("ccache", path=env.get("PATH"))
+    )
+    if found is None:
+        return None
+    try:  # ccache that cannot compile fails every compile: a cache is never why a build fails
+        trouble = colcon.ccache_trouble(
+            colcon.ccache_settings(
+                runner.query([found, "--show-config"], step="ccache --show-config", env=env)
+            )
+        )
+    except (StepFailed, DiskFull) as exc:
+        trouble = exc.message
+    if trouble:
+        console.warn(f"ccache cannot be used ({trouble}): compiling without it (the library is the same)")
+        return None
+    return found
 
 
 SEED_SWITCH = "UROS_COMPILER_SEED"  # "off": every package's configure finds the compilers itself
