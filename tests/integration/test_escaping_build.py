@@ -251,3 +251,31 @@ def test_a_crafted_target_in_build_info_runs_nothing_in_the_exported_package(
     assert done.returncode == 0, done.stderr
     assert not pwned.exists()
     assert f"target=[{hostile}\n# ${{HOME}}]" in done.stdout
+
+
+def test_a_star_in_the_workspace_path_builds_only_that_workspace(tmp_path: Path) -> None:
+    """Issue 34, item 7: colcon expands `*` in --base-paths as a glob, so a workspace at `fw*`
+    also built the packages of a sibling folder `fw-other/` into its library. uros escapes the
+    glob characters of the paths it gives colcon."""
+    need("arm-none-eabi-gcc", "cmake", "arm-none-eabi-nm")
+    ws = make_fixture_workspace(tmp_path / "fw*")
+    sibling = tmp_path / "fw-other" / "mcu_ws" / "src" / "fx_sibling"
+    sibling.mkdir(parents=True)
+    (sibling / "package.xml").write_text(
+        '<?xml version="1.0"?>\n<package format="3"><name>fx_sibling</name><version>0.1.0</version>'
+        '<description>another workspace</description><maintainer email="a@b.c">t</maintainer>'
+        "<license>MIT</license><export><build_type>cmake</build_type></export></package>\n"
+    )
+    (sibling / "CMakeLists.txt").write_text(
+        "cmake_minimum_required(VERSION 3.16)\nproject(fx_sibling C)\nadd_library(fx_sibling STATIC s.c)\n"
+        "install(TARGETS fx_sibling ARCHIVE DESTINATION lib)\n"
+    )
+    (sibling / "s.c").write_text("int fx_sibling_only(void) { return 7; }\n")
+    run_uros("build", "--toolchain", "cortex-m7", "-w", str(ws), "--meta", str(ws / "fixture.meta"))
+    out = ws / "build" / "cortex-m7"
+    symbols = subprocess.run(
+        ["arm-none-eabi-nm", str(out / "libmicroros.a")], capture_output=True, text=True, check=True
+    ).stdout
+    assert "fx_core_add" in symbols and "fx_sibling_only" not in symbols
+    info = json.loads((out / "build-info.json").read_text())
+    assert "fx_sibling" not in json.dumps(info)

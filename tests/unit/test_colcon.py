@@ -11,6 +11,7 @@ from uros_build.colcon.command import (
     ccache_settings,
     ccache_trouble,
     colcon_argv,
+    colcon_path,
     kept_by_ignores,
 )
 
@@ -272,3 +273,11 @@ def test_ccache_trouble_names_the_folder_it_cannot_use(tmp_path: Path) -> None:
         ccache_trouble({"temporary_dir": f"{tmp_path}/f/t"})
         == f"its temporary_dir {tmp_path}/f/t: {tmp_path}/f is not a folder"
     )
+
+
+def test_a_star_in_a_path_is_escaped_for_colcon_discovery() -> None:
+    """colcon globs a --base-paths entry holding `*` (issue 34, item 7); without `*` it does not,
+    so only such a path is escaped."""
+    assert colcon_path(Path("/home/me/fw*/mcu_ws/src")) == "/home/me/fw[*]/mcu_ws/src"
+    assert colcon_path(Path("/home/me/fw*[1]?/src")) == "/home/me/fw[*][[]1][?]/src"
+    assert colcon_path(Path("/home/me/fw[1]?/src")) == "/home/me/fw[1]?/src"

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import glob
 import os
 import re
 import shutil
@@ -186,6 +187,15 @@ def kept_by_ignores(plan: ColconPlan, names: Iterable[str]) -> set[str]:
     return {n for n in names if n not in ignored and not (pattern and pattern.match(n))}
 
 
+def colcon_path(path: Path) -> str:
+    """A folder as colcon's package discovery reads it: a path holding `*` is a glob pattern there
+    (expand_dir_wildcards: a workspace at `fw*` also crawled a sibling `fw-other/`), so its glob
+    characters are escaped; one without `*` is taken as it is (escaping it would name another path).
+    https://github.com/colcon/colcon-core/blob/master/colcon_core/package_discovery/__init__.py"""
+    text = str(path)
+    return glob.escape(text) if "*" in text else text
+
+
 def colcon_argv(plan: ColconPlan, colcon: str = "colcon") -> list[str]:
     """micro_ros_setup's generate_lib colcon invocation, made explicit and per target.
 
@@ -198,7 +208,7 @@ def colcon_argv(plan: ColconPlan, colcon: str = "colcon") -> list[str]:
     library), the Python that has the rosidl generators' modules, and compile_commands.json.
     """
     argv = [colcon, "--log-base", str(plan.log_base), "build"]
-    argv += ["--base-paths", *map(str, plan.base_paths)]
+    argv += ["--base-paths", *map(colcon_path, plan.base_paths)]
     argv += ["--build-base", str(plan.build_base), "--install-base", str(plan.install_base)]
     argv += ["--merge-install", "--ignore-user-meta"]
     if plan.metas:
