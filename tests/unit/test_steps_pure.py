@@ -15,7 +15,7 @@ from uros_build.colcon import fingerprint as fp
 from uros_build.colcon import hosttools
 from uros_build.errors import VerifyError
 from uros_build.output import includes
-from uros_build.steps import inputs, team_cache
+from uros_build.steps import inputs, team_cache, toolchain_file
 
 C_FACTS = 'set(CMAKE_C_COMPILER "/usr/bin/arm-none-eabi-gcc")\nset(CMAKE_C_COMPILER_ID "GNU")\n'
 
@@ -81,7 +81,7 @@ def test_the_seed_is_found_again_when_its_archive_plugin_is_gone(tmp_path: Path)
     folder.mkdir()
 
     def seed() -> str:
-        found = inputs._seed_compilers(folder, toolchain, ("gcc 1",), "cmake", runner, {})  # type: ignore[arg-type]
+        found = toolchain_file.seed_compilers(folder, toolchain, ("gcc 1",), "cmake", runner, {})  # type: ignore[arg-type]
         return found.read_text()
 
     assert f"--plugin {plugin} qcs" in seed() and len(runner.calls) == 1

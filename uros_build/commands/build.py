@@ -20,7 +20,7 @@ from uros_build.errors import (
     UrosError,
 )
 from uros_build.sources.workspace import locked
-from uros_build.steps import colcon_run, inputs, prepare, stage, start, team_cache
+from uros_build.steps import colcon_run, deliver, inputs, prepare, start, team_cache
 
 
 @dataclass(frozen=True)
@@ -74,22 +74,22 @@ def build(plan: BuildPlan) -> Outcome:
         repaired = prepare.prepare_trees(plan, facts)
         found = inputs.resolve(plan, facts, runner)
         if inputs.up_to_date(plan, found, repaired):
-            team_cache.upload_if_asked(plan, found.key, stage.entries_of(plan.output))
+            team_cache.upload_if_asked(plan, found.key, deliver.entries_of(plan.output))
             return Outcome(plan.target.key, plan.output, "up to date")
         # From here the trees change: until this build succeeds, no state vouches for the output.
         fp.forget_state(found.state_path)
         hit = team_cache.take(runner, plan, found.key)
         if hit is not None:
-            left = stage.swap_in(plan, found, hit, merge_key="")
+            left = deliver.swap_in(plan, found, hit, merge_key="")
             assert plan.cache is not None
-            stage.say_done(
+            deliver.say_done(
                 plan, hit, left, started, f"from the cache {plan.cache.url.shown} (entry {found.key[:16]})"
             )
             return Outcome(plan.target.key, plan.output, "from the cache")
         compiled = colcon_run.compile_packages(plan, facts, runner, found)
-        staged, merge_key = stage.merge_and_verify(runner, plan, facts, found, compiled)
-        entries = stage.entries_of(staged.folder)
-        left = stage.swap_in(plan, found, staged, merge_key)
-    stage.say_done(plan, staged, left, started, "")
+        assembled, merge_key = deliver.merge_and_verify(runner, plan, facts, found, compiled)
+        entries = deliver.entries_of(assembled.folder)
+        left = deliver.swap_in(plan, found, assembled, merge_key)
+    deliver.say_done(plan, assembled, left, started, "")
     team_cache.upload_if_asked(plan, found.key, entries)
     return Outcome(plan.target.key, plan.output, "built")

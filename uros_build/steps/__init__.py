@@ -1,3 +1,3 @@
-"""`uros build`'s steps, one module each, in the order commands/build.py runs them: prepare
-(the trees), inputs (toolchain, colcon command, fingerprint, build key), team_cache, colcon_run,
-stage (merge, verify, swap)."""
+"""`uros build`'s steps, in the order commands/build.py runs them: start (the run, host facts),
+prepare (the trees), inputs (over toolchain_file and colcon_setup: every input as a digest, the
+build key), team_cache, host_stage, colcon_run, deliver (merge, verify, swap)."""

@@ -25,14 +25,8 @@ from uros_build.errors import (
 from uros_build.proc import Runner, disk_full_line, disk_full_path, first_error
 from uros_build.shim import pyshim
 from uros_build.sources.wsfiles import write_if_changed
-from uros_build.steps.inputs import (
-    CCACHE_STATS,
-    ColconSetup,
-    Inputs,
-    building_names,
-    flags_fingerprint,
-    ready_host_stage,
-)
+from uros_build.steps.colcon_setup import CCACHE_STATS, ColconSetup, building_names
+from uros_build.steps.inputs import Inputs, flags_fingerprint, ready_host_stage
 from uros_build.steps.prepare import DISK_FULL_MARK, drop_removed_packages
 
 

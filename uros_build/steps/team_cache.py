@@ -25,11 +25,11 @@ from uros_build.output.buildinfo import (
 )
 from uros_build.output.team_cache import CacheSettings, CacheUnusable
 from uros_build.proc import Runner
-from uros_build.steps.stage import Staged
+from uros_build.steps.deliver import Assembled
 from uros_build.target import abi
 
 
-def _from_cache(runner: Runner, plan: BuildPlan, settings: CacheSettings, key: str) -> Staged | None:
+def _from_cache(runner: Runner, plan: BuildPlan, settings: CacheSettings, key: str) -> Assembled | None:
     """The output of the entry ``key``, unpacked beside the output and checked as a build's would
     be (its build-info names this key and target, the library has the sha256 it names, every object
     passes the ABI check); None, with a line saying why, when there is none or it cannot be used."""
@@ -60,7 +60,7 @@ def _from_cache(runner: Runner, plan: BuildPlan, settings: CacheSettings, key: s
         cache_mod.unpack(data, manifest, staging)
         info = _check_cached(runner, plan, staging, key)
         origin = {"url": shown, "key": key, "archive_sha256": manifest.archive_sha256}
-        return Staged(staging, dataclasses.replace(info, from_cache=origin))
+        return Assembled(staging, dataclasses.replace(info, from_cache=origin))
     except CacheUnusable as exc:
         swap.remove_tree(staging)
         console.warn(f"cache {shown}: {exc}: building instead")
@@ -121,7 +121,7 @@ def _upload(plan: BuildPlan, key: str, entries: list[str]) -> None:
         console.warn(f"cache {shown}: not uploaded: {exc}")
 
 
-def take(runner: Runner, plan: BuildPlan, key: str) -> Staged | None:
+def take(runner: Runner, plan: BuildPlan, key: str) -> Assembled | None:
     """The team cache's output for this build key, checked (None: no cache, --rebuild, a miss or
     an entry that cannot be used)."""
     if plan.cache is None or plan.rebuild:

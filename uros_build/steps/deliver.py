@@ -1,6 +1,6 @@
-"""The output beside its final place: this build's archives merged (or the previous library reused),
-checked against the target's ELF facts, the include tree, the CMake package and build-info.json;
-then swapped in, and the state that vouches for it.
+"""The output delivered: this build's archives merged (or the previous library reused), checked
+against the target's ELF facts, the include tree, the CMake package and build-info.json, assembled
+beside its final place; then swapped in, and the state that vouches for it.
 """
 
 from __future__ import annotations
@@ -46,7 +46,8 @@ from uros_build.sources import clones
 from uros_build.sources.workspace import locked
 from uros_build.sources.wsfiles import read_lock
 from uros_build.steps.colcon_run import Compiled
-from uros_build.steps.inputs import ColconSetup, Inputs
+from uros_build.steps.colcon_setup import ColconSetup
+from uros_build.steps.inputs import Inputs
 from uros_build.target import abi
 from uros_build.target.profiles import TargetProfile
 from uros_build.target.toolchain import (
@@ -60,7 +61,7 @@ from uros_build.target.toolsearch import BinTools
 
 
 @dataclass(frozen=True)
-class Staged:
+class Assembled:
     """An output ready to be swapped in: its folder beside the output, and its build-info."""
 
     folder: Path
@@ -68,18 +69,18 @@ class Staged:
 
 
 def entries_of(folder: Path) -> list[str]:
-    """What uros writes into an output (build-info.json's folder, or a staged one, into which the
+    """What uros writes into an output (build-info.json's folder, or an assembled one, into which the
     delivery writes build-info.json later: it is named either way), its marker left out."""
     return sorted({p.name for p in folder.iterdir() if p.name != outputs.MARKER} | {BUILD_INFO})
 
 
-def _deliver(plan: BuildPlan, staged: Staged) -> list[str]:
-    """build-info.json and the marker into the staged folder, then the swap: the staged folder
+def _put_in_place(plan: BuildPlan, assembled: Assembled) -> list[str]:
+    """build-info.json and the marker into the assembled folder, then the swap: the assembled folder
     becomes the output (removed if anything fails first). Returns what of the previous output
     could not be removed."""
-    staging = staged.folder
+    staging = assembled.folder
     try:
-        (staging / BUILD_INFO).write_text(staged.info.to_json(), encoding="utf-8")
+        (staging / BUILD_INFO).write_text(assembled.info.to_json(), encoding="utf-8")
         outputs.write_marker(staging, plan.target.key, [p.name for p in staging.iterdir()])
         # Two targets' builds into one --output: one writer at a time, and the second does not
         # replace the first's output unless --force (checked again now that it is its turn).
@@ -100,7 +101,9 @@ def _deliver(plan: BuildPlan, staged: Staged) -> list[str]:
         raise
 
 
-def _record(plan: BuildPlan, state_path: Path, parts: dict[str, str], staged: Staged, merge_key: str) -> None:
+def _record(
+    plan: BuildPlan, state_path: Path, parts: dict[str, str], assembled: Assembled, merge_key: str
+) -> None:
     """The state that vouches for the output just swapped in (the next build compares with it)."""
     fp.write_state(
         state_path,
@@ -109,22 +112,22 @@ def _record(plan: BuildPlan, state_path: Path, parts: dict[str, str], staged: St
             parts=parts,
             output=str(plan.output),
             output_files=fp.stat_folder(plan.output),
-            library_sha256=staged.info.library.sha256,
+            library_sha256=assembled.info.library.sha256,
             merge_key=merge_key,
-            packages=staged.info.packages,
+            packages=assembled.info.packages,
         ),
     )
 
 
-def say_done(plan: BuildPlan, staged: Staged, left: list[str], started: float, origin: str) -> None:
+def say_done(plan: BuildPlan, assembled: Assembled, left: list[str], started: float, origin: str) -> None:
     try:
         for why in left:  # the new output is in place: a warning, not a failure
             console.warn(f"could not remove the previous output {why}: remove it by hand")
         lib = plan.output / "libmicroros.a"
         verb, origin = ("took", f" {origin}") if origin else ("built", "")
         console.step(
-            f"{verb} {lib} ({lib.stat().st_size:,} bytes, {staged.info.library.members} objects) and "
-            f"{staged.info.include.files} headers in {plan.output / 'include'}{origin} "
+            f"{verb} {lib} ({lib.stat().st_size:,} bytes, {assembled.info.library.members} objects) and "
+            f"{assembled.info.include.files} headers in {plan.output / 'include'}{origin} "
             f"({time.monotonic() - started:.1f} s)"
         )
     except KeyboardInterrupt as stop:
@@ -327,9 +330,9 @@ def _idf_info(plan: BuildPlan) -> IdfInfo | None:
 
 def merge_and_verify(
     runner: Runner, plan: BuildPlan, facts: HostFacts, inputs: Inputs, compiled: Compiled
-) -> tuple[Staged, str]:
+) -> tuple[Assembled, str]:
     """This build's archives merged (or the previous library reused) and checked, the include tree,
-    the CMake package: the output staged beside its final place. Returns it and the merge key."""
+    the CMake package: the output assembled beside its final place. Returns it and the merge key."""
     staging = outputs.staging_dir(plan.output)
     try:
         info, merge_key = _stage_output(
@@ -347,12 +350,13 @@ def merge_and_verify(
     except BaseException:
         swap.remove_tree(staging)
         raise
-    return Staged(staging, dataclasses.replace(info, build_key=inputs.key, ccache=compiled.ccache)), merge_key
+    info = dataclasses.replace(info, build_key=inputs.key, ccache=compiled.ccache)
+    return Assembled(staging, info), merge_key
 
 
-def swap_in(plan: BuildPlan, inputs: Inputs, staged: Staged, merge_key: str) -> list[str]:
-    """The staged output swapped into place and the state that vouches for it recorded. Returns
+def swap_in(plan: BuildPlan, inputs: Inputs, assembled: Assembled, merge_key: str) -> list[str]:
+    """The assembled output swapped into place and the state that vouches for it recorded. Returns
     what of the previous output could not be removed."""
-    left = _deliver(plan, staged)
-    _record(plan, inputs.state_path, inputs.parts, staged, merge_key)
+    left = _put_in_place(plan, assembled)
+    _record(plan, inputs.state_path, inputs.parts, assembled, merge_key)
     return left
