@@ -13,6 +13,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from fixture_ws import make_fixture_workspace
 from uros_helpers import need, run_uros
 
 pytestmark = pytest.mark.integration
@@ -259,3 +260,27 @@ def test_the_zephyr_module_is_written_beside_the_library(m7_build: Path, tmp_pat
     assert (out / "CMakeLists.txt").is_file() and (out / "libmicroros.a").is_file()
     owned = json.loads((out / ".uros-output").read_text())["files"]
     assert {"zephyr", "Kconfig", "CMakeLists.txt"} <= set(owned)
+
+
+def test_exports_beside_the_library_survive_the_next_build(tmp_path: Path) -> None:
+    """Issue 34, item 7: the README's flow exports beside the library (`--output build/cortex-m7`);
+    the next `uros build` deleted microros.mk, .pc and .ini even when nothing changed. They are
+    written again for the new library (the same bytes here), and the build after is up to date."""
+    need("arm-none-eabi-gcc", "cmake")
+    ws = make_fixture_workspace(tmp_path / "ws")
+    build = ("build", "--toolchain", "cortex-m7", "-w", str(ws), "--meta", str(ws / "fixture.meta"))
+    run_uros(*build)
+    out = ws / "build" / "cortex-m7"
+    (out / "notes.txt").write_text("mine\n")  # the user's own file beside them
+    for kind in ("make", "pkg-config", "meson"):
+        run_uros("export", kind, "--output", str(out))
+    names = ("microros.mk", "microros.pc", "microros-cross.ini", "notes.txt")
+    before = {name: (out / name).read_bytes() for name in names}
+    (ws / "mcu_ws/src/fx_core/src/core.c").write_text(
+        (ws / "mcu_ws/src/fx_core/src/core.c").read_text() + "\nint fx_core_extra(void) { return 7; }\n"
+    )  # a changed library: the exports are rewritten beside it, not dropped
+    run_uros(*build)
+    assert {name: (out / name).read_bytes() for name in names} == before
+    owned = json.loads((out / ".uros-output").read_text())["files"]
+    assert {"microros.mk", "microros.pc", "microros-cross.ini"} <= set(owned) and "notes.txt" not in owned
+    assert "up to date" in run_uros(*build).stderr

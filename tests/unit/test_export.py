@@ -1,5 +1,7 @@
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 from golden import check_golden
 
@@ -133,3 +135,31 @@ def test_the_cmake_package_names_the_librarys_abi_flags() -> None:
     values = set_values(ex.cmake_package_files("cortex-m7", m7)["microros.cmake"])
     assert values["_microros_want_mcpu"] == "cortex-m7" and values["_microros_want_mfloat-abi"] == "hard"
     assert values["_microros_want_mabi"] == ""
+
+
+def test_a_build_carries_over_the_exports_its_marker_names(tmp_path: Path) -> None:
+    """Issue 34, item 7: only the exports uros wrote (the marker) and that are still there are
+    written again into the next build's staged folder; a user's same-named file is not uros's."""
+    from uros_build.output import export as ex
+    from uros_build.output import folders
+    from uros_build.output.buildinfo import parse_build_info
+
+    info = parse_build_info(
+        {
+            "generated_by": "uros 0.1.0",
+            "target": "cortex-m7",
+            "library": {"file": "libmicroros.a", "sha256": "s"},
+        },
+        "b",
+    )
+    out, staging = tmp_path / "out", tmp_path / "staging"
+    out.mkdir()
+    staging.mkdir()
+    for name in ("microros.mk", "library.json", "microros.pc"):
+        (out / name).write_text("x")
+    folders.write_marker(
+        out, "cortex-m7", ["libmicroros.a", "microros.mk", "library.json", "microros-cross.ini"]
+    )
+    # microros.pc is the user's (not in the marker); microros-cross.ini was removed by the user
+    assert ex.carry_over(out, staging, info) == ["make", "platformio"]
+    assert sorted(p.name for p in staging.iterdir()) == ["library.json", "microros.mk"]

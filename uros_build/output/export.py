@@ -11,6 +11,7 @@ from pathlib import Path
 
 from uros_build import __version__, templating
 from uros_build.defaults import BUILD_INFO
+from uros_build.output import folders
 from uros_build.output.buildinfo import BuildInfo
 
 CMAKE_FILES = ("microrosConfig.cmake", "microrosConfigVersion.cmake", "microros.cmake")
@@ -149,9 +150,10 @@ def write_pkg_config(out: Path, info: BuildInfo) -> list[Path]:
     return _write(out, pkg_config_file(info.target, info.flags.cpu))
 
 
-def write_meson_cross(out: Path, info: BuildInfo) -> list[Path]:
+def write_meson_cross(out: Path, info: BuildInfo, folder: Path | None = None) -> list[Path]:
+    """``folder``: where the files will be read from (pkg_config_libdir), when not ``out``."""
     compiler = info.compiler.path if info.compiler else ""
-    return _write(out, meson_cross_file(info.target, compiler, info.flags.cpu, str(out)))
+    return _write(out, meson_cross_file(info.target, compiler, info.flags.cpu, str(folder or out)))
 
 
 def write_esp_idf_component(out: Path, info: BuildInfo) -> list[Path]:
@@ -283,3 +285,36 @@ def zephyr_module_files(target: str) -> dict[str, str]:
 def write_zephyr_module(out: Path, info: BuildInfo) -> list[Path]:
     (out / "zephyr").mkdir(exist_ok=True)
     return _write(out, zephyr_module_files(info.target))
+
+
+# ---------------------------------------------------------------------------------------------
+# Exports beside the library (`uros export make --output build/cortex-m7`, the README's flow)
+
+
+def carry_over(out: Path, staging: Path, info: BuildInfo) -> list[str]:
+    """The exports an earlier `uros export KIND --output OUT` wrote into the output ``out`` (its
+    marker names them), written again into the next build's ``staging`` for its library, so that
+    the build's swap does not drop them. Returns the kinds carried over."""
+    owned = folders.owned_entries(out) or frozenset()
+
+    def has(*names: str) -> bool:
+        return all(n in owned and (out / n).exists() for n in names)
+
+    carried = []
+    meson = has(MESON_FILE) and info.compiler is not None
+    for kind, present, write in (
+        ("make", has(MAKE_FILE), write_make_fragment),
+        ("pkg-config", has(PC_FILE) and not meson, write_pkg_config),
+        ("meson", meson, lambda s, i: write_meson_cross(s, i, out)),
+        ("platformio", has(PLATFORMIO_FILE), write_platformio),
+        ("zephyr", has(*ZEPHYR_FILES[1:], "zephyr"), write_zephyr_module),
+        (
+            "esp-idf",
+            has(ESP_IDF_COMPONENT_FILE, IDF_MANIFEST_FILE) and bool(info.idf_target),
+            write_esp_idf_component,
+        ),
+    ):
+        if present:
+            write(staging, info)
+            carried.append(kind)
+    return carried

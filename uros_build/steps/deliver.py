@@ -81,6 +81,7 @@ def _put_in_place(plan: BuildPlan, assembled: Assembled) -> list[str]:
     staging = assembled.folder
     try:
         (staging / BUILD_INFO).write_text(assembled.info.to_json(), encoding="utf-8")
+        export.carry_over(plan.output, staging, assembled.info)  # `uros export KIND` beside the library
         outputs.write_marker(staging, plan.target.key, [p.name for p in staging.iterdir()])
         # Two targets' builds into one --output: one writer at a time, and the second does not
         # replace the first's output unless --force (checked again now that it is its turn).
