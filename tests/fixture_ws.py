@@ -241,3 +241,42 @@ def add_board_package(root: Path) -> None:
         const char fx_board_name[] = BOARD_NAME;
     """,
     )
+
+
+def add_vendor_package(root: Path) -> None:
+    """fx_vendor: a vendor package as libyaml_vendor is, an ExternalProject_Add of an upstream CMake
+    project (here a folder beside it, no network) configured in a build tree of its own, nested in the
+    package's (with a CMakeCache.txt of its own), and installed from a staging folder."""
+    vendor = root / "mcu_ws" / "src" / "fx_vendor"
+    _write(vendor / "package.xml", _package_xml("fx_vendor", []))
+    _write(
+        vendor / "CMakeLists.txt",
+        """
+        cmake_minimum_required(VERSION 3.16)
+        project(fx_vendor NONE)
+        include(ExternalProject)
+        ExternalProject_Add(fx_upstream
+          SOURCE_DIR ${CMAKE_CURRENT_SOURCE_DIR}/upstream
+          CMAKE_ARGS
+            -DCMAKE_TOOLCHAIN_FILE=${CMAKE_TOOLCHAIN_FILE}
+            -DCMAKE_BUILD_TYPE=${CMAKE_BUILD_TYPE}
+            -DCMAKE_INSTALL_PREFIX=${CMAKE_CURRENT_BINARY_DIR}/upstream_install)
+        install(DIRECTORY ${CMAKE_CURRENT_BINARY_DIR}/upstream_install/ DESTINATION ${CMAKE_INSTALL_PREFIX})
+        """,
+    )
+    _write(
+        vendor / "upstream" / "CMakeLists.txt",
+        """
+        cmake_minimum_required(VERSION 3.16)
+        project(fx_upstream C)
+        add_library(fx_upstream STATIC upstream.c)
+        install(TARGETS fx_upstream ARCHIVE DESTINATION lib)
+        install(FILES upstream.h DESTINATION include/fx_upstream)
+        """,
+    )
+    _write(vendor / "upstream" / "upstream.h", "int fx_upstream_value(void);\n")
+    _write(
+        vendor / "upstream" / "upstream.c",
+        '#include "upstream.h"\nconst char *fx_upstream_file(void) { return __FILE__; }\n'
+        "int fx_upstream_value(void) { return 7; }\n",
+    )

@@ -5,13 +5,15 @@ that does compile code is built per target, and no copied file names the stage's
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import shutil
+import subprocess
 from pathlib import Path
 
 import pytest
-from fixture_ws import make_fixture_workspace
+from fixture_ws import add_vendor_package, make_fixture_workspace
 from uros_helpers import need, run_uros
 
 pytestmark = pytest.mark.integration
@@ -175,3 +177,51 @@ def test_a_team_cache_hit_builds_no_host_stage(tmp_path: Path) -> None:
     out = _build(fresh, "cortex-m7", "--cache", store.as_uri())
     assert "from the cache" in out and "host stage" not in out and "colcon build" not in out, out
     assert not (fresh / ".uros" / "shared").exists()
+
+
+def _no_path_of(old: Path, folder: Path) -> None:
+    for path in folder.rglob("*"):
+        if path.is_file() and not path.is_symlink():
+            assert str(old).encode() not in path.read_bytes(), path
+
+
+def test_a_moved_or_copied_workspace_builds_the_same_library(tmp_path: Path) -> None:
+    """Issue 34, item 1: a built workspace copied (`cp -a`) or moved (`mv`) builds again with no hand
+    work: the CMake trees configured in the old folder (an ExternalProject's nested one too, as
+    libyaml_vendor's) are configured afresh, the host stage is built again where it is now and
+    taken whole into the target's trees, and the library is the same bytes."""
+    need("cmake", "colcon", "arm-none-eabi-gcc", "gcc", "cp")
+    ws = _workspace(tmp_path / "first")
+    add_vendor_package(ws)
+    _build(ws, "cortex-m7")
+    out = ws / "build" / "cortex-m7"
+    digest = hashlib.sha256((out / "libmicroros.a").read_bytes()).hexdigest()
+    headers = sorted(p.relative_to(out) for p in (out / "include").rglob("*") if p.is_file())
+    assert (
+        Path("include/fx_upstream/upstream.h") in headers
+        and Path("include/rosidl_typesupport_interface/fx_macros.h") in headers
+    )
+    info = json.loads((out / "build-info.json").read_text())
+    assert "libfx_upstream.a" in info["library"]["inputs"], info["library"]
+
+    def builds_as_before(new: Path, how: str) -> None:
+        text = _build(new, "cortex-m7")
+        assert "(the workspace moved or was copied): configuring its" in text, (how, text)
+        assert "the host stage failed" not in text and "from the host stage: 2 packages" in text, (how, text)
+        built = new / "build" / "cortex-m7"
+        assert hashlib.sha256((built / "libmicroros.a").read_bytes()).hexdigest() == digest, how
+        assert sorted(p.relative_to(built) for p in (built / "include").rglob("*") if p.is_file()) == headers
+        # nothing the library, the output or the target's install tree holds names the old folder
+        _no_path_of(ws, built)
+        _no_path_of(ws, new / ".uros" / "targets" / "cortex-m7" / "install")
+        # and the next build has nothing to redo
+        assert "up to date" in _build(new, "cortex-m7"), how
+
+    copy = tmp_path / "copy"
+    subprocess.run(["cp", "-a", str(ws), str(copy)], check=True)
+    builds_as_before(copy, "cp -a")
+    # the original is untouched by its copy's build
+    assert "up to date" in _build(ws, "cortex-m7")
+    moved = tmp_path / "moved"
+    ws.rename(moved)
+    builds_as_before(moved, "mv")

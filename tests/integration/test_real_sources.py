@@ -7,6 +7,7 @@ The overrides are the substitutions such a mirror needs for humble (docs/real-hu
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import shutil
@@ -108,6 +109,17 @@ def test_real_humble_library_links_the_stm32h7_example(tmp_path: Path) -> None:
     # the same command again: nothing changed, nothing done
     again = run_uros("build", "--toolchain", "cortex-m7", "--workspace", str(fw))
     assert "up to date" in again.stderr
+
+    # the workspace moved to another folder builds with no hand work (libyaml_vendor's nested
+    # ExternalProject cache, the host stage), the same library byte for byte (issue 34, item 1)
+    library = (out / "libmicroros.a").read_bytes()
+    moved = tmp_path / "moved-firmware"
+    fw.rename(moved)
+    run_uros("build", "--toolchain", "cortex-m7", "--workspace", str(moved))
+    again_lib = (moved / "build" / "cortex-m7" / "libmicroros.a").read_bytes()
+    assert hashlib.sha256(again_lib).digest() == hashlib.sha256(library).digest()
+    assert str(fw).encode() not in again_lib
+    fw = moved
 
     # only what the example uses (its interfaces) and the core: a smaller library that still links
     pruned = tmp_path / "pruned"

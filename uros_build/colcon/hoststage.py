@@ -102,7 +102,7 @@ class Stage:
     folder: Path
     packages: tuple[str, ...]  # the candidates (chosen)
     meta: Mapping[str, Mapping[str, object]]  # their colcon.meta entries
-    key: str  # the folder's inputs + the packages' sources + dev_ws
+    key: str  # the folder's inputs + the packages' sources + dev_ws + where the folder is
 
     @property
     def build_base(self) -> Path:
@@ -131,13 +131,16 @@ def plan_stage(
 ) -> Stage:
     """Where the stage of ``packages`` lives and its key (pure). The folder is named by what the
     packages are built with (their names, colcon.meta entries and the tools), so that targets
-    whose colcon.meta differ for them get stages of their own; the key adds their sources."""
+    whose colcon.meta differ for them get stages of their own; the key adds their sources and
+    the folder's absolute path: what the stage installed names it (install manifests, ament's
+    package.sh), so a stage moved or copied with its workspace is built again where it is now."""
     entries = {p: meta.get(p, {}) for p in packages}
     folder_key = fp.digest_json(
         {"format": FORMAT, "packages": packages, "meta": entries, "tools": list(tools)}
     )
-    key = fp.digest_json({"folder": folder_key, "sources": dict(sources), "dev_ws": dev})
-    return Stage(state_dir / "shared" / folder_key[:16], packages, entries, key)
+    folder = state_dir / "shared" / folder_key[:16]
+    key = fp.digest_json({"folder": folder_key, "sources": dict(sources), "dev_ws": dev, "at": str(folder)})
+    return Stage(folder, packages, entries, key)
 
 
 def meta_text(stage: Stage, generated_by: str) -> str:

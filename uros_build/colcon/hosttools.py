@@ -18,7 +18,7 @@ from pathlib import Path
 
 from uros_build import console
 from uros_build.colcon import command as colcon
-from uros_build.colcon import fingerprint
+from uros_build.colcon import fingerprint, relocate
 from uros_build.errors import MissingToolError, StepFailed, UrosError
 from uros_build.proc import Runner
 from uros_build.sources import distros as distros_mod
@@ -299,6 +299,7 @@ def build_dev_workspace(
         "those the MCU packages need"
     )
     if needed:
+        relocate.reconfigure_moved(ws.dev_dir / "build", "dev_ws")
         _cmake, version = cmake_version(runner)
         env, _ = colcon_env(ws, cfg, distro, version, with_dev=False)
         plan = colcon.ColconPlan(

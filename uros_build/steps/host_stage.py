@@ -12,7 +12,7 @@ from pathlib import Path
 from uros_build import __version__, console
 from uros_build.colcon import command as colcon
 from uros_build.colcon import fingerprint as fp
-from uros_build.colcon import hoststage
+from uros_build.colcon import hoststage, relocate
 from uros_build.colcon.hosttools import HostFacts
 from uros_build.config.plan import BuildPlan
 from uros_build.errors import StepFailed
@@ -79,6 +79,7 @@ def build(
     those that compiled nothing (and need no other). A stage whose colcon fails shares nothing:
     each target builds them; --rebuild tries the stage again."""
     written_by = f"uros {__version__} build"
+    relocate.reconfigure_moved(stage.build_base, "the host stage")
     stage.meta_path.write_text(hoststage.meta_text(stage, written_by), encoding="utf-8")
     others = {p.name for p in plan.packages} | packages_mod.plain_cmake_packages(plan.workspace.source_dir)
     colcon_plan = colcon.ColconPlan(

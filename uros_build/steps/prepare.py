@@ -9,7 +9,7 @@ import os
 from pathlib import Path
 
 from uros_build import console
-from uros_build.colcon import depfiles, installtree
+from uros_build.colcon import depfiles, installtree, relocate
 from uros_build.colcon import fingerprint as fp
 from uros_build.colcon.damage import damaged_archives, damaged_configures
 from uros_build.colcon.hosttools import HostFacts
@@ -132,9 +132,10 @@ def forget_configured_flags(build_base: Path) -> None:
 
 def prepare_trees(plan: BuildPlan, facts: HostFacts) -> bool:
     """Under the target's lock, before anything is decided: repair what a killed build left, redo
-    what a changed compiler or a full disk requires. True when a repair changed the trees (the
-    recorded state no longer vouches for them)."""
+    what a changed compiler, a full disk or a moved workspace requires. True when a repair changed
+    the trees (the recorded state no longer vouches for them)."""
     repaired = _repair(plan)
     _redo_what_must_be_redone(plan, facts)
     _reconfigure_after_a_full_disk(plan)
-    return repaired
+    moved = relocate.reconfigure_moved(plan.target_dir / "build", f"{plan.target.key}'s build tree")
+    return repaired or moved

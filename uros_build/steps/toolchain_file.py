@@ -79,7 +79,8 @@ def seed_compilers(
     seed = folder / "toolchain-seeded.cmake"
     stamp = folder / "toolchain-seeded.key"
     modules = folder / "compiler-seed"
-    key = fp.digest(SEED_FORMAT, fp.file_sha256(toolchain_file), *identity)
+    # the seed names its folder and the toolchain file: a workspace moved or copied seeds again
+    key = fp.digest(SEED_FORMAT, str(folder), str(toolchain_file), fp.file_sha256(toolchain_file), *identity)
     if seed.is_file() and stamp.is_file():
         # the stamp: the key, then the archive plugin the seed names ("" for none): one since
         # removed (the compiler's own files changed without its driver) is found again
