@@ -280,3 +280,15 @@ def add_vendor_package(root: Path) -> None:
         '#include "upstream.h"\nconst char *fx_upstream_file(void) { return __FILE__; }\n'
         "int fx_upstream_value(void) { return 7; }\n",
     )
+
+
+def add_plain_package(folder: Path, name: str, c_text: str) -> Path:
+    """A one-file colcon cmake package ``name`` in ``folder`` (made), compiling ``c_text``."""
+    _write(folder / "package.xml", _package_xml(name, []))
+    _write(
+        folder / "CMakeLists.txt",
+        f"cmake_minimum_required(VERSION 3.16)\nproject({name} C)\nadd_library({name} STATIC {name}.c)\n"
+        f"install(TARGETS {name} ARCHIVE DESTINATION lib)\n",
+    )
+    (folder / f"{name}.c").write_text(c_text, encoding="utf-8")
+    return folder

@@ -8,6 +8,7 @@ import time
 from pathlib import Path
 
 import pytest
+from fixture_ws import add_plain_package
 from uros_helpers import env_without, run_uros
 
 pytestmark = pytest.mark.integration
@@ -53,3 +54,32 @@ def test_doctor_sees_a_stale_output_and_a_moved_checkout(m7_build: Path, tmp_pat
     proc = run_uros("doctor", "-w", str(ws))
     assert "stale: inputs changed" in proc.stdout and "-> uros build --toolchain cortex-m7" in proc.stdout
     assert _lines(proc.stdout)["target"] == "skip"  # no target named: the toolchain checks are skipped
+
+
+def test_doctor_sees_an_extra_package_that_changed_in_its_own_folder(m7_build: Path, tmp_path: Path) -> None:
+    """Issue 34, item 7: an extra package (uros.yaml's extra_packages, in its own folder outside
+    mcu_ws) is copied into mcu_ws/extra_packages by each build; doctor judged the copy and said
+    "up to date" after the package changed. It judges the sources as the next build will see them,
+    and touches neither the copy nor anything else."""
+    ws = tmp_path / "ws"
+    shutil.copytree(m7_build, ws, symlinks=True)
+    extra = add_plain_package(
+        tmp_path / "mine" / "fx_extra", "fx_extra", "int fx_extra(void) { return 1; }\n"
+    )
+    (ws / "uros.yaml").write_text(f"distro: humble\nextra_packages:\n- {extra}\n")
+    run_uros("build", "--toolchain", "cortex-m7", "-w", str(ws), "--meta", str(ws / "fixture.meta"))
+    assert _lines(run_uros("doctor", "-w", str(ws)).stdout)["target cortex-m7"] == "ok"
+
+    (extra / "fx_extra.c").write_text("int fx_extra(void) { return 2; }\n")
+    copy = ws / "mcu_ws" / "extra_packages" / "fx_extra" / "fx_extra.c"
+    before = copy.stat()
+    proc = run_uros("doctor", "-w", str(ws))
+    line = next(x for x in proc.stdout.splitlines() if "target cortex-m7" in x)
+    assert line.startswith("warn") and "stale: inputs changed since the last build: sources" in line, line
+    assert f"extra package fx_extra ({extra})" in line, line
+    assert (
+        copy.read_text() == "int fx_extra(void) { return 1; }\n"
+        and copy.stat().st_mtime_ns == before.st_mtime_ns
+    )
+    (extra / "fx_extra.c").write_text("int fx_extra(void) { return 1; }\n")  # as built: up to date again
+    assert _lines(run_uros("doctor", "-w", str(ws)).stdout)["target cortex-m7"] == "ok"

@@ -13,7 +13,7 @@ from typing import Any
 
 import pytest
 import yaml
-from fixture_ws import add_board_package, make_fixture_workspace
+from fixture_ws import add_board_package, add_plain_package, make_fixture_workspace
 from uros_helpers import REPO, need, run_uros
 
 pytestmark = pytest.mark.integration
@@ -260,17 +260,7 @@ def test_a_star_in_the_workspace_path_builds_only_that_workspace(tmp_path: Path)
     need("arm-none-eabi-gcc", "cmake", "arm-none-eabi-nm")
     ws = make_fixture_workspace(tmp_path / "fw*")
     sibling = tmp_path / "fw-other" / "mcu_ws" / "src" / "fx_sibling"
-    sibling.mkdir(parents=True)
-    (sibling / "package.xml").write_text(
-        '<?xml version="1.0"?>\n<package format="3"><name>fx_sibling</name><version>0.1.0</version>'
-        '<description>another workspace</description><maintainer email="a@b.c">t</maintainer>'
-        "<license>MIT</license><export><build_type>cmake</build_type></export></package>\n"
-    )
-    (sibling / "CMakeLists.txt").write_text(
-        "cmake_minimum_required(VERSION 3.16)\nproject(fx_sibling C)\nadd_library(fx_sibling STATIC s.c)\n"
-        "install(TARGETS fx_sibling ARCHIVE DESTINATION lib)\n"
-    )
-    (sibling / "s.c").write_text("int fx_sibling_only(void) { return 7; }\n")
+    add_plain_package(sibling, "fx_sibling", "int fx_sibling_only(void) { return 7; }\n")
     run_uros("build", "--toolchain", "cortex-m7", "-w", str(ws), "--meta", str(ws / "fixture.meta"))
     out = ws / "build" / "cortex-m7"
     symbols = subprocess.run(

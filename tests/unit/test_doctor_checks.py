@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from uros_build.colcon.fingerprint import FileRecord
 from uros_build.commands import doctor as d
 from uros_build.sources.wsfiles import Lock, LockedRepo
 from uros_build.target.profiles import find_profile
@@ -73,3 +74,26 @@ def test_render_one_line_per_check_with_the_fix() -> None:
     )
     assert text.splitlines() == ["ok    cmake   3.25.1", "FAIL  colcon  not found  -> pip install colcon"]
     assert d.failed([d.Check("a", d.WARN, "")]) == []
+
+
+def test_doctor_sees_extra_packages_as_the_next_build_copies_them() -> None:
+    """Issue 34, item 7: the copy in mcu_ws/extra_packages is replaced by the package's own
+    folder, as workspace.sync_tree copies it (no .git names; files gone there go here too)."""
+
+    def rec(sha: str) -> FileRecord:
+        return FileRecord(1, 1, 1, sha)
+
+    sources = {
+        "src/fx_core/core.c": rec("a"),
+        "extra_packages/fx_extra/extra.c": rec("old"),
+        "extra_packages/fx_extra/gone.c": rec("g"),
+        "extra_packages/fx_extra_two/x.c": rec("x"),
+    }
+    own = {"extra.c": rec("new"), ".git/HEAD": rec("h"), "sub/.gitignore": rec("i"), "package.xml": rec("p")}
+    assert d.as_synced(sources, {"extra_packages/fx_extra": own}) == {
+        "src/fx_core/core.c": rec("a"),
+        "extra_packages/fx_extra/extra.c": rec("new"),
+        "extra_packages/fx_extra/package.xml": rec("p"),
+        "extra_packages/fx_extra_two/x.c": rec("x"),
+    }
+    assert d.as_synced(sources, {}) == sources
