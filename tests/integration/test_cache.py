@@ -6,13 +6,17 @@ against other headers or for other ELF facts is never used; credentials never re
 from __future__ import annotations
 
 import hashlib
+import io
 import json
 import os
 import shutil
 import socket
 import subprocess
+import tarfile
+import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
+from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from pathlib import Path
 
 import pytest
@@ -107,10 +111,10 @@ def _entry_from(
         if name == "libmicroros.a":
             info["library"]["sha256"] = hashlib.sha256(data).hexdigest()
     (folder / "build-info.json").write_text(json.dumps(info))
-    data = cache.pack(folder, sorted(p.name for p in folder.iterdir()))
+    data, files = cache.pack_entry(folder, sorted(p.name for p in folder.iterdir()))
     shutil.rmtree(folder)
     manifest = cache.Manifest(
-        key, hashlib.sha256(data).hexdigest(), len(data), "cortex-m7", info["generated_by"]
+        key, hashlib.sha256(data).hexdigest(), len(data), "cortex-m7", info["generated_by"], files=files
     )
     return data, manifest.to_json().encode()
 
@@ -272,3 +276,226 @@ def test_the_workspace_names_its_cache_and_the_command_line_wins(seed: Path, tmp
     plain = run_uros("build", "-w", str(ws), "--meta", str(ws / "fixture.meta"), "--cache", "none").stderr
     assert store.as_uri() not in plain and "\ncache: " not in f"\n{plain}" and "==> built " in plain
     assert _library(ws) == _library(seed)
+
+
+# ---------------------------------------------------------------------------------------------
+# issue 34, item 7: only uros's files; credentials; never the reason a build fails
+
+
+def _manifest_json(
+    key: str, data: bytes, files: dict[str, bytes], headers: dict[str, str] | None = None
+) -> bytes:
+    """A manifest, as uros's own format says, for a tarball crafted by a test (``files``: what it
+    lists, name -> content)."""
+    listed = {n: {"bytes": len(d), "sha256": hashlib.sha256(d).hexdigest()} for n, d in files.items()}
+    top = {
+        "format": cache.FORMAT, "key": key, "archive_sha256": hashlib.sha256(data).hexdigest(),
+        "archive_bytes": len(data), "target": "cortex-m7", "generated_by": "uros test",
+        "outside_headers": headers or {}, "files": listed,
+    }  # fmt: skip
+    return json.dumps(top).encode()
+
+
+def _crafted(out: Path, extra: dict[str, bytes | None]) -> tuple[bytes, dict[str, bytes]]:
+    """A tarball of the output ``out`` (every uros file) with ``extra`` members added (None: a
+    folder), and every file it holds by name: an entry whose checksums are all consistent."""
+    files: dict[str, bytes] = {}
+    buffer = io.BytesIO()
+    with tarfile.open(fileobj=buffer, mode="w:gz") as tar:
+        for path in sorted(out.rglob("*")):
+            name = path.relative_to(out).as_posix()
+            if name == ".uros-output":
+                continue
+            info = tarfile.TarInfo(name)
+            if path.is_dir():
+                info.type = tarfile.DIRTYPE
+                tar.addfile(info)
+                continue
+            data = path.read_bytes()
+            files[name] = data
+            info.size = len(data)
+            tar.addfile(info, io.BytesIO(data))
+        for name, content in extra.items():
+            info = tarfile.TarInfo(name)
+            if content is None:
+                info.type = tarfile.DIRTYPE
+                tar.addfile(info)
+                continue
+            files[name] = content
+            info.size = len(content)
+            tar.addfile(info, io.BytesIO(content))
+    return buffer.getvalue(), files
+
+
+def test_an_upload_packs_only_what_uros_wrote_and_a_take_keeps_the_users_files(
+    seed: Path, tmp_path: Path
+) -> None:
+    """The user's notes.txt and private/cred.txt beside an up-to-date output were packed into the
+    entry (and a teammate's take then overwrote their own notes.txt); a crafted entry with extra
+    top-level names did the same. Now an upload packs what the output's marker names, and a take
+    refuses any name an entry may not hold."""
+    out = seed / "build" / "cortex-m7"
+    (out / "private").mkdir()
+    (out / "notes.txt").write_text("the uploader's notes\n")
+    (out / "private" / "cred.txt").write_text("password=uploader\n")
+    store = tmp_path / "store"
+    try:
+        _build(seed)  # the output folder changed: a build (which keeps the user's files), then up to date
+        said = _upload_from(seed, store.as_uri())
+    finally:
+        shutil.rmtree(out / "private")
+        (out / "notes.txt").unlink()
+        _build(seed)  # up to date again for the other tests
+    key = _key(seed)
+    assert f"uploaded entry {key[:16]}" in said, said
+    with tarfile.open(store / f"{key}.tar.gz") as tar:
+        names = {m.name.split("/")[0] for m in tar}
+    assert names == {"build-info.json", "include", "libmicroros.a", "microros.cmake", "microrosConfig.cmake",
+                     "microrosConfigVersion.cmake", "toolchain.cmake"}  # fmt: skip
+
+    # a teammate's output with their own notes.txt beside it, not up to date (its library edited)
+    ws = _fresh_copy(seed, tmp_path / "teammate")
+    assert "from the cache" in _build(ws, "--cache", store.as_uri()).stderr
+    mine = ws / "build" / "cortex-m7"
+    (mine / "notes.txt").write_text("the teammate's notes\n")
+    with (mine / "libmicroros.a").open("ab") as f:
+        f.write(b"\n")
+    # the entry now crafted with the uploader's notes.txt and another top-level folder
+    data, files = _crafted(out, {"notes.txt": b"the uploader's notes\n", "private": None,
+                                 "private/cred.txt": b"password=uploader\n"})  # fmt: skip
+    (store / f"{key}.tar.gz").write_bytes(data)
+    (store / f"{key}.json").write_bytes(_manifest_json(key, data, files))
+    took = _build(ws, "--cache", store.as_uri())
+    assert "building instead" in took.stderr and "==> built " in took.stderr, took.stderr
+    assert (mine / "notes.txt").read_text() == "the teammate's notes\n"
+    assert not (mine / "private").exists()
+    assert _library(ws) == _library(seed)
+
+
+class _Server:
+    """An HTTP server on a free loopback port, in a thread: ``routes`` maps a path's start to a
+    function(handler) that answers; every request's path and Authorization header is recorded."""
+
+    def __init__(self, routes: dict[str, Callable[[BaseHTTPRequestHandler], None]]) -> None:
+        self.seen: list[tuple[str, str, str | None]] = []
+        server = self
+
+        class Handler(BaseHTTPRequestHandler):
+            protocol_version = "HTTP/1.1"
+
+            def log_message(self, *args: object) -> None:
+                pass
+
+            def _any(self) -> None:
+                server.seen.append((self.command, self.path, self.headers.get("Authorization")))
+                length = int(self.headers.get("Content-Length") or 0)
+                self.body = self.rfile.read(length) if length else b""
+                for start, answer in routes.items():
+                    if self.path.startswith(start):
+                        answer(self)
+                        return
+                self.send_response(404)
+                self.send_header("Content-Length", "0")
+                self.end_headers()
+
+            do_GET = do_PUT = do_HEAD = _any
+
+        self.httpd = ThreadingHTTPServer(("127.0.0.1", 0), Handler)
+        self.httpd.daemon_threads = True
+        self.port = self.httpd.server_address[1]
+        self.url = f"http://127.0.0.1:{self.port}"
+        threading.Thread(target=self.httpd.serve_forever, daemon=True).start()
+
+    def close(self) -> None:
+        self.httpd.shutdown()
+        self.httpd.server_close()
+
+
+@pytest.fixture
+def servers() -> Iterator[Callable[[dict[str, Callable[[BaseHTTPRequestHandler], None]]], _Server]]:
+    started: list[_Server] = []
+
+    def start(routes: dict[str, Callable[[BaseHTTPRequestHandler], None]]) -> _Server:
+        started.append(_Server(routes))
+        return started[-1]
+
+    yield start
+    for server in started:
+        server.close()
+
+
+def _redirect(to: str) -> Callable[[BaseHTTPRequestHandler], None]:
+    def answer(handler: BaseHTTPRequestHandler) -> None:
+        handler.send_response(302)
+        handler.send_header("Location", to + handler.path.rpartition("/")[2])
+        handler.send_header("Content-Length", "0")
+        handler.end_headers()
+
+    return answer
+
+
+def _serve(folder: Path) -> Callable[[BaseHTTPRequestHandler], None]:
+    """Files of ``folder`` by their last path part (404 when absent)."""
+
+    def answer(handler: BaseHTTPRequestHandler) -> None:
+        path = folder / handler.path.rpartition("/")[2]
+        data = path.read_bytes() if path.is_file() else None
+        handler.send_response(200 if data is not None else 404)
+        handler.send_header("Content-Length", str(len(data or b"")))
+        handler.end_headers()
+        handler.wfile.write(data or b"")
+
+    return answer
+
+
+def _all_logs(*workspaces: Path) -> str:
+    return "".join(
+        p.read_text(errors="replace")
+        for top in workspaces
+        for p in (top / ".uros").rglob("*.log")
+        if p.is_file() and not p.is_symlink()
+    )
+
+
+def test_credentials_never_follow_a_redirect_to_another_host_and_a_token_is_never_printed(
+    seed: Path, tmp_path: Path, servers: Callable[..., _Server]
+) -> None:
+    """urllib keeps Authorization on a redirect: the token and the netrc password went to whatever
+    host the cache redirected to. A token with a trailing newline (as CI secrets often are) failed
+    the build and printed the token on stderr and in the log."""
+    files = tmp_path / "served"
+    store = tmp_path / "store"
+    _upload_from(seed, store.as_uri())
+    shutil.copytree(store, files)
+    elsewhere = servers({"/": _serve(files)})  # another port: another origin
+    cache_server = servers({"/uros/": _redirect(f"{elsewhere.url}/entries/"), "/same/": _redirect("/files/"),
+                            "/files/": _serve(files)})  # fmt: skip
+    netrc = tmp_path / "netrc"
+    netrc.write_text("machine 127.0.0.1 login ci password s3cret-pass\n")
+    netrc.chmod(0o600)
+    token = "tok-123-secret"
+    for env in ({**os.environ, "NETRC": str(netrc)}, {**os.environ, "UROS_CACHE_TOKEN": token + "\n"}):
+        ws = _fresh_copy(seed, tmp_path / f"ws{len(elsewhere.seen)}")
+        took = _build(ws, "--cache", f"{cache_server.url}/uros/", env=env)
+        assert "from the cache" in took.stderr, took.stderr  # the redirect was followed...
+        assert elsewhere.seen and all(auth is None for _, _, auth in elsewhere.seen)  # ...without credentials
+        assert _library(ws) == _library(seed)
+        for secret in ("s3cret-pass", "czNjcmV0", token):
+            assert secret not in took.stdout + took.stderr + _all_logs(ws)
+    # to the cache's own scheme, host and port, the (stripped) token still goes
+    ws = _fresh_copy(seed, tmp_path / "same")
+    took = _build(
+        ws, "--cache", f"{cache_server.url}/same/", env={**os.environ, "UROS_CACHE_TOKEN": token + "\n"}
+    )
+    assert "from the cache" in took.stderr, took.stderr
+    assert ("GET", f"/files/{_key(seed)}.json", f"Bearer {token}") in cache_server.seen
+    # a token no header can carry: one warning that does not print it, and a local build
+    ws = _fresh_copy(seed, tmp_path / "bad")
+    bad = _build(
+        ws,
+        "--cache",
+        f"{cache_server.url}/same/",
+        env={**os.environ, "UROS_CACHE_TOKEN": "tok 123\x01secret"},
+    )
+    assert "UROS_CACHE_TOKEN" in bad.stderr and "building instead" in bad.stderr
+    assert "secret" not in bad.stderr + _all_logs(ws) and _library(ws) == _library(seed)

@@ -253,6 +253,11 @@ def colcon_argv(plan: ColconPlan, colcon: str = "colcon") -> list[str]:
     return argv
 
 
+# Credentials no build step needs: colcon writes its whole environment into its logs (the team
+# cache's token, output/team_cache.TOKEN_VARIABLE, would sit in every package's log).
+SECRET_VARIABLES = frozenset({"UROS_CACHE_TOKEN"})
+
+
 def build_env(
     base: Mapping[str, str],
     *,
@@ -264,7 +269,7 @@ def build_env(
 
     Returns the environment and the names of what was scrubbed (for one notice to the user).
     """
-    env = {k: v for k, v in base.items() if k not in SCRUBBED_VARIABLES}
+    env = {k: v for k, v in base.items() if k not in SCRUBBED_VARIABLES and k not in SECRET_VARIABLES}
     scrubbed = sorted(k for k in base if k in SCRUBBED_VARIABLES and k not in ("CC", "CXX"))
     # Prefixes of a sourced ROS 2 install or colcon overlay: their bin/, lib/ and site-packages
     # entries go too.

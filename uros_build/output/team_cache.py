@@ -26,7 +26,9 @@ import hashlib
 import io
 import json
 import os
+import stat
 import tarfile
+import time
 import urllib.parse
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
@@ -34,14 +36,41 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Protocol
 
 if TYPE_CHECKING:
-    import urllib.request
+    from _typeshed import WriteableBuffer
 
 from uros_build.errors import ConfigError
 
-FORMAT = 1
+FORMAT = 2  # 2: the manifest names every file with its size and sha256 (1: the tarball's only)
 TOKEN_VARIABLE = "UROS_CACHE_TOKEN"
-TIMEOUT_SECONDS = 60.0
+TIMEOUT_VARIABLE = "UROS_CACHE_TIMEOUT"
+TIMEOUT_SECONDS = 60.0  # a socket's silence; the whole of a request has a deadline too (HttpStore)
+MIN_RATE = 256 * 1024  # bytes per second a download may not fall below, on average, for its deadline
 _SCHEMES = ("file", "http", "https")
+
+# What an entry may hold: the files and the folder `uros build` writes into an output, nothing
+# else (not the user's notes beside them, nor what `uros export` adds in place). An entry is
+# input from a server: a name outside these is refused, never written beside a user's files.
+ENTRY_FILES = frozenset(
+    {
+        "build-info.json",
+        "libmicroros.a",
+        "toolchain.cmake",
+        "microrosConfig.cmake",
+        "microrosConfigVersion.cmake",
+        "microros.cmake",
+    }
+)
+INCLUDE = "include"  # the one folder: headers and the folders that hold them
+# Bounds (a server's answer is read and unpacked only up to these): a real micro-ROS output is a
+# library of 5-40 MB and ~1,700 headers of at most a few hundred KB.
+MAX_MANIFEST_BYTES = 4 * 1024 * 1024  # ~300 KB for micro-ROS's ~1,700 headers
+MAX_ARCHIVE_BYTES = 1024 * 1024 * 1024
+MAX_LIBRARY_BYTES = 1024 * 1024 * 1024
+MAX_HEADER_BYTES = 16 * 1024 * 1024
+MAX_OTHER_BYTES = 4 * 1024 * 1024  # build-info.json, toolchain.cmake, the CMake package
+MAX_TOTAL_BYTES = 2 * 1024 * 1024 * 1024
+MAX_NAME_BYTES = 255  # one part of a path (Linux's NAME_MAX)
+MAX_PATH_BYTES = 1024
 
 
 class CacheUnusable(Exception):
@@ -64,7 +93,11 @@ def parse_url(text: str, where: str) -> CacheUrl:
     hint = "e.g. --cache file:///srv/uros-cache or --cache https://cache.example.com/uros"
     if text.startswith("/"):
         text = Path(text).as_uri()
-    parts = urllib.parse.urlsplit(text)
+    try:
+        parts = urllib.parse.urlsplit(text)
+        port = parts.port  # ValueError for a port that is not a number from 0 to 65535
+    except ValueError as exc:
+        raise ConfigError(f"{where}: {_no_credentials(text)!r} is not a URL ({exc})", hint) from None
     if parts.scheme not in _SCHEMES:
         raise ConfigError(f"{where}: {text!r} is not a file://, http:// or https:// URL", hint)
     if parts.username is not None or parts.password is not None:
@@ -79,16 +112,63 @@ def parse_url(text: str, where: str) -> CacheUrl:
         return CacheUrl("file", folder, Path(folder).as_uri())
     if not parts.hostname:
         raise ConfigError(f"{where}: {text!r} names no host", hint)
+    if port == 0:
+        raise ConfigError(f"{where}: {text!r}: port 0 is no server's", hint)
     path = parts.path.rstrip("/") + "/"
     base = urllib.parse.urlunsplit((parts.scheme, parts.netloc, path, parts.query, ""))
     shown = urllib.parse.urlunsplit((parts.scheme, parts.netloc, path, "", ""))
     return CacheUrl(parts.scheme, base, shown)
 
 
+def _no_credentials(text: str) -> str:
+    """``text`` without what sits before an ``@`` in its authority (a URL that does not parse
+    may still hold a password)."""
+    scheme, sep, rest = text.partition("://")
+    if not sep:
+        return text
+    authority, slash, path = rest.partition("/")
+    return f"{scheme}://{authority.rpartition('@')[2]}{slash}{path}"
+
+
 @dataclass(frozen=True)
 class CacheSettings:
     url: CacheUrl
     upload: bool  # write entries after a build (CI); developers read only by default
+
+
+def may_hold(name: str) -> bool:
+    """Whether an entry may hold the file ``name`` (/-separated, relative): one of ENTRY_FILES,
+    or a header under include/ with plain, not too long parts."""
+    if name in ENTRY_FILES:
+        return True
+    parts = name.split("/")
+    return (
+        len(parts) >= 2
+        and parts[0] == INCLUDE
+        and len(name.encode("utf-8", "replace")) <= MAX_PATH_BYTES
+        and all(_plain_part(p) for p in parts)
+    )
+
+
+def _plain_part(part: str) -> bool:
+    return (
+        part not in ("", ".", "..")
+        and len(part.encode("utf-8", "replace")) <= MAX_NAME_BYTES
+        and not any(c in part for c in "\0\\")
+        and part.isprintable()
+    )
+
+
+def _may_hold_folder(name: str) -> bool:
+    parts = name.split("/")
+    return parts[0] == INCLUDE and len(name) <= MAX_PATH_BYTES and all(_plain_part(p) for p in parts)
+
+
+def max_bytes(name: str) -> int:
+    """The largest file ``name`` an entry may hold."""
+    if name == "libmicroros.a":
+        return MAX_LIBRARY_BYTES
+    return MAX_HEADER_BYTES if name.startswith(f"{INCLUDE}/") else MAX_OTHER_BYTES
 
 
 @dataclass(frozen=True)
@@ -100,6 +180,8 @@ class Manifest:
     generated_by: str
     # path -> sha256 of every header the build read from outside the workspace
     outside_headers: Mapping[str, str] = field(default_factory=dict)
+    # every file of the entry: its relative path -> (size, sha256)
+    files: Mapping[str, tuple[int, str]] = field(default_factory=dict)
 
     def to_json(self) -> str:
         data = {
@@ -110,34 +192,58 @@ class Manifest:
             "target": self.target,
             "generated_by": self.generated_by,
             "outside_headers": dict(self.outside_headers),
+            "files": {p: {"bytes": n, "sha256": s} for p, (n, s) in self.files.items()},
         }
         return json.dumps(data, indent=1, sort_keys=True) + "\n"
+
+
+def _sha256_text(value: object) -> bool:
+    return isinstance(value, str) and len(value) == 64 and all(c in "0123456789abcdef" for c in value)
+
+
+def _size(value: object, limit: int) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool) and 0 <= value <= limit
 
 
 def parse_manifest(data: bytes, key: str) -> Manifest:
     """The manifest of the entry ``key``; CacheUnusable when it is not one uros wrote for it."""
     try:
         top = json.loads(data.decode("utf-8"))
-    except (UnicodeDecodeError, ValueError) as exc:
+    except (UnicodeDecodeError, ValueError, RecursionError) as exc:
         raise CacheUnusable(f"the manifest of {key[:16]} is not JSON ({exc})") from None
     if not isinstance(top, dict) or top.get("format") != FORMAT or top.get("key") != key:
         raise CacheUnusable(f"the manifest of {key[:16]} is not a format-{FORMAT} manifest of this key")
     headers = top.get("outside_headers", {})
-    sha, size = top.get("archive_sha256"), top.get("archive_bytes")
+    sha, size, listed = top.get("archive_sha256"), top.get("archive_bytes"), top.get("files")
     if (
-        not isinstance(sha, str)
-        or not isinstance(size, int)
+        not _sha256_text(sha)
+        or not _size(size, MAX_ARCHIVE_BYTES)
         or not isinstance(headers, dict)
         or not all(isinstance(k, str) and isinstance(v, str) for k, v in headers.items())
+        or not isinstance(listed, dict)
     ):
         raise CacheUnusable(f"the manifest of {key[:16]} is malformed")
+    files: dict[str, tuple[int, str]] = {}
+    for name, about in listed.items():
+        if not may_hold(name):
+            raise CacheUnusable(f"the manifest of {key[:16]} names {name!r}, which no entry may hold")
+        if (
+            not isinstance(about, dict)
+            or not _size(about.get("bytes"), max_bytes(name))
+            or not _sha256_text(about.get("sha256"))
+        ):
+            raise CacheUnusable(f"the manifest of {key[:16]}: {name!r} has no size and sha256 within bounds")
+        files[name] = (about["bytes"], about["sha256"])
+    if sum(n for n, _ in files.values()) > MAX_TOTAL_BYTES:
+        raise CacheUnusable(f"the manifest of {key[:16]} lists more than {MAX_TOTAL_BYTES:,} bytes")
     return Manifest(
         key=key,
-        archive_sha256=sha,
-        archive_bytes=size,
+        archive_sha256=str(sha),
+        archive_bytes=int(str(size)),
         target=str(top.get("target", "")),
         generated_by=str(top.get("generated_by", "")),
         outside_headers=headers,
+        files=files,
     )
 
 
@@ -154,9 +260,16 @@ def manifest_name(key: str) -> str:
 
 
 def pack(folder: Path, names: Iterable[str]) -> bytes:
-    """The entries ``names`` of ``folder`` as a gzipped tar whose bytes depend only on the files'
-    names, contents and executable bits (sorted, no times, owners or modes beyond that), so that
-    two machines that build the same output upload the same bytes."""
+    """The entries ``names`` of ``folder`` as a gzipped tar (see :func:`pack_entry`)."""
+    return pack_entry(folder, names)[0]
+
+
+def pack_entry(folder: Path, names: Iterable[str]) -> tuple[bytes, dict[str, tuple[int, str]]]:
+    """The entries ``names`` of ``folder`` (each one an entry may hold: ENTRY_FILES, include/) as a
+    gzipped tar whose bytes depend only on the files' names, contents and executable bits (sorted,
+    no times, owners or modes beyond that), so that two machines that build the same output upload
+    the same bytes; and every file's size and sha256, for the manifest."""
+    files: dict[str, tuple[int, str]] = {}
     buffer = io.BytesIO()
     with (
         gzip.GzipFile(fileobj=buffer, mode="wb", mtime=0, compresslevel=6) as gz,
@@ -174,10 +287,13 @@ def pack(folder: Path, names: Iterable[str]) -> bytes:
                 tar.addfile(info)
             else:
                 data = full.read_bytes()
+                if not may_hold(path) or len(data) > max_bytes(path):
+                    raise CacheUnusable(f"{full}: not a file an entry may hold, so nothing is uploaded")
+                files[path] = (len(data), hashlib.sha256(data).hexdigest())
                 info.size = len(data)
                 info.mode = 0o755 if os.access(full, os.X_OK) else 0o644
                 tar.addfile(info, io.BytesIO(data))
-    return buffer.getvalue()
+    return buffer.getvalue(), files
 
 
 def _walk(folder: Path, names: Iterable[str]) -> list[str]:
@@ -186,6 +302,8 @@ def _walk(folder: Path, names: Iterable[str]) -> list[str]:
         top = folder / name
         if top.is_symlink() or not (top.is_file() or top.is_dir()):
             raise CacheUnusable(f"{top}: not a regular file or folder, so it is not uploaded")
+        if top.is_dir() != (name == INCLUDE) or not (name == INCLUDE or name in ENTRY_FILES):
+            raise CacheUnusable(f"{top}: not what an entry may hold, so nothing is uploaded")
         out.append(name)
         if top.is_dir():
             for path in top.rglob("*"):
@@ -195,10 +313,28 @@ def _walk(folder: Path, names: Iterable[str]) -> list[str]:
     return out
 
 
-def unpack(data: bytes, manifest: Manifest, dest: Path) -> list[str]:
-    """Check ``data`` against the manifest, then unpack it into ``dest`` (which must not exist).
-    Only regular files and folders with plain relative names are accepted: a tarball is input
-    from a server, and no entry may write outside ``dest``. Returns the top-level names."""
+class _Bounded(io.RawIOBase):
+    """A stream read only up to ``limit`` bytes (a gzip stream's output: a small entry must not
+    unpack to more than its manifest says)."""
+
+    def __init__(self, source: io.BufferedIOBase, limit: int, key: str) -> None:
+        self._source, self._left, self._key = source, limit, key
+
+    def readable(self) -> bool:
+        return True
+
+    def readinto(self, buffer: WriteableBuffer) -> int:
+        view = memoryview(buffer).cast("B")
+        data = self._source.read(min(len(view), self._left + 1))
+        if len(data) > self._left:
+            raise CacheUnusable(f"the entry {self._key[:16]} unpacks to more than its manifest lists")
+        self._left -= len(data)
+        view[: len(data)] = data
+        return len(data)
+
+
+def check_archive(data: bytes, manifest: Manifest) -> None:
+    """The tarball's size and sha256 are the manifest's."""
     if len(data) != manifest.archive_bytes:
         raise CacheUnusable(
             f"the entry {manifest.key[:16]} is {len(data):,} bytes, its manifest says "
@@ -206,37 +342,77 @@ def unpack(data: bytes, manifest: Manifest, dest: Path) -> list[str]:
         )
     if hashlib.sha256(data).hexdigest() != manifest.archive_sha256:
         raise CacheUnusable(f"the entry {manifest.key[:16]} does not have its manifest's sha256 (corrupt)")
+
+
+def unpack(data: bytes, manifest: Manifest, dest: Path | None) -> list[str]:
+    """Check ``data`` against the manifest, then unpack it into ``dest`` (which must not exist;
+    None: check only). Every file is checked against the manifest (listed, its size before it is
+    read, its sha256 before it is written) and every file the manifest lists must be there; only
+    regular files and folders an entry may hold (:func:`may_hold`) are accepted: a tarball is
+    input from a server, and no entry may write outside ``dest`` or beside a user's files. Any
+    trouble is CacheUnusable. Returns the top-level names."""
+    check_archive(data, manifest)
+    key = manifest.key[:16]
     tops: set[str] = set()
-    dest.mkdir(parents=True)
+    seen: set[str] = set()
+    # what the tar stream may hold beyond the files' bytes: a header and padding per member, the
+    # PAX records (a path of up to MAX_PATH_BYTES), the end blocks
+    slack = 4096 * (len(manifest.files) + 256) + 64 * 1024
+    limit = sum(n for n, _ in manifest.files.values()) + slack
     try:
-        with tarfile.open(fileobj=io.BytesIO(data), mode="r:gz") as tar:
+        if dest is not None:
+            dest.mkdir(parents=True)
+        with (
+            gzip.GzipFile(fileobj=io.BytesIO(data), mode="rb") as gz,
+            io.BufferedReader(_Bounded(gz, limit, manifest.key)) as stream,
+            tarfile.open(fileobj=stream, mode="r|") as tar,
+        ):
             for member in tar:
-                parts = Path(member.name).parts
-                if (
-                    not parts
-                    or member.name.startswith("/")
-                    or any(p in ("..", ".", "") for p in parts)
-                    or not (member.isfile() or member.isdir())
-                ):
-                    raise CacheUnusable(f"the entry {manifest.key[:16]} holds {member.name!r}: refused")
-                target = dest.joinpath(*parts)
-                tops.add(parts[0])
-                if member.isdir():
-                    target.mkdir(parents=True, exist_ok=True)
+                name = member.name
+                if member.isdir() and _may_hold_folder(name):
+                    tops.add(INCLUDE)
+                    if dest is not None:
+                        dest.joinpath(*name.split("/")).mkdir(parents=True, exist_ok=True)
                     continue
-                target.parent.mkdir(parents=True, exist_ok=True)
+                listed = manifest.files.get(name)
+                if not member.isfile() or listed is None or name in seen:
+                    raise CacheUnusable(
+                        f"the entry {key} holds {name!r}, which its manifest does not list: refused"
+                    )
+                seen.add(name)
+                size, sha = listed
+                if member.size != size:
+                    raise CacheUnusable(
+                        f"the entry {key}: {name} is {member.size:,} bytes, its manifest says {size:,}"
+                    )
                 source = tar.extractfile(member)
-                if source is None:
-                    raise CacheUnusable(f"the entry {manifest.key[:16]}: {member.name} unreadable")
-                target.write_bytes(source.read())
+                content = source.read(size + 1) if source is not None else b""
+                if len(content) != size or hashlib.sha256(content).hexdigest() != sha:
+                    raise CacheUnusable(f"the entry {key}: {name} does not have its manifest's sha256")
+                tops.add(name.split("/")[0])
+                if dest is None:
+                    continue
+                target = dest.joinpath(*name.split("/"))
+                target.parent.mkdir(parents=True, exist_ok=True)
+                with open(target, "xb") as f:
+                    f.write(content)
                 target.chmod(0o755 if member.mode & 0o111 else 0o644)
                 # The files get the time of this download (written just now), not the tar's: a
                 # firmware build that linked an older library must see this one as newer.
-    except (tarfile.TarError, EOFError, OSError, gzip.BadGzipFile) as exc:
-        if isinstance(exc, OSError) and not isinstance(exc, gzip.BadGzipFile) and exc.filename:
-            raise
-        raise CacheUnusable(f"the entry {manifest.key[:16]} is not a readable tarball ({exc})") from None
+    except CacheUnusable:
+        raise
+    except Exception as exc:  # a tarball from a server: whatever it makes fail is not this build's failure
+        raise CacheUnusable(f"the entry {key} is not a tarball uros can unpack ({_reason(exc)})") from None
+    missing = sorted(set(manifest.files) - seen)
+    if missing:
+        raise CacheUnusable(f"the entry {key} lacks {missing[0]}, which its manifest lists")
     return sorted(tops)
+
+
+def _reason(exc: BaseException) -> str:
+    if isinstance(exc, OSError) and exc.strerror:
+        return exc.strerror
+    return str(exc) or type(exc).__name__
 
 
 def headers_differ(manifest: Manifest, sha256_of: Mapping[str, str]) -> list[str]:
@@ -245,12 +421,33 @@ def headers_differ(manifest: Manifest, sha256_of: Mapping[str, str]) -> list[str
     return sorted(p for p, sha in manifest.outside_headers.items() if sha256_of.get(p, "") != sha)
 
 
+def local_sha256(path: str, limit: int = MAX_HEADER_BYTES) -> str:
+    """The sha256 of a header named by a manifest, or "missing": only a regular file of at most
+    ``limit`` bytes (a manifest is input from a server: /dev/zero never ends, a FIFO never answers)."""
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_NOCTTY", 0))
+    except (OSError, ValueError):
+        return "missing"
+    try:
+        info = os.fstat(fd)
+        if not stat.S_ISREG(info.st_mode) or info.st_size > limit:
+            return "missing"
+        with os.fdopen(fd, "rb", closefd=False) as f:
+            data = f.read(limit + 1)
+        return hashlib.sha256(data).hexdigest() if len(data) <= limit else "missing"
+    except OSError:
+        return "missing"
+    finally:
+        os.close(fd)
+
+
 # ---------------------------------------------------------------------------------------------
 # the stores
 
 
 class Store(Protocol):
-    def get(self, name: str) -> bytes | None: ...  # None: no such object
+    # None: no such object; CacheUnusable when it cannot be read or is larger than ``limit``
+    def get(self, name: str, limit: int) -> bytes | None: ...
     def put(self, name: str, data: bytes) -> None: ...
 
 
@@ -258,13 +455,30 @@ class Store(Protocol):
 class FileStore:
     folder: Path
 
-    def get(self, name: str) -> bytes | None:
+    def get(self, name: str, limit: int) -> bytes | None:
+        path = self.folder / name
         try:
-            return (self.folder / name).read_bytes()
+            # O_NONBLOCK: a FIFO put there opens at once (and is refused), never waits for a writer
+            fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_NOCTTY", 0))
         except FileNotFoundError:
             return None
         except OSError as exc:
-            raise CacheUnusable(f"{self.folder / name}: {exc.strerror}") from None
+            raise CacheUnusable(f"{path}: {_reason(exc)}") from None
+        try:
+            info = os.fstat(fd)
+            if not stat.S_ISREG(info.st_mode):
+                raise CacheUnusable(f"{path}: not a regular file")
+            if info.st_size > limit:
+                raise CacheUnusable(f"{path}: {info.st_size:,} bytes, more than the {limit:,} expected")
+            with os.fdopen(fd, "rb", closefd=False) as f:
+                data = f.read(limit + 1)
+            if len(data) > limit:
+                raise CacheUnusable(f"{path}: more than the {limit:,} bytes expected")
+            return data
+        except OSError as exc:
+            raise CacheUnusable(f"{path}: {_reason(exc)}") from None
+        finally:
+            os.close(fd)
 
     def put(self, name: str, data: bytes) -> None:
         # written beside and renamed: a reader never sees half a file, two writers never mix
@@ -276,77 +490,201 @@ class FileStore:
             tmp.replace(path)
         except OSError as exc:
             tmp.unlink(missing_ok=True)
-            raise CacheUnusable(f"{path}: {exc.strerror}") from None
+            raise CacheUnusable(f"{path}: {_reason(exc)}") from None
+
+
+def origin(url: str) -> tuple[str, str, int | None]:
+    """(scheme, host, port) of a URL, the port spelled out: credentials go only where these are the
+    cache's own. ValueError for a URL that does not parse."""
+    parts = urllib.parse.urlsplit(url)
+    default = {"http": 80, "https": 443}.get(parts.scheme.lower())
+    return parts.scheme.lower(), (parts.hostname or "").lower(), parts.port or default
 
 
 @dataclass(frozen=True)
 class HttpStore:
     url: CacheUrl
-    timeout: float = TIMEOUT_SECONDS
+    timeout: float = TIMEOUT_SECONDS  # a socket's silence; a request's deadline is longer (below)
 
-    def _request(self, name: str, method: str, data: bytes | None = None) -> urllib.request.Request:
-        import urllib.request  # here, not at the top: it pulls in http, email and ssl (slow to import)
-
+    def _address(self, name: str) -> str:
         base = urllib.parse.urlsplit(self.url.location)
-        address = urllib.parse.urlunsplit(
+        return urllib.parse.urlunsplit(
             (base.scheme, base.netloc, base.path + urllib.parse.quote(name), base.query, "")
         )
+
+    def _call(self, method: str, name: str, data: bytes | None, limit: int, size: int) -> bytes | None:
+        """One request, within its deadline (twice the socket's timeout, plus the time for
+        ``size`` bytes at MIN_RATE: a trickling server never holds a build); the answer's body,
+        read up to ``limit`` bytes, None for a 404. Credentials are sent only to the cache's own
+        scheme, host and port: a redirect elsewhere gets none."""
+        import threading
+
+        deadline = 2 * self.timeout + size / MIN_RATE
+        host = urllib.parse.urlsplit(self.url.location).hostname or ""
+        shown = f"{method} {self.url.shown}{name}"
+        outcome: list[bytes | BaseException | None] = []
+
+        def work() -> None:
+            try:
+                outcome.append(self._exchange(method, name, data, limit, time.monotonic() + deadline))
+            except BaseException as exc:  # handed to the caller's thread
+                outcome.append(exc)
+
+        worker = threading.Thread(target=work, name="uros-cache-http", daemon=True)
+        worker.start()
+        worker.join(deadline)
+        if worker.is_alive() or not outcome:
+            # the thread is left to its socket's timeout; nothing waits for it
+            raise CacheUnusable(f"{shown}: no whole answer within {deadline:.0f} s")
+        result = outcome[0]
+        if isinstance(result, BaseException):
+            if isinstance(result, CacheUnusable):
+                raise CacheUnusable(f"{shown}: {scrub(str(result), host=host)}")
+            raise CacheUnusable(f"{shown}: {scrub(_http_reason(result), host=host)}")
+        return result
+
+    def _exchange(self, method: str, name: str, data: bytes | None, limit: int, until: float) -> bytes | None:
+        import urllib.error
+        import urllib.request
+
+        address = self._address(name)
+        own = origin(address)
+        auth = authorization(own[1], os.environ)
+
+        class SameOriginOnly(urllib.request.HTTPRedirectHandler):
+            """urllib keeps every header of a redirected request (Authorization included): here
+            only a redirect to the cache's own scheme, host and port gets the credentials again."""
+
+            def redirect_request(self, req, fp, code, msg, headers, newurl):  # type: ignore[no-untyped-def]
+                new = super().redirect_request(req, fp, code, msg, headers, newurl)
+                if new is not None:
+                    new.remove_header("Authorization")
+                    if auth and _same_origin(new.full_url, own):
+                        new.add_unredirected_header("Authorization", auth)
+                return new
+
         request = urllib.request.Request(address, data=data, method=method)
-        auth = authorization(base.hostname or "", os.environ)
         if auth:
-            request.add_header("Authorization", auth)
+            # unredirected: never copied onto a redirect by urllib (SameOriginOnly decides)
+            request.add_unredirected_header("Authorization", auth)
         if data is not None:
             request.add_header("Content-Type", "application/octet-stream")
-        return request
-
-    def get(self, name: str) -> bytes | None:
-        import urllib.error
-        import urllib.request
-
+        opener = urllib.request.build_opener(SameOriginOnly)
         try:
-            with urllib.request.urlopen(self._request(name, "GET"), timeout=self.timeout) as answer:
-                data: bytes = answer.read()
-                return data
+            with opener.open(request, timeout=self.timeout) as answer:
+                if data is not None:
+                    return b""
+                length = answer.headers.get("Content-Length")
+                if length is not None and length.strip().isdigit() and int(length) > limit:
+                    raise CacheUnusable(
+                        f"the answer is {int(length):,} bytes, more than the {limit:,} expected"
+                    )
+                chunks: list[bytes] = []
+                got = 0
+                while True:
+                    if time.monotonic() > until:
+                        raise CacheUnusable("the server sends too slowly (past the deadline)")
+                    chunk = answer.read(min(1024 * 1024, limit + 1 - got))
+                    if not chunk:
+                        break
+                    chunks.append(chunk)
+                    got += len(chunk)
+                    if got > limit:
+                        raise CacheUnusable(f"the answer is more than the {limit:,} bytes expected")
+                return b"".join(chunks)
         except urllib.error.HTTPError as exc:
-            if exc.code == 404:
+            if exc.code == 404 and data is None:
                 return None
-            raise CacheUnusable(f"GET {self.url.shown}{name}: HTTP {exc.code} {exc.reason}") from None
-        except (urllib.error.URLError, OSError) as exc:
-            reason = getattr(exc, "reason", exc)
-            raise CacheUnusable(f"GET {self.url.shown}{name}: {reason}") from None
+            raise CacheUnusable(f"HTTP {exc.code} {exc.reason}") from None
+
+    def get(self, name: str, limit: int) -> bytes | None:
+        # a manifest (limit MAX_MANIFEST_BYTES) is small: its deadline is the timeout's alone
+        return self._call("GET", name, None, limit, 0 if limit == MAX_MANIFEST_BYTES else limit)
 
     def put(self, name: str, data: bytes) -> None:
-        import urllib.error
-        import urllib.request
-
-        try:
-            with urllib.request.urlopen(self._request(name, "PUT", data), timeout=self.timeout):
-                pass
-        except urllib.error.HTTPError as exc:
-            raise CacheUnusable(f"PUT {self.url.shown}{name}: HTTP {exc.code} {exc.reason}") from None
-        except (urllib.error.URLError, OSError) as exc:
-            reason = getattr(exc, "reason", exc)
-            raise CacheUnusable(f"PUT {self.url.shown}{name}: {reason}") from None
+        self._call("PUT", name, data, 0, len(data))
 
 
-def store(url: CacheUrl) -> Store:
-    return FileStore(Path(url.location)) if url.is_file else HttpStore(url)
+def _same_origin(url: str, own: tuple[str, str, int | None]) -> bool:
+    try:
+        return origin(url) == own
+    except ValueError:
+        return False
+
+
+def _http_reason(exc: BaseException) -> str:
+    reason = getattr(exc, "reason", None)
+    if reason is not None and not isinstance(exc, CacheUnusable):
+        return str(reason)
+    if type(exc).__name__ == "IncompleteRead":
+        return "the connection closed before the end of the answer"
+    return _reason(exc)
+
+
+def store(url: CacheUrl, environ: Mapping[str, str] | None = None) -> Store:
+    """The store of ``url``; an HTTP one waits as long as ``$UROS_CACHE_TIMEOUT`` says (seconds)."""
+    if url.is_file:
+        return FileStore(Path(url.location))
+    text = (environ if environ is not None else os.environ).get(TIMEOUT_VARIABLE, "").strip()
+    try:
+        seconds = float(text) if text else TIMEOUT_SECONDS
+    except ValueError:
+        seconds = TIMEOUT_SECONDS
+    return HttpStore(url, seconds if 0 < seconds < 86400 else TIMEOUT_SECONDS)
+
+
+def token(environ: Mapping[str, str]) -> str:
+    """UROS_CACHE_TOKEN without the whitespace around it (a CI secret often ends in a newline);
+    CacheUnusable, without the token, when what is left cannot be sent in a header."""
+    text = environ.get(TOKEN_VARIABLE, "").strip()
+    if text and not all(33 <= ord(c) <= 126 for c in text):
+        raise CacheUnusable(
+            f"${TOKEN_VARIABLE} holds a space or a character an HTTP header cannot carry (not shown here)"
+        )
+    return text
 
 
 def authorization(host: str, environ: Mapping[str, str]) -> str:
     """The Authorization header for ``host``: the token of UROS_CACHE_TOKEN, else the netrc
     entry's login and password (Basic), else none."""
+    found = token(environ)
+    if found:
+        return f"Bearer {found}"
+    entry = _netrc_entry(host, environ)
+    if entry is None:
+        return ""
+    login, password = entry
+    return "Basic " + base64.b64encode(f"{login}:{password}".encode()).decode("ascii")
+
+
+def _netrc_entry(host: str, environ: Mapping[str, str]) -> tuple[str, str] | None:
     import netrc
 
-    token = environ.get(TOKEN_VARIABLE, "")
-    if token:
-        return f"Bearer {token}"
     path = environ.get("NETRC") or os.path.join(environ.get("HOME", os.path.expanduser("~")), ".netrc")
     try:
         entry = netrc.netrc(path).authenticators(host)
-    except (OSError, netrc.NetrcParseError):
-        return ""
+    except (OSError, netrc.NetrcParseError, UnicodeDecodeError):
+        return None
     if entry is None:
-        return ""
+        return None
     login, _account, password = entry
-    return "Basic " + base64.b64encode(f"{login}:{password or ''}".encode()).decode("ascii")
+    return login, password or ""
+
+
+def secrets(environ: Mapping[str, str], host: str = "") -> list[str]:
+    """What must never be printed: the token as set and stripped, the netrc password of ``host``,
+    and their header forms."""
+    out = [environ.get(TOKEN_VARIABLE, ""), environ.get(TOKEN_VARIABLE, "").strip()]
+    entry = _netrc_entry(host, environ) if host else None
+    if entry is not None:
+        out += [entry[1], base64.b64encode(f"{entry[0]}:{entry[1]}".encode()).decode("ascii")]
+    return sorted({s for s in out if len(s) >= 4}, key=len, reverse=True)
+
+
+def scrub(text: str, environ: Mapping[str, str] | None = None, host: str = "") -> str:
+    """``text`` with every credential replaced by ``***`` (a message from a library may quote a
+    header, or the URL it was redirected to)."""
+    env = environ if environ is not None else os.environ
+    for secret in secrets(env, host):
+        text = text.replace(secret, "***").replace(repr(secret)[1:-1], "***")
+    return text

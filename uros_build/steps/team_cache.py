@@ -12,12 +12,13 @@ from uros_build import console
 from uros_build.colcon import depfiles
 from uros_build.colcon import fingerprint as fp
 from uros_build.config.plan import BuildPlan
+from uros_build.defaults import BUILD_INFO
 from uros_build.errors import (
     ConfigError,
     VerifyError,
 )
+from uros_build.output import export, swap
 from uros_build.output import folders as outputs
-from uros_build.output import swap
 from uros_build.output import team_cache as cache_mod
 from uros_build.output.buildinfo import (
     BuildInfo,
@@ -27,23 +28,26 @@ from uros_build.output.team_cache import CacheSettings, CacheUnusable
 from uros_build.proc import Runner
 from uros_build.steps.deliver import Assembled
 from uros_build.target import abi
+from uros_build.target.toolchain import ToolchainRequest, render_toolchain
 
 
 def _from_cache(runner: Runner, plan: BuildPlan, settings: CacheSettings, key: str) -> Assembled | None:
     """The output of the entry ``key``, unpacked beside the output and checked as a build's would
-    be (its build-info names this key and target, the library has the sha256 it names, every object
-    passes the ABI check); None, with a line saying why, when there is none or it cannot be used."""
+    be (every file has the manifest's size and sha256, its build-info names this key and target,
+    the library has the sha256 it names, every object passes the ABI check, the CMake package and
+    toolchain.cmake are what this uros writes); None, with a line saying why, when there is none or
+    it cannot be used."""
     shown = settings.url.shown
-    store = cache_mod.store(settings.url)
     staging = outputs.staging_dir(plan.output)
     try:
-        raw = store.get(cache_mod.manifest_name(key))
+        store = cache_mod.store(settings.url)
+        raw = store.get(cache_mod.manifest_name(key), cache_mod.MAX_MANIFEST_BYTES)
         if raw is None:
             console.info(f"cache: no entry {key[:16]} in {shown}: building")
             return None
         manifest = cache_mod.parse_manifest(raw, key)
         differ = cache_mod.headers_differ(
-            manifest, {p: depfiles.content(p) for p in manifest.outside_headers}
+            manifest, {p: cache_mod.local_sha256(p) for p in manifest.outside_headers}
         )
         if differ:
             more = f" and {len(differ) - 1} more" if len(differ) > 1 else ""
@@ -52,7 +56,7 @@ def _from_cache(runner: Runner, plan: BuildPlan, settings: CacheSettings, key: s
                 f"({differ[0]}{more}): building"
             )
             return None
-        data = store.get(cache_mod.archive_name(key))
+        data = store.get(cache_mod.archive_name(key), manifest.archive_bytes)
         if data is None:
             raise CacheUnusable(f"the entry {key[:16]} has a manifest and no tarball")
         swap.remove_tree(staging)
@@ -62,12 +66,21 @@ def _from_cache(runner: Runner, plan: BuildPlan, settings: CacheSettings, key: s
         origin = {"url": shown, "key": key, "archive_sha256": manifest.archive_sha256}
         return Assembled(staging, dataclasses.replace(info, from_cache=origin))
     except CacheUnusable as exc:
-        swap.remove_tree(staging)
-        console.warn(f"cache {shown}: {exc}: building instead")
+        _drop(staging)
+        console.warn(f"cache {shown}: {cache_mod.scrub(str(exc))}: building instead")
         return None
     except BaseException:
-        swap.remove_tree(staging)
+        _drop(staging)
         raise
+
+
+def _drop(staging: Path) -> None:
+    """The staging folder of an entry that is not used, removed; a folder that cannot be removed
+    is the next build's staging to replace, never this build's failure."""
+    try:
+        swap.remove_tree(staging)
+    except OSError as exc:
+        console.warn(f"could not remove {staging} ({exc.strerror}): the next build replaces it")
 
 
 def _check_cached(runner: Runner, plan: BuildPlan, staging: Path, key: str) -> BuildInfo:
@@ -82,6 +95,23 @@ def _check_cached(runner: Runner, plan: BuildPlan, staging: Path, key: str) -> B
         raise CacheUnusable(f"the entry {key[:16]}'s library does not have its build-info's sha256")
     if not (staging / info.include.dir).is_dir():
         raise CacheUnusable(f"the entry {key[:16]} has no {info.include.dir}/ folder")
+    # The files a firmware's CMake runs are written by this uros for this target: an entry's must
+    # be exactly those (a server's copy could add execute_process lines).
+    expected = export.cmake_package_files(info.target, info.flags.cpu)
+    if plan.profile is not None:
+        expected["toolchain.cmake"] = render_toolchain(
+            ToolchainRequest(
+                plan.profile, micro_ros=False, command=f"uros toolchain render {plan.profile.name}"
+            )
+        )
+    for name in sorted(cache_mod.ENTRY_FILES - {BUILD_INFO, "libmicroros.a"}):
+        path = staging / name
+        there = path.read_bytes() if path.is_file() else None
+        want = expected[name].encode("utf-8") if name in expected else None
+        if there != want:
+            raise CacheUnusable(
+                f"the entry {key[:16]}'s {name} is not the one uros writes for {plan.target.key}"
+            )
     if plan.profile is not None:
         try:
             console.info(abi.describe(abi.check_library(runner, library, plan.profile)))
@@ -90,20 +120,46 @@ def _check_cached(runner: Runner, plan: BuildPlan, staging: Path, key: str) -> B
     return info
 
 
+def _existing_entry_is_whole(store: cache_mod.Store, key: str) -> None:
+    """CacheUnusable unless the store's entry ``key`` passes the checks a reader makes of its
+    bytes (a manifest of this format and key, a tarball of its size and sha256, every file as it
+    lists): an entry that fails them is replaced by the next upload, not kept forever."""
+    raw = store.get(cache_mod.manifest_name(key), cache_mod.MAX_MANIFEST_BYTES)
+    if raw is None:
+        raise CacheUnusable("no manifest")
+    manifest = cache_mod.parse_manifest(raw, key)
+    data = store.get(cache_mod.archive_name(key), manifest.archive_bytes)
+    if data is None:
+        raise CacheUnusable(f"the entry {key[:16]} has a manifest and no tarball")
+    cache_mod.unpack(data, manifest, None)
+
+
 def _upload(plan: BuildPlan, key: str, entries: list[str]) -> None:
     """The output as the cache entry ``key`` (tarball first, manifest last), unless the cache has
-    it already. A failure is a warning: the build itself succeeded."""
+    it already, whole. Only what uros wrote there (the output's marker names it) and an entry may
+    hold is packed: never the user's own files beside it. A failure is a warning: the build itself
+    succeeded."""
     assert plan.cache is not None
     shown = plan.cache.url.shown
-    store = cache_mod.store(plan.cache.url)
     try:
-        if store.get(cache_mod.manifest_name(key)) is not None:
-            console.info(f"cache: {shown} already has entry {key[:16]}")
-            return
+        store = cache_mod.store(plan.cache.url)
+        if store.get(cache_mod.manifest_name(key), cache_mod.MAX_MANIFEST_BYTES) is not None:
+            try:
+                _existing_entry_is_whole(store, key)
+                console.info(f"cache: {shown} already has entry {key[:16]}")
+                return
+            except CacheUnusable as exc:
+                console.info(f"cache: the entry {key[:16]} in {shown} fails its checks ({exc}): replacing it")
         info = read_build_info(plan.output)
         if info.from_cache:
             return  # taken from a cache: not this machine's to upload
-        data = cache_mod.pack(plan.output, entries)
+        owned = outputs.owned_entries(plan.output) or frozenset()
+        names = sorted(
+            n for n in set(entries) & owned if n in cache_mod.ENTRY_FILES or n == cache_mod.INCLUDE
+        )
+        if "libmicroros.a" not in names or BUILD_INFO not in names:
+            raise CacheUnusable(f"{plan.output}: its marker does not name the library uros wrote there")
+        data, files = cache_mod.pack_entry(plan.output, names)
         record = depfiles.read_record(plan.target_dir / depfiles.RECORD)
         headers = {path: sha for per in record.values() for path, sha in per.items()}
         manifest = cache_mod.Manifest(
@@ -113,12 +169,13 @@ def _upload(plan: BuildPlan, key: str, entries: list[str]) -> None:
             target=plan.target.key,
             generated_by=info.generated_by,
             outside_headers=headers,
+            files=files,
         )
         store.put(cache_mod.archive_name(key), data)
         store.put(cache_mod.manifest_name(key), manifest.to_json().encode("utf-8"))
         console.step(f"cache: uploaded entry {key[:16]} to {shown} ({len(data):,} bytes)")
-    except (CacheUnusable, ConfigError) as exc:
-        console.warn(f"cache {shown}: not uploaded: {exc}")
+    except (CacheUnusable, ConfigError, OSError) as exc:
+        console.warn(f"cache {shown}: not uploaded: {cache_mod.scrub(str(exc))}")
 
 
 def take(runner: Runner, plan: BuildPlan, key: str) -> Assembled | None:
