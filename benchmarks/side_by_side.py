@@ -511,7 +511,7 @@ def run_all(bench: Bench, args: argparse.Namespace, prune_args: list[str], input
     bench.results["uros cold"] = seconds - in_build_dev
     full_out = bench.ws / "build" / TARGET
     bench.sizes["uros full"] = uros_sizes(full_out)
-    bench.notes["slowest"] = slowest_packages(full_out)
+    bench.notes["slowest"] = slowest_packages(bench.ws)
     bench.notes["elf full"] = links(full_out, root / "elf-full")
     inputs += compare_inputs(bench)
     for line in inputs:
@@ -576,11 +576,12 @@ def live_view(log: Path) -> str:
     return f"{len(lines)} per-package progress lines" + (f"; `{summary[0]}`" if summary else "")
 
 
-def slowest_packages(out: Path, count: int = 5) -> str:
-    info = json.loads((out / "build-info.json").read_text(encoding="utf-8"))
-    seconds: dict[str, float] = info.get("package_seconds", {})
+def slowest_packages(ws: Path, count: int = 5) -> str:
+    """From the target's timings.json (the last colcon build's; build-info.json holds no times)."""
+    timings = json.loads((ws / ".uros" / "targets" / TARGET / "timings.json").read_text(encoding="utf-8"))
+    seconds: dict[str, float] = timings.get("package_seconds", {})
     top = sorted(seconds.items(), key=lambda kv: -kv[1])[:count]
-    return f"{len(seconds)} package timings in build-info.json; slowest " + ", ".join(
+    return f"{len(seconds)} package timings in timings.json; slowest " + ", ".join(
         f"{name} {value:.1f} s" for name, value in top
     )
 

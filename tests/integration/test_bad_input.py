@@ -268,6 +268,16 @@ CASES: dict[str, tuple[Setup, int, str]] = {
         2,
         "--set 'fx_core.FOO BAR=1': 'FOO BAR' is not a CMake option name",
     ),
+    "doctor -w a missing folder": (
+        lambda tmp: ["doctor", "-w", str(tmp / "nope")],
+        2,
+        "nope: no such folder",  # was a table of "ok" lines and exit 0, the disk of another folder
+    ),
+    "doctor -w a file": (
+        lambda tmp: ["doctor", "-w", str(_a_file(tmp))],
+        2,
+        "notes.txt: is a file, not a folder",
+    ),
     "interface new the same .msg twice": (
         lambda tmp: [*_msg("int32 rpm\n")(tmp), "--msg", str(tmp / "Wheel.msg")],
         2,
@@ -326,6 +336,34 @@ def test_corrupt_build_info_in_export_cmake(m7_build: Path, tmp_path: Path, case
         assert proc.returncode == 2, proc.stderr
         assert expected in _one_error(proc) and "build-info.json" in _one_error(proc)
     assert not (tmp_path / "copy").exists()
+
+
+def _hint(proc: subprocess.CompletedProcess[str]) -> str:
+    hints = [line for line in proc.stderr.splitlines() if line.startswith("hint:")]
+    assert len(hints) == 1, proc.stderr
+    return hints[0]
+
+
+def test_lock_hints_name_a_fix_that_works(tmp_path: Path) -> None:
+    """Round 3 (issue 34, 7): every lock problem said "create the workspace once without --locked",
+    also to --lock-file, to `uros update` and to a workspace that exists (where it cannot work)."""
+    missing = run_uros(
+        "create-firmware", "--workspace", str(tmp_path / "fw"), "--no-dev-build",
+        "--lock-file", str(tmp_path / "team.lock"), check=False,
+    )  # fmt: skip
+    assert missing.returncode == 2 and "team.lock: no such lock file" in _one_error(missing)
+    assert (
+        _hint(missing) == "hint: pass the uros.lock of a workspace (`uros create-firmware` writes one there)"
+    )
+    assert not (tmp_path / "fw").exists()
+    ws = _ws(tmp_path)
+    (ws / "uros.yaml").write_text("distro: humble\n")
+    (ws / "uros.lock").write_text('{"repositories": {\n')
+    corrupt = run_uros("update", "-w", str(ws), check=False)
+    assert corrupt.returncode == 2 and "uros.lock:2:1: not valid JSON" in _one_error(corrupt)
+    assert _hint(corrupt).startswith("hint: restore uros.lock (from version control or a copy)")
+    assert "--locked" not in corrupt.stderr
+    assert (ws / "uros.lock").read_text() == '{"repositories": {\n'
 
 
 def test_export_to_a_file_is_refused(m7_build: Path, tmp_path: Path) -> None:

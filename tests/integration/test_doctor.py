@@ -4,12 +4,15 @@ from __future__ import annotations
 
 import json
 import shutil
+import subprocess
 import time
 from pathlib import Path
 
 import pytest
-from fixture_ws import add_plain_package
+from fixture_ws import add_plain_package, make_fixture_workspace
 from uros_helpers import env_without, run_uros
+
+from uros_build.sources.wsfiles import Lock, LockedRepo
 
 pytestmark = pytest.mark.integration
 
@@ -83,3 +86,32 @@ def test_doctor_sees_an_extra_package_that_changed_in_its_own_folder(m7_build: P
     )
     (extra / "fx_extra.c").write_text("int fx_extra(void) { return 1; }\n")  # as built: up to date again
     assert _lines(run_uros("doctor", "-w", str(ws)).stdout)["target cortex-m7"] == "ok"
+
+
+def test_a_clone_off_its_locked_commit_gets_a_hint_that_works(tmp_path: Path) -> None:
+    """Round 3 (issue 34, 7): the hint was `uros create-firmware --locked --force`, which refuses
+    such a clone (it may hold the user's work); the git command it names now puts it back."""
+    ws = make_fixture_workspace(tmp_path / "ws")
+    clone = ws / "mcu_ws" / "uros" / "rclc"
+    clone.mkdir(parents=True)
+
+    def git(*args: str) -> str:
+        return subprocess.run(
+            ["git", "-C", str(clone), "-c", "user.name=t", "-c", "user.email=t@t", *args],
+            check=True, capture_output=True, text=True,
+        ).stdout.strip()  # fmt: skip
+
+    git("init", "-q")
+    git("commit", "-q", "--allow-empty", "-m", "locked")
+    locked = git("rev-parse", "HEAD")
+    git("commit", "-q", "--allow-empty", "-m", "the user's")
+    lock = Lock("humble", {"mcu_ws/uros/rclc": LockedRepo("u", "humble", "s", locked)})
+    (ws / "uros.lock").write_text(lock.to_json(), encoding="utf-8")
+    proc = run_uros("doctor", "-w", str(ws))
+    line = next(line for line in proc.stdout.splitlines() if " checkouts " in f" {line} ")
+    assert line.startswith("warn") and "not at the locked commit: mcu_ws/uros/rclc" in line, proc.stdout
+    assert f"-> in the workspace, git -C mcu_ws/uros/rclc checkout {locked} puts it back" in line, line
+    assert "--force" not in line
+    subprocess.run(f"git -C mcu_ws/uros/rclc checkout -q {locked}", shell=True, cwd=ws, check=True)
+    again = run_uros("doctor", "-w", str(ws))
+    assert "1 repositories at their locked commits" in again.stdout, again.stdout

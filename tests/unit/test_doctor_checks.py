@@ -50,9 +50,20 @@ def test_workspace_state() -> None:
     lock = Lock("humble", {f"mcu_ws/r{i}": LockedRepo("u", "v", "s", f"c{i}") for i in range(5)})
     assert d.eval_lock(lock, {f"mcu_ws/r{i}": f"c{i}" for i in range(5)}).status == d.OK
     moved = d.eval_lock(lock, {**{f"mcu_ws/r{i}": f"c{i}" for i in range(5)}, "mcu_ws/r2": "other"})
-    assert moved.status == d.WARN and "mcu_ws/r2" in moved.detail and "--locked --force" in moved.fix
+    # create-firmware --force refuses a clone off its locked commit: the hint never names it there
+    # (round 3, issue 34, 7: it named a fix that could not work)
+    assert moved.status == d.WARN and "mcu_ws/r2" in moved.detail and "--force" not in moved.fix
+    assert moved.fix.startswith("in the workspace, git -C mcu_ws/r2 checkout c2 puts it back")
     gone = d.eval_lock(lock, {"mcu_ws/r0": "c0"})
     assert gone.status == d.FAIL and "(and 1 more)" in gone.detail
+    assert (
+        gone.fix
+        == "uros create-firmware --distro humble --locked --force clones the missing ones (in the workspace)"
+    )
+    both = d.eval_lock(lock, {"mcu_ws/r0": "x", "mcu_ws/r1": "y"})
+    assert both.status == d.FAIL and both.fix.startswith(
+        "git -C mcu_ws/r0 checkout c0 (and the same in the other 1) first, then uros create-firmware"
+    )
     assert d.eval_dev_ws(False, False, True).status == d.WARN
     assert d.eval_dev_ws(True, False, True).detail == "built from another uros.lock"
     assert (

@@ -208,3 +208,21 @@ def test_with_extra_package_refuses_what_a_line_edit_cannot_extend() -> None:
 
     with pytest.raises(ConfigError, match="cannot add /p to this list"):
         with_extra_package("distro: humble\nextra_packages: [\n  /x]\n", "/p", "uros.yaml")
+
+
+def test_lock_hints_fit_what_pointed_at_the_lock(tmp_path: Path) -> None:
+    """Round 3 (issue 34, 7): "create the workspace once without --locked" was every lock's hint."""
+    hints = {}
+    for flag in ("--locked", "--lock-file", "--workspace"):
+        with pytest.raises(ConfigError) as info:
+            read_lock(tmp_path / "uros.lock", flag)
+        hints[flag] = info.value.hint
+    assert hints["--locked"] is not None and "pass --lock-file PATH" in hints["--locked"]
+    assert (
+        hints["--lock-file"] == "pass the uros.lock of a workspace (`uros create-firmware` writes one there)"
+    )
+    (tmp_path / "uros.lock").write_text("{", encoding="utf-8")
+    for flag in ("--locked", "--workspace", "uros.lock"):
+        with pytest.raises(ConfigError) as info:
+            read_lock(tmp_path / "uros.lock", flag)
+        assert info.value.hint is not None and info.value.hint.startswith("restore uros.lock")

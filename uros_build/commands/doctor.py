@@ -25,7 +25,7 @@ from uros_build.colcon import hosttools
 from uros_build.config.plan import resolve_target
 from uros_build.config.settings import BuildArgs, expand_targets, resolve_workspace
 from uros_build.defaults import BUILD_INFO
-from uros_build.errors import MissingToolError, StepFailed, UrosError, VerifyError
+from uros_build.errors import ConfigError, MissingToolError, StepFailed, UrosError, VerifyError
 from uros_build.output import folders as outputs
 from uros_build.proc import Runner, new_run_log, user_log_dir
 from uros_build.sources.workspace import Workspace, check_extra_package
@@ -191,12 +191,22 @@ def eval_lock(lock: Lock, heads: Mapping[str, str | None]) -> Check:
     moved = sorted(
         p for p, r in lock.repositories.items() if heads.get(p) is not None and heads[p] != r.commit
     )
-    fix = "uros create-firmware --locked --force re-clones the locked commits"
+    # `create-firmware --force` refuses a clone off its locked commit (it may hold the user's work),
+    # so the hint for one names the git command that puts it back, never --force
+    back = ""
+    if moved:
+        back = f"git -C {moved[0]} checkout {lock.repositories[moved[0]].commit}" + (
+            f" (and the same in the other {len(moved) - 1})" if len(moved) > 1 else ""
+        )
+    distro = f" --distro {lock.distro}" if lock.distro else ""
+    reclone = f"uros create-firmware{distro} --locked --force clones the missing ones (in the workspace)"
     if missing:
         more = f" (and {len(missing) - 3} more)" if len(missing) > 3 else ""
+        fix = f"{back} first, then {reclone}" if moved else reclone
         return Check("checkouts", FAIL, f"no clone at {', '.join(missing[:3])}{more}", fix)
     if moved:
         more = f" (and {len(moved) - 3} more)" if len(moved) > 3 else ""
+        fix = f"in the workspace, {back} puts it back; or keep it (a build uses each clone as it is)"
         return Check("checkouts", WARN, f"not at the locked commit: {', '.join(moved[:3])}{more}", fix)
     return Check("checkouts", OK, f"{len(lock.repositories)} repositories at their locked commits")
 
@@ -393,6 +403,11 @@ def _profiles(toolchain: str | None, ws_root: Path | None) -> list[TargetProfile
 
 def doctor(workspace: Path | None, toolchain: str | None, as_json: bool) -> list[Check]:
     root = resolve_workspace(workspace)
+    if workspace is not None and not root.is_dir():  # a folder named on purpose: a typo is no "ok"
+        raise ConfigError(
+            f"--workspace {workspace}: {'is a file, not a folder' if root.exists() else 'no such folder'}",
+            "pass the folder of a workspace, or leave -w out to check this host alone",
+        )
     ws = Workspace(root.resolve()) if root.is_dir() else None
     runner = Runner(new_run_log(ws.log_dir if ws else user_log_dir(), "doctor"))
     cfg = load_config(ws.root) if ws else None

@@ -1,8 +1,11 @@
 """``build-info.json``: what one `uros build` did, as a frozen value written once and read back.
 
-The build writes it; ``uros export`` and the output guard read it back through
-:func:`read_build_info`, which validates it like any other input, so a hand-edited or truncated
-file is a one-line error rather than a KeyError deep in an exporter. JSON with sorted keys.
+It says what was built, from what, with what: the same inputs give the same bytes (timings live
+in the target's timings.json and the run log; a build-info.json written before that may still hold
+``package_seconds``, which is read past). The build writes it; ``uros export`` and the output
+guard read it back through :func:`read_build_info`, which validates it like any other input, so a
+hand-edited or truncated file is a one-line error rather than a KeyError deep in an exporter.
+JSON with sorted keys.
 """
 
 from __future__ import annotations
@@ -91,8 +94,6 @@ class BuildInfo:
     host_stage_packages: tuple[str, ...] = ()
     idf_target: str | None = None
     idf: IdfInfo | None = None
-    # how long colcon took over each package of this build (its own measure), in seconds
-    package_seconds: Mapping[str, float] = field(default_factory=dict)
     # the CMake options (-D) of each package's cmake-args in the colcon.meta this build used
     cmake_options: Mapping[str, Mapping[str, str]] = field(default_factory=dict)
     # package -> {"repository", "commit"}: the clone it was built from and that clone's HEAD then
@@ -197,7 +198,6 @@ def parse_build_info(data: Any, source: str) -> BuildInfo:
         host_stage_packages=_tuple(top, "host_stage_packages", source),
         idf_target=_optional(top, "idf_target", source),
         idf=_idf(top.get("idf"), f"{source}: idf"),
-        package_seconds=_seconds(top.get("package_seconds"), f"{source}: package_seconds"),
         cmake_options=_nested_strings(top.get("cmake_options"), f"{source}: cmake_options"),
         sources=_nested_strings(top.get("sources"), f"{source}: sources"),
         build_key=str(top.get("build_key", "")),
@@ -234,16 +234,6 @@ def _idf(data: Any, where: str) -> IdfInfo | None:
         c_flags=_tuple(idf, "c_flags", where),
         cxx_flags=_tuple(idf, "cxx_flags", where),
     )
-
-
-def _seconds(value: Any, source: str) -> dict[str, float]:
-    data = loader.mapping(value, source)
-    out = {}
-    for key, seconds in data.items():
-        if isinstance(seconds, bool) or not isinstance(seconds, int | float) or seconds < 0:
-            raise ConfigError(f"{source}: {key}: must be a number of seconds, got {seconds!r}")
-        out[str(key)] = float(seconds)
-    return out
 
 
 def read_build_info(out: Path, flag: str = "--from") -> BuildInfo:

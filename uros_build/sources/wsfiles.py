@@ -276,9 +276,19 @@ def parse_lock(data: Any, source: str) -> Lock:
 
 
 def read_lock(path: Path, flag: str) -> Lock:
-    hint = "create the workspace once without --locked"
+    # The fix depends on what pointed here: "create the workspace once without --locked" was the
+    # hint of every command, also of `uros update`, `doctor` and `--lock-file`, where it could not work.
     if not path.is_file():
-        raise ConfigError(f"{flag} {path}: no such lock file", hint)
+        missing = {
+            "--locked": f"the first `uros create-firmware` (without --locked) writes {path.name}; "
+            "to re-create another workspace's commits, pass --lock-file PATH",
+            "--lock-file": "pass the uros.lock of a workspace (`uros create-firmware` writes one there)",
+        }
+        raise ConfigError(f"{flag} {path}: no such lock file", missing.get(flag))
+    hint = (
+        f"restore {path.name} (from version control or a copy): uros needs it to know which clones it "
+        "made, and writes it only when it clones"
+    )
     return parse_lock(loader.load_json(path, flag, hint), f"{flag} {path}")
 
 

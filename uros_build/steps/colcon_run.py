@@ -5,6 +5,7 @@ and compiled from the caches, the headers it read outside the workspace.
 from __future__ import annotations
 
 import contextlib
+import json
 import math
 import time
 from collections.abc import Mapping
@@ -95,6 +96,15 @@ def _say_generation(plan: BuildPlan) -> None:
 # so an archive or header rebuilt within the second of the last install stayed the old one in the
 # install tree, and in the library (seen: a source edited right after a build, test_faults).
 COLCON_ENDED = "colcon-ended"
+# How long colcon took over each package of the target's last colcon build: kept beside its trees,
+# not in build-info.json, which says what was built and must be the same for the same inputs.
+TIMINGS = "timings.json"
+
+
+def timings_json(finished: Mapping[str, float]) -> str:
+    """The text of TIMINGS: package -> seconds (colcon's own measure), sorted (pure)."""
+    data = {"package_seconds": {p: round(s, 2) for p, s in finished.items()}}
+    return json.dumps(data, indent=2, sort_keys=True) + "\n"
 
 
 def next_second_wait(last_end: float, now: float) -> float:
@@ -178,6 +188,8 @@ def _run_colcon(
     elapsed = time.monotonic() - progress.started_at
     slowest = ", ".join(f"{name} {seconds:.1f} s" for name, seconds in progress.slowest(5))
     console.info(f"colcon built {len(progress.finished)} packages in {elapsed:.1f} s; slowest: {slowest}")
+    with contextlib.suppress(OSError):  # a record of times is never why a build fails
+        (plan.target_dir / TIMINGS).write_text(timings_json(progress.finished), encoding="utf-8")
     return progress
 
 

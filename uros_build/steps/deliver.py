@@ -16,7 +16,6 @@ from pathlib import Path
 from typing import Any
 
 from uros_build import __version__, console
-from uros_build.colcon import command as colcon
 from uros_build.colcon import fingerprint as fp
 from uros_build.colcon import hosttools, installtree
 from uros_build.colcon.hosttools import HostFacts
@@ -160,7 +159,6 @@ def _stage_output(
     staging: Path,
     setup: ColconSetup,
     built: tuple[str, ...],
-    progress: colcon.BuildProgress,
     previous: fp.BuildState | None,
 ) -> tuple[BuildInfo, str]:
     """The output in ``staging``: the archives and headers of this build's packages only.
@@ -260,7 +258,6 @@ def _stage_output(
         host_stage_packages=setup.shared,
         idf_target=profile.idf_target or None if profile else None,
         idf=_idf_info(plan),
-        package_seconds={p: round(progress.finished[p], 2) for p in built if p in progress.finished},
         cmake_options=contents.cmake_options(plan.meta),
         sources=_sources(plan, built),
     )
@@ -337,7 +334,7 @@ def merge_and_verify(
     staging = outputs.staging_dir(plan.output)
     try:
         info, merge_key = _stage_output(
-            runner, plan, facts, staging, inputs.setup, compiled.packages, compiled.progress, inputs.previous
+            runner, plan, facts, staging, inputs.setup, compiled.packages, inputs.previous
         )
     except OSError as exc:
         swap.remove_tree(staging)
