@@ -1,5 +1,6 @@
-"""The one precedence of settings.py: the command line over the workspace's uros.yaml over uros's
-defaults, each value saying who chose it (issue 18). Pure: no file is read."""
+"""The one precedence of settings.py: the command line over the environment over the workspace's
+uros.yaml over uros's defaults, each value saying who chose it (issues 18 and 30). Pure: no file
+is read."""
 
 from __future__ import annotations
 
@@ -7,7 +8,15 @@ from pathlib import Path
 
 import pytest
 
-from uros_build.config.settings import BuildArgs, Chosen, build_settings, pick
+from uros_build.config import settings as rows
+from uros_build.config.settings import (
+    SETTINGS,
+    BuildArgs,
+    Chosen,
+    Setting,
+    build_settings,
+    resolve_one,
+)
 from uros_build.sources.wsfiles import WorkspaceConfig
 
 ROOT = Path("/ws")
@@ -19,6 +28,7 @@ CFG = WorkspaceConfig(
     idf_build="idf/build",
     cache="file:///team",
 )
+BY_NAME = {s.name: s for s in SETTINGS}
 
 
 @pytest.mark.parametrize(
@@ -45,18 +55,94 @@ def test_the_command_line_over_uros_yaml_over_defaults(
 ) -> None:
     settings = build_settings(args, cfg, ROOT)
     for name, value in expected.items():
-        assert getattr(settings, name) == value, name
+        assert settings[BY_NAME[name]] == value, name
 
 
 def test_sets_add_up_uros_yaml_first() -> None:
     """--set does not replace uros.yaml's set: list; it comes after it, so that it wins per option."""
     settings = build_settings(BuildArgs(sets=("rmw_microxrcedds.RMW_UXRCE_MAX_NODES=3",)), CFG, ROOT)
-    assert settings.sets == (
-        "rmw_microxrcedds.RMW_UXRCE_MAX_NODES=2",
-        "rmw_microxrcedds.RMW_UXRCE_MAX_NODES=3",
+    assert settings[rows.SETS] == Chosen(
+        ("rmw_microxrcedds.RMW_UXRCE_MAX_NODES=2", "rmw_microxrcedds.RMW_UXRCE_MAX_NODES=3"),
+        "/ws/uros.yaml: set + --set",
     )
 
 
-def test_pick_takes_an_empty_value_as_given() -> None:
-    assert pick("", "--cache", "file:///x", "uros.yaml: cache", None) == Chosen("", "--cache")
-    assert pick(None, "--cache", None, "uros.yaml: cache", "d") == Chosen("d", "default")
+def test_an_empty_value_is_given_an_empty_list_is_not() -> None:
+    assert build_settings(BuildArgs(cache=""), CFG, ROOT)[rows.CACHE] == Chosen("", "--cache")
+    assert build_settings(BuildArgs(packages=()), CFG, ROOT)[rows.PACKAGES].source.endswith("packages")
+
+
+# a row with all four places, to pin the order between the environment and uros.yaml (no shipped
+# row has both today)
+BOTH: Setting[str | None] = Setting("transport", "--transport", "transport", "UROS_T", None, "x", "test")
+
+
+@pytest.mark.parametrize(
+    ("flag", "env", "cfg", "expected"),
+    [
+        ("udp", {"UROS_T": "custom"}, CFG, Chosen("udp", "--transport")),
+        (None, {"UROS_T": "custom"}, CFG, Chosen("custom", "$UROS_T")),
+        (None, {"UROS_T": ""}, CFG, Chosen("serial", "/ws/uros.yaml: transport")),  # empty: unset
+        (None, {}, CFG, Chosen("serial", "/ws/uros.yaml: transport")),
+        (None, {}, None, Chosen(None, "default")),
+    ],
+)
+def test_the_command_line_then_the_environment_then_uros_yaml_then_the_default(
+    flag: str | None, env: dict[str, str], cfg: WorkspaceConfig | None, expected: Chosen[str | None]
+) -> None:
+    assert resolve_one(BOTH, {"transport": flag}, cfg, ROOT, env) == expected
+
+
+@pytest.mark.parametrize("setting", [rows.HOST_STAGE, rows.COMPILER_SEED, rows.GEN_CACHE])
+def test_the_environment_switches_are_on_unless_off(setting: Setting[bool]) -> None:
+    assert setting.env is not None
+    assert build_settings(BuildArgs(), None, ROOT, {})[setting] == Chosen(True, "default")
+    for text in ("off", "OFF", " Off "):
+        assert build_settings(BuildArgs(), None, ROOT, {setting.env: text})[setting] == Chosen(
+            False, f"${setting.env}"
+        )
+    assert build_settings(BuildArgs(), None, ROOT, {setting.env: "1"})[setting].value is True
+
+
+def test_the_generation_cache_folder_from_the_environment_else_the_xdg_cache() -> None:
+    env = {"XDG_CACHE_HOME": "/xdg"}
+    assert build_settings(BuildArgs(), None, ROOT, env)[rows.GEN_CACHE_DIR] == Chosen(
+        Path("/xdg/uros/gen"), "default"
+    )
+    given = {**env, "UROS_GEN_CACHE_DIR": "/mine"}
+    assert build_settings(BuildArgs(), None, ROOT, given)[rows.GEN_CACHE_DIR] == Chosen(
+        Path("/mine"), "$UROS_GEN_CACHE_DIR"
+    )
+
+
+def test_the_target_of_one_build_of_several_names_uros_yaml() -> None:
+    cfg = WorkspaceConfig(distro="humble", targets=("cortex-m7", "rp2040"))
+    every = build_settings(BuildArgs(), cfg, ROOT)[rows.TARGETS]
+    assert every == Chosen(("cortex-m7", "rp2040"), "/ws/uros.yaml: targets")
+    one = BuildArgs(toolchain="rp2040", toolchain_from="/ws/uros.yaml: targets")
+    assert build_settings(one, cfg, ROOT)[rows.TARGETS] == Chosen(("rp2040",), "/ws/uros.yaml: targets")
+    # --profile names the target: uros.yaml's targets do not apply
+    assert build_settings(BuildArgs(profile=Path("b.yaml")), cfg, ROOT)[rows.TARGETS].value == ()
+
+
+def test_every_build_setting_has_one_line_saying_who_chose_it() -> None:
+    args = BuildArgs(workspace=ROOT, transport="udp", verbose=True)
+    lines = build_settings(args, CFG, ROOT, {"UROS_HOST_STAGE": "off"}).lines()
+    assert "transport = udp  (--transport)" in lines
+    assert "host_stage = off  ($UROS_HOST_STAGE)" in lines
+    assert "cache = file:///team  (/ws/uros.yaml: cache)" in lines
+    assert "jobs = colcon's  (default)" in lines
+    assert "workspace = /ws  (-w/--workspace)" in lines
+    assert "verbose = on  (-v/--verbose)" in lines
+    names = [line.split(" = ")[0] for line in lines]
+    assert names == [s.name for s in SETTINGS if "build" in s.commands]
+
+
+def test_the_table_is_one_row_a_name_and_every_build_argument_is_a_row() -> None:
+    names = [s.name for s in SETTINGS]
+    assert len(names) == len(set(names))
+    flags = set(BuildArgs().flags())
+    assert flags - set(names) == {"toolchain", "toolchain_from"}  # the targets row's parts
+    for setting in SETTINGS:
+        assert setting.flag or setting.env, setting.name  # every setting can be given somewhere
+        assert setting.meaning and setting.default_text, setting.name

@@ -110,7 +110,7 @@ def build(
     workspace: Path | None,
     metas: tuple[Path, ...],
     sets: tuple[str, ...],
-    preset: str,
+    preset: str | None,
     transport: str | None,
     output: Path | None,
     packages: tuple[str, ...],
@@ -169,13 +169,17 @@ def check(library: Path, toolchain: str | None, profile: Path | None, verbose: b
 
 
 @click.command()
-@toolchain_option("The target whose trees and output to remove (default: uros.yaml's target).")
+@toolchain_option(
+    "The target whose trees and output to remove: a target name or your own toolchain file "
+    "(default: uros.yaml's target)."
+)
+@click.option("--profile", type=PATH_ARG, help="Or the target of your own profile (.yaml).")
 @click.option("--all", "everything", is_flag=True, help="Every target built in the workspace.")
 @workspace_option("The workspace to clean.")
-def clean(toolchain: str | None, everything: bool, workspace: Path | None) -> None:
+def clean(toolchain: str | None, profile: Path | None, everything: bool, workspace: Path | None) -> None:
     """Remove uros's per-target trees (.uros/targets/<target>) and outputs (build/<target>), never
     anything uros did not write, and say how much that freed."""
-    clean_cmd.clean(workspace, toolchain, everything)
+    clean_cmd.clean(workspace, toolchain, everything, profile)
 
 
 @click.command()

@@ -83,7 +83,7 @@ def toolchain_option(help_text: str) -> Decorator:
 
 
 def workspace_option(help_text: str) -> Decorator:
-    # One default everywhere, resolved by plan.resolve_workspace (None here: "not given").
+    # One default everywhere, resolved by config.settings.resolve_workspace (None here: "not given").
     return click.option(
         "-w", "--workspace", "--dir", "workspace", cls=Option, aliases=("--dir",), type=PATH_ARG,
         default=None, show_default=defaults.WORKSPACE_HELP, help=help_text,
@@ -107,8 +107,8 @@ TRANSPORT = click.option(
     "--transport", help="XRCE-DDS transport: custom, udp or serial (default: the target's)."
 )
 PRESET = click.option(
-    "--preset", default=defaults.PRESET, show_default=True, help="colcon.meta starting point (meta/presets/)."
-)
+    "--preset", show_default=defaults.PRESET, help="colcon.meta starting point (meta/presets/)."
+)  # None: not given (config/settings.py says who chose each setting)
 # `--from` names the build output to copy; without it, --output is that output, rewritten in place.
 FROM = click.option(
     "--from", "source", type=PATH_ARG, help="A `uros build` output to copy (default: --output itself)."

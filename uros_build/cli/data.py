@@ -86,7 +86,7 @@ def meta() -> None:
 @SETS
 @output_option("Write here instead of standard output.")
 def meta_write(
-    preset: str,
+    preset: str | None,
     toolchain: str | None,
     transport: str | None,
     metas: tuple[Path, ...],

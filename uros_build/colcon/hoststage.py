@@ -31,7 +31,6 @@ from uros_build.colcon import installtree
 from uros_build.errors import ConfigError
 from uros_build.sources.packages import PackageInfo
 
-SWITCH = "UROS_HOST_STAGE"  # "off": every package is configured and installed for each target
 FORMAT = "1"
 MARKER = "uros-stage.json"  # in the stage folder: the key it was built for and what it found
 TAKEN = "uros-shared.json"  # in a target's build/<package>: the stage key its copy came from

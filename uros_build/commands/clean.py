@@ -12,11 +12,12 @@ import shutil
 from pathlib import Path
 
 from uros_build import console
-from uros_build.config.settings import BuildArgs, expand_targets, resolve_workspace
+from uros_build.config.plan import folder_key, named_keys
+from uros_build.config.settings import resolve_workspace
 from uros_build.errors import ConfigError, did_you_mean
 from uros_build.output import folders as outputs
 from uros_build.output import swap
-from uros_build.sources.workspace import Workspace, locked, target_key, tree_bytes
+from uros_build.sources.workspace import Workspace, locked, tree_bytes
 
 
 def human(n: int) -> str:
@@ -29,25 +30,34 @@ def human(n: int) -> str:
     raise AssertionError("unreachable")
 
 
-def _chosen(ws: Workspace, toolchain: str | None, everything: bool) -> list[str]:
+def _chosen(ws: Workspace, toolchain: str | None, everything: bool, profile: Path | None = None) -> list[str]:
+    """The folder keys to clean: every one with --all, else the target named (--toolchain, --profile),
+    else those `uros build` builds here by default (uros.yaml's); the name → key rule is the plan's."""
     present = outputs.target_keys(ws)
-    if toolchain is not None and everything:
-        raise ConfigError("--toolchain and --all: pass one of them")
+    if (toolchain is not None or profile is not None) and everything:
+        raise ConfigError(f"{'--toolchain' if toolchain else '--profile'} and --all: pass one of them")
+    if toolchain is not None and profile is not None:
+        raise ConfigError("--toolchain and --profile name a target twice", "pass only one of them")
     if everything:
         return present
-    if toolchain is None:
-        # the target(s) `uros build` would build here by default
-        names = [str(a.toolchain) for a in expand_targets(BuildArgs(workspace=ws.root)) if a.toolchain]
-        if not names:
+    if profile is not None:
+        if not profile.is_file():
+            raise ConfigError(f"--profile {profile}: no such file", "pass the profile file you built with")
+        toolchain, key = str(profile), folder_key(str(profile), "--profile", profile=True)
+    elif toolchain is None:
+        keys = [key for _name, key in named_keys(ws, None)]
+        if not keys:
             built = ", ".join(present) or "none"
             raise ConfigError(
                 "uros clean: which target?", f"pass --toolchain NAME or --all (built here: {built})"
             )
-        return [target_key(Path(n).stem if n.endswith(".cmake") else n) for n in names]
-    key = target_key(toolchain)
+        return keys
+    else:
+        key = folder_key(toolchain)
     if key not in present:
+        flag = "--toolchain" if profile is None else "--profile"
         raise ConfigError(
-            f"--toolchain {toolchain}: nothing of it in {ws.root}{did_you_mean(key, present)}",
+            f"{flag} {toolchain}: nothing of it in {ws.root}{did_you_mean(key, present)}",
             f"built here: {', '.join(present) or 'none'}",
         )
     return [key]
@@ -77,14 +87,16 @@ def _clean_host_stages(ws: Workspace) -> int:
     return freed
 
 
-def clean(workspace: Path | None, toolchain: str | None, everything: bool) -> int:
+def clean(
+    workspace: Path | None, toolchain: str | None, everything: bool, profile: Path | None = None
+) -> int:
     """Remove the chosen targets' trees and outputs; returns the bytes freed."""
     root = resolve_workspace(workspace)
     if not root.is_dir():
         raise ConfigError(f"--workspace {root}: no such folder", "pass the workspace to clean with -w DIR")
     ws = Workspace(root.resolve())
     freed = 0
-    for key in _chosen(ws, toolchain, everything):
+    for key in _chosen(ws, toolchain, everything, profile):
         tree, output = ws.target_dir(key), ws.default_output(key)
         owned = outputs.owned_entries(output) if outputs.is_uros_output(output) else None
         if output.exists() and owned is None:

@@ -23,7 +23,7 @@ from uros_build.colcon import command as colcon
 from uros_build.colcon import fingerprint as fp
 from uros_build.colcon import hosttools
 from uros_build.config.plan import resolve_target
-from uros_build.config.settings import BuildArgs, expand_targets, resolve_workspace
+from uros_build.config.settings import AGENT, BuildArgs, expand_targets, resolve_outside, resolve_workspace
 from uros_build.defaults import BUILD_INFO
 from uros_build.errors import ConfigError, MissingToolError, StepFailed, UrosError, VerifyError
 from uros_build.output import folders as outputs
@@ -422,7 +422,7 @@ def doctor(workspace: Path | None, toolchain: str | None, as_json: bool) -> list
         eval_ros_env(os.environ),
     ]
     checks.append(eval_ccache(_which(runner, "ccache", build_path), _version(runner, "ccache")))
-    agent = os.environ.get("UROS_AGENT")
+    agent = resolve_outside(AGENT).value
     checks += eval_probe_tools(
         _which(runner, "qemu-system-arm"), _which(runner, agent) if agent else None, bool(agent)
     )

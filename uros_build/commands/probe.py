@@ -20,13 +20,13 @@ from pathlib import Path
 from uros_build import console
 from uros_build.colcon.fingerprint import digest
 from uros_build.config.plan import resolve_output
+from uros_build.config.settings import AGENT, resolve_outside
 from uros_build.errors import MissingToolError, StepFailed, VerifyError
 from uros_build.output.buildinfo import read_build_info
 from uros_build.proc import Background, Runner, new_run_log, user_log_dir
 from uros_build.sources.workspace import workspace_of_output
 from uros_build.target import machines as probe_mod
 
-AGENT_VARIABLE = "UROS_AGENT"
 _AGENT_HINT = (
     "pass --agent PATH (or set UROS_AGENT) to a MicroXRCEAgent: eProsima Micro-XRCE-DDS-Agent v2.3.0 "
     "builds against Debian 12's libfastcdr-dev and libspdlog-dev with -DUAGENT_SUPERBUILD=OFF "
@@ -51,7 +51,7 @@ class ProbeReport:
 
 
 def _agent(given: str | None, runner: Runner) -> str:
-    wanted = given or os.environ.get(AGENT_VARIABLE)
+    wanted = resolve_outside(AGENT, given or None).value  # --agent, else $UROS_AGENT
     if not wanted:
         raise MissingToolError("uros probe: no Micro XRCE-DDS Agent was given", _AGENT_HINT)
     if os.sep in wanted and not (Path(wanted).is_file() and os.access(wanted, os.X_OK)):

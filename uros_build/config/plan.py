@@ -1,6 +1,6 @@
 """Settings → frozen, validated plans (pypa/cibuildwheel's options.py idea).
 
-settings.py decides who wins (command line, uros.yaml, defaults); here every setting is checked
+settings.py decides who wins (command line, environment, uros.yaml, defaults); here every setting is checked
 without starting a process: the target, the profile, the metas, the distro, the packages asked for,
 the output folder. What comes out is a frozen value the commands execute; the mapping is
 unit-tested without running anything. Checked later, because a process must run first: the extra
@@ -9,16 +9,20 @@ packages' clones (`uros build` syncs them before its lock), the host tools, the 
 
 from __future__ import annotations
 
+import os
 from collections.abc import Mapping
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from uros_build import defaults
+from uros_build.config import settings as rows
 from uros_build.config.settings import (
     BuildArgs,
     Chosen,
+    Resolved,
     build_settings,
     open_workspace,
+    resolve_one,
     resolve_workspace,
 )
 from uros_build.errors import ConfigError, did_you_mean
@@ -48,36 +52,67 @@ from uros_build.target.profiles import (
 # the workspace: one default for every command
 
 
-def resolve_output(output: Path | None, workspace: Path | None, toolchain: str | None) -> Path:
-    """The build output a command reads (uros info, uros size): OUTPUT as given, else in the
-    workspace: --toolchain's output, else uros.yaml's target's, else the only one built."""
+def resolve_output(
+    output: Path | None, workspace: Path | None, toolchain: str | None, env: Mapping[str, str] | None = None
+) -> Path:
+    """The build output a command reads (uros info, uros size, uros probe): OUTPUT as given, else
+    in the workspace: the target the settings name (--toolchain, else uros.yaml's one target),
+    else the only one built."""
     if output is not None:
         return output
     root = resolve_workspace(workspace)
     ws = Workspace(root.resolve())
     built = [k for k in target_keys(ws) if is_uros_output(ws.default_output(k))]
-    if toolchain is None:
-        cfg = load_config(ws.root) if ws.root.is_dir() else None
-        named: tuple[str, ...] = ()
-        if cfg is not None:
-            named = cfg.targets or ((cfg.target,) if cfg.target else ())
-        if len(named) == 1:
-            toolchain = named[0]
-        elif len(built) == 1:
-            toolchain = built[0]
-        else:
+    keys = named_keys(ws, toolchain, env)
+    if len(keys) != 1:
+        if len(built) != 1:
             raise ConfigError(
                 f"which output? {len(built)} built in {ws.root}: {', '.join(built) or 'none'}",
                 "pass the output folder (e.g. firmware/build/cortex-m7), or --toolchain NAME",
             )
-    key = target_key(Path(toolchain).stem if toolchain.endswith(".cmake") else toolchain)
+        keys = [(built[0], built[0])]
+    ((name, key),) = keys
     if key not in built:
         raise ConfigError(
-            f"--toolchain {toolchain}: no output of it in {ws.root}{did_you_mean(key, built)}",
-            f"build it first: uros build --toolchain {toolchain}"
+            f"--toolchain {name}: no output of it in {ws.root}{did_you_mean(key, built)}",
+            f"build it first: uros build --toolchain {name}"
             + (f" (built: {', '.join(built)})" if built else ""),
         )
     return ws.default_output(key)
+
+
+def named_keys(
+    ws: Workspace, toolchain: str | None, env: Mapping[str, str] | None = None
+) -> list[tuple[str, str]]:
+    """The targets the settings name (--toolchain, else uros.yaml's target or targets), each as
+    (its name, its folder key): what `uros build` builds here by default, and so what clean, info,
+    size and probe look for."""
+    cfg = load_config(ws.root) if toolchain is None and ws.root.is_dir() else None
+    flags = {rows.TARGETS.name: (toolchain,) if toolchain else ()}
+    chosen = resolve_one(rows.TARGETS, flags, cfg, ws.root, env if env is not None else os.environ)
+    base = ws.root if chosen.source != rows.TARGETS.flag else None  # uros.yaml's: from the workspace
+    return [(name, folder_key(name, chosen.source, base)) for name in chosen.value]
+
+
+def names_a_file(name: str) -> bool:
+    """A target named by its file (a CMake toolchain file), not by a shipped target's name."""
+    return name.endswith(".cmake") or "/" in name
+
+
+def folder_key(name: str, where: str = "--toolchain", base: Path | None = None, profile: bool = False) -> str:
+    """The one name → folder-key rule (.uros/targets/<key>, build/<key>) for a target as the
+    command line or uros.yaml names it (``where``; ``base``: the folder a relative path is from,
+    None: the current one): a shipped target's name as it is; a profile file's ``name:`` (a
+    .yaml name, or ``profile``: --profile's file); a toolchain file's stem, made folder-safe.
+    :func:`resolve_target` gives every target the key this gives its name."""
+    if profile or name.endswith((".yaml", ".yml")):
+        path = base / name if base is not None else Path(name)
+        if path.is_file():
+            return target_key(load_profile_file(path).name, f"{where} {name}")
+        return target_key(Path(name).stem, f"{where} {name}")  # gone: the name it most likely had
+    if names_a_file(name):
+        return target_key(Path(name).stem, f"{where} {name}")
+    return target_key(name, where)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -124,7 +159,7 @@ def resolve_target(
             f"pass --toolchain with one of: {', '.join(shipped_profiles())}, "
             f"or name it in the workspace's {CONFIG} (target: NAME)",
         )
-    if toolchain.endswith(".cmake") or "/" in toolchain:
+    if names_a_file(toolchain):
         if derive:
             raise ConfigError(
                 f"--compiler-prefix/--cflags cannot change your own toolchain file {toolchain}",
@@ -135,7 +170,7 @@ def resolve_target(
             raise ConfigError(
                 f"{flag} {toolchain}: no such file", "pass a target name or an existing .cmake file"
             )
-        return ToolchainFileTarget(target_key(path.stem, f"{flag} {toolchain}"), path)
+        return ToolchainFileTarget(folder_key(toolchain, flag), path)
     profile = find_profile(toolchain, flag)
     if derive:
         profile = derive_profile(profile, compiler_prefix, cflags)
@@ -216,6 +251,14 @@ class BuildPlan:
     output_flag: str = "--output"  # how messages name the output ("the output folder" by default)
     cache: CacheSettings | None = None  # the team cache of outputs (None: none)
     ccache: bool | None = None  # True: ccache required; None: when installed; False: never
+    # every setting with who chose it (settings.py), printed by `uros build -v`
+    settings: Resolved = field(default_factory=lambda: Resolved({}))
+    # the environment's switches (settings.py: UROS_HOST_STAGE, UROS_COMPILER_SEED, UROS_GEN_CACHE,
+    # UROS_GEN_CACHE_DIR), read once here: the steps read the plan, not the environment
+    host_stage: bool = True  # the packages that compile nothing built once for the host
+    compiler_seed: bool = True  # CMake's compiler facts found once per target
+    gen_cache: bool = True  # generator runs and configure calls through the user's cache
+    gen_cache_dir: Path = Path("~/.cache/uros/gen")  # that cache's folder
 
     @property
     def profile(self) -> TargetProfile | None:
@@ -348,27 +391,25 @@ def _select(
     return Selection(tuple(wanted), use, core, extra)
 
 
-def plan_build(args: BuildArgs) -> BuildPlan:
-    """Validate every input of `uros build` (reads files, starts nothing)."""
+def plan_build(args: BuildArgs, env: Mapping[str, str] | None = None) -> BuildPlan:
+    """Validate every input of `uros build` (reads files, starts nothing); ``env``: the
+    environment its settings are read from (None: this process's)."""
     ws = open_workspace(args.workspace)
     cfg = load_config(ws.root)
     toolchain = args.toolchain
-    if (
-        toolchain
-        and args.toolchain_from != "--toolchain"
-        and (toolchain.endswith(".cmake") or "/" in toolchain)
-    ):
+    if toolchain and args.toolchain_from != "--toolchain" and names_a_file(toolchain):
         toolchain = str(ws.root / toolchain)  # a toolchain file named in uros.yaml: from the workspace
     target = resolve_target(toolchain, args.profile, args.compiler_prefix, args.cflags, args.toolchain_from)
     distro = distros_mod.load_distro(cfg.distro, f"{ws.root / CONFIG}: distro") if cfg else None
     user_metas = list(args.metas)
     if cfg is not None and ws.user_meta.is_file():
         user_metas.insert(0, ws.user_meta)
-    settings = build_settings(args, cfg, ws.root)
-    transport, sets = settings.transport.value, settings.sets
-    idf = idf_project(settings.idf_build, target)
+    settings = build_settings(args, cfg, ws.root, os.environ if env is None else env)
+    transport, sets = settings.value(rows.TRANSPORT), settings.value(rows.SETS)
+    idf = idf_project(settings[rows.IDF_BUILD], target)
     target = idf_platform(target, idf)
-    meta = meta_for(args.preset, target, transport, user_metas, list(sets), distro.preset if distro else None)
+    preset = settings.value(rows.PRESET)
+    meta = meta_for(preset, target, transport, user_metas, list(sets), distro.preset if distro else None)
     if args.jobs is not None and args.jobs < 1:
         raise ConfigError(f"-j/--jobs {args.jobs}: must be 1 or more", "omit it to let colcon choose")
     packages = packages_mod.discover(ws.source_dir)
@@ -387,7 +428,7 @@ def plan_build(args: BuildArgs) -> BuildPlan:
     origins = set_origins(cfg, ws.root, args.sets)
     warnings = unknown_packages(given_metas, sets, names, origins)
     warnings += options_mod.check_sets(sets, options_mod.by_package(options_mod.known_options()), origins)
-    selection = _select(args, settings.packages, ws, packages, names)
+    selection = _select(args, settings[rows.PACKAGES], ws, packages, names)
     out = (args.output or ws.default_output(target.key)).resolve()
     flag = "--output" if args.output else "the output folder"
     check_folder_target(out, flag)
@@ -411,8 +452,13 @@ def plan_build(args: BuildArgs) -> BuildPlan:
         selection=selection,
         force=args.force,
         output_flag=flag,
-        cache=_cache_settings(settings.cache, args.cache_upload, ws.root / CONFIG),
+        cache=_cache_settings(settings[rows.CACHE], args.cache_upload, ws.root / CONFIG),
         ccache=args.ccache,
+        settings=Resolved({**settings.chosen, rows.OUTPUT.name: Chosen(out, settings[rows.OUTPUT].source)}),
+        host_stage=settings.value(rows.HOST_STAGE),
+        compiler_seed=settings.value(rows.COMPILER_SEED),
+        gen_cache=settings.value(rows.GEN_CACHE),
+        gen_cache_dir=settings.value(rows.GEN_CACHE_DIR),
     )
 
 

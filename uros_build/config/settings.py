@@ -1,29 +1,29 @@
-"""Who decides what a build does: the one declared precedence of issue 18 (model: pypa/cibuildwheel's
-options.py). For every setting the command line wins over the workspace's uros.yaml, which wins over
-uros's defaults; the few settings that add up instead of replacing say so.
+"""Every setting of uros, in one table, and the one resolver that decides each (issue 30 item 4;
+model: pypa/cibuildwheel's options.py, where every option goes through one ``OptionsReader.get``).
 
-| setting | command line | uros.yaml | default |
-|---|---|---|---|
-| workspace | `-w/--workspace` | the nearest folder upward with a uros.yaml | `./firmware` |
-| target(s) | `--toolchain` (repeatable), `--profile`, `--compiler-prefix` | `targets:` | an error |
-| transport | `--transport` | `transport:` | the preset's |
-| colcon.meta options | `--set` (applied after) | `set:` (applied first) | the preset, then the distro's |
-| meta files | `--meta` (applied after) | the workspace's `colcon.meta` (first) | none |
-| packages | `--packages`, `--for-firmware` | `packages:` (unless `--for-firmware`) | every package |
-| ESP-IDF build folder | `--idf-build` | `idf_build:` (for an ESP-IDF target) | none |
-| team cache | `--cache URL`, `--cache none` | `cache:` | none |
-| ccache | `--ccache`/`--no-ccache` | (none) | when installed |
+The precedence, the same for every row: **the command line, then the environment, then the
+workspace's uros.yaml, then uros's default**. The environment comes before uros.yaml because it is
+this machine's or this run's say (a cache folder, a switch for a comparison), while uros.yaml is the
+project's, shared by everyone who checks it out: the nearer one wins, as in cibuildwheel
+(``CIBW_*`` over pyproject.toml), cargo and pip. A row that adds up (``set``) takes uros.yaml's
+values first and the command line's after them, so that a later value of an option wins. A row's
+``unless`` names the flags whose presence makes uros.yaml's value not apply (``--for-firmware``
+reads what the firmware wants: uros.yaml's ``packages:`` is not added to it).
 
-Each resolved value carries where it came from (:class:`Chosen`), so that an error names the flag
-or the uros.yaml line the user has to change. Nothing here starts a process; plan.py validates the
-values (profiles, metas, packages, the output folder).
+Every command resolves what it reads through :func:`resolve` (`uros build` and the commands that
+find a target's folders: clean, info, size, probe, doctor); each value comes out with who chose it
+(:class:`Chosen`), which error messages name and `uros build -v` prints. The table is printed in
+docs/settings.md (:func:`markdown_table`; a unit test keeps the page and the code the same).
+Nothing here starts a process; plan.py validates the values (profiles, metas, packages, folders).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+import os
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, fields, replace
 from pathlib import Path
-from typing import Generic, TypeVar
+from typing import Any, Generic, TypeVar, cast
 
 from uros_build import defaults
 from uros_build.errors import ConfigError
@@ -31,6 +31,306 @@ from uros_build.sources.workspace import Workspace
 from uros_build.sources.wsfiles import CONFIG, WorkspaceConfig, find_workspace, load_config
 
 T = TypeVar("T")
+
+# ---------------------------------------------------------------------------------------------
+# the table
+
+DEFAULT = "default"  # the source of a value no one gave
+
+
+@dataclass(frozen=True)
+class Setting(Generic[T]):
+    """One row of the table: where a setting can be given, its default and what it means."""
+
+    name: str  # the field of BuildArgs it comes from on the command line (and its name in `-v`)
+    flag: str | None  # the command line's spelling (None: no flag)
+    key: str | None  # the uros.yaml key (None: none)
+    env: str | None  # the environment variable (None: none)
+    default: T
+    default_text: str  # the default as the docs and `-v` say it
+    meaning: str
+    commands: tuple[str, ...] = ("build",)  # the commands that read it
+    adds: bool = False  # a list: uros.yaml's values first, then the command line's
+    unless: tuple[str, ...] = ()  # rows whose flag makes uros.yaml's (and the environment's) value not apply
+    # the environment's text as a value (None: the text itself)
+    from_env: Callable[[str], T] | None = None
+    # uros.yaml's value and the key it came from (None: getattr(config, key), when not None/empty)
+    from_config: Callable[[WorkspaceConfig, Path], tuple[T, str] | None] | None = None
+    # a default that depends on the environment (the XDG cache folder)
+    default_from_env: Callable[[Mapping[str, str]], T] | None = None
+
+
+def _switch(text: str) -> bool:
+    """An on/off switch of the environment: "off" (any case) is off, anything else on."""
+    return text.strip().lower() != "off"
+
+
+def _path(text: str) -> Path:
+    return Path(text).expanduser()
+
+
+def _targets_of(cfg: WorkspaceConfig, root: Path) -> tuple[tuple[str, ...], str] | None:
+    if cfg.targets:
+        return cfg.targets, "targets"
+    return ((cfg.target,), "target") if cfg.target else None
+
+
+def _idf_build_of(cfg: WorkspaceConfig, root: Path) -> tuple[Path | None, str] | None:
+    # relative to the workspace (or absolute)
+    return (root / cfg.idf_build, "idf_build") if cfg.idf_build else None
+
+
+def _user_cache(env: Mapping[str, str]) -> Path:
+    """uros/gen in the XDG cache folder (~/.cache), beside ccache's own."""
+    return Path(env.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")) / "uros" / "gen"
+
+
+_TARGETED = ("build", "clean", "doctor", "info", "size", "probe")
+
+WORKSPACE: Setting[Path | None] = Setting(
+    "workspace", "-w/--workspace", None, None, None, defaults.WORKSPACE_HELP,
+    "the firmware workspace (a folder with mcu_ws/, or a colcon workspace)",
+    commands=("build", "clean", "doctor", "info", "size", "probe", "create-firmware", "update",
+              "add-package"),
+)  # fmt: skip
+TARGETS: Setting[tuple[str, ...]] = Setting(
+    "toolchains", "--toolchain", "target / targets", None, (), "none: an error",
+    "the target(s): a shipped target name or your own CMake toolchain file; several build one after "
+    "the other, each into build/<target>",
+    commands=_TARGETED, unless=("profile", "compiler_prefix", "cflags"), from_config=_targets_of,
+)  # fmt: skip
+PROFILE: Setting[Path | None] = Setting(
+    "profile", "--profile", None, None, None, "none",
+    "your own target profile (.yaml) instead of a target name",
+)  # fmt: skip
+COMPILER_PREFIX: Setting[str | None] = Setting(
+    "compiler_prefix", "--compiler-prefix", None, None, None, "the profile's",
+    "derive a target with this compiler prefix",
+)  # fmt: skip
+CFLAGS: Setting[tuple[str, ...]] = Setting(
+    "cflags", "--cflags", None, None, (), "none", "derive a target with these compiler flags (repeatable)"
+)
+OUTPUT: Setting[Path | None] = Setting(
+    "output", "-o/--output", None, None, None, "<workspace>/build/<target>", "the output folder"
+)
+TRANSPORT: Setting[str | None] = Setting(
+    "transport", "--transport", "transport", None, None, "the target's",
+    "the XRCE-DDS transport: custom, udp or serial",
+)  # fmt: skip
+PRESET: Setting[str] = Setting(
+    "preset", "--preset", None, None, defaults.PRESET, defaults.PRESET,
+    "the colcon.meta starting point (meta/presets/; the distro's own when it has one)",
+    commands=("build", "meta write"),
+)  # fmt: skip
+METAS: Setting[tuple[Path, ...]] = Setting(
+    "metas", "--meta", None, None, (), "the workspace's colcon.meta",
+    "colcon.meta files merged on top: the workspace's colcon.meta first, then each --meta",
+    commands=("build", "meta write"),
+)  # fmt: skip
+SETS: Setting[tuple[str, ...]] = Setting(
+    "sets", "--set", "set", None, (), "none",
+    "PKG.OPTION=VALUE, CMake options of packages: uros.yaml's first, then --set's (adds up)",
+    commands=("build", "meta write"), adds=True,
+)  # fmt: skip
+PACKAGES: Setting[tuple[str, ...]] = Setting(
+    "packages", "--packages", "packages", None, (), "every package",
+    "what the firmware wants (the core and the extra packages are added); not read from uros.yaml "
+    "with --for-firmware",
+    unless=("for_firmware",),
+)  # fmt: skip
+FOR_FIRMWARE: Setting[Path | None] = Setting(
+    "for_firmware", "--for-firmware", None, None, None, "none",
+    "build what the firmware's C/C++ sources in this folder use",
+)  # fmt: skip
+PACKAGES_UP_TO: Setting[tuple[str, ...]] = Setting(
+    "packages_up_to", "--packages-up-to", None, None, (), "none",
+    "exactly these packages and their dependencies (colcon's)",
+)  # fmt: skip
+JOBS: Setting[int | None] = Setting(
+    "jobs", "-j/--jobs", None, None, None, "colcon's", "packages built in parallel"
+)
+IDF_BUILD: Setting[Path | None] = Setting(
+    "idf_build", "--idf-build", "idf_build", None, None, "none",
+    "an ESP-IDF project's build folder to compile against (uros.yaml's: for an ESP-IDF target only, "
+    "relative to the workspace)",
+    from_config=_idf_build_of,
+)  # fmt: skip
+CACHE: Setting[str | None] = Setting(
+    "cache", "--cache", "cache", None, None, "none",
+    "the team cache of outputs: file:///DIR or http(s)://...; none: no cache for this build",
+)  # fmt: skip
+CACHE_UPLOAD: Setting[bool] = Setting(
+    "cache_upload", "--cache-upload", None, None, False, "off", "upload this build's output to the team cache"
+)
+CCACHE: Setting[bool | None] = Setting(
+    "ccache", "--ccache/--no-ccache", None, None, None, "when installed", "compile through ccache"
+)
+FORCE: Setting[bool] = Setting(
+    "force", "--force", None, None, False, "off", "write into an --output folder holding other files"
+)
+REBUILD: Setting[bool] = Setting(
+    "rebuild", "--rebuild", None, None, False, "off", "run every step even when no input changed"
+)
+VERBOSE: Setting[bool] = Setting(
+    "verbose", "-v/--verbose", None, None, False, "off",
+    "stream the tools' output; print these settings and where each came from",
+)  # fmt: skip
+HOST_STAGE: Setting[bool] = Setting(
+    "host_stage", None, None, "UROS_HOST_STAGE", True, "on",
+    "off: configure and install every package for each target (no host stage; docs/cache.md)",
+    from_env=_switch,
+)  # fmt: skip
+COMPILER_SEED: Setting[bool] = Setting(
+    "compiler_seed", None, None, "UROS_COMPILER_SEED", True, "on",
+    "off: every package's configure finds the compilers itself",
+    from_env=_switch,
+)  # fmt: skip
+GEN_CACHE: Setting[bool] = Setting(
+    "gen_cache", None, None, "UROS_GEN_CACHE", True, "on",
+    "off: every generator run and configure call runs as CMake asks (no generation cache)",
+    from_env=_switch,
+)  # fmt: skip
+GEN_CACHE_DIR: Setting[Path] = Setting(
+    "gen_cache_dir", None, None, "UROS_GEN_CACHE_DIR", Path("~/.cache/uros/gen"),
+    "$XDG_CACHE_HOME/uros/gen (~/.cache/uros/gen)",
+    "the user's generation and configure-call cache, shared by every workspace",
+    from_env=_path, default_from_env=_user_cache,
+)  # fmt: skip
+AGENT: Setting[str | None] = Setting(
+    "agent", "--agent", None, "UROS_AGENT", None, "none", "the MicroXRCEAgent program `uros probe` runs",
+    commands=("probe", "doctor"),
+)  # fmt: skip
+
+# The table, in the order `uros build -v` prints it and docs/settings.md lists it.
+SETTINGS: tuple[Setting[Any], ...] = (
+    WORKSPACE, TARGETS, PROFILE, COMPILER_PREFIX, CFLAGS, OUTPUT, TRANSPORT, PRESET, METAS, SETS,
+    PACKAGES, FOR_FIRMWARE, PACKAGES_UP_TO, JOBS, IDF_BUILD, CACHE, CACHE_UPLOAD, CCACHE, FORCE,
+    REBUILD, VERBOSE, HOST_STAGE, COMPILER_SEED, GEN_CACHE, GEN_CACHE_DIR, AGENT,
+)  # fmt: skip
+
+
+# ---------------------------------------------------------------------------------------------
+# the resolver
+
+
+@dataclass(frozen=True)
+class Chosen(Generic[T]):
+    """A setting's value and who chose it: a flag (``--transport``), a uros.yaml line
+    (``/ws/uros.yaml: transport``), an environment variable (``$UROS_HOST_STAGE``) or ``default``."""
+
+    value: T
+    source: str
+
+
+def _given(value: object) -> bool:
+    """A value the command line (or uros.yaml) gave: None and an empty list are "not given"; an
+    empty string is given (``--cache ""``)."""
+    return value is not None and value != ()
+
+
+def resolve_one(
+    setting: Setting[T],
+    flags: Mapping[str, object],
+    cfg: WorkspaceConfig | None,
+    root: Path,
+    env: Mapping[str, str],
+) -> Chosen[T]:
+    """One row through the precedence (the module's docstring): the command line, the environment,
+    uros.yaml, the default."""
+    given = flags.get(setting.name)
+    blocked = any(_given(flags.get(name)) for name in setting.unless)
+    configured: tuple[T, str] | None = None
+    if cfg is not None and setting.key is not None and not blocked:
+        if setting.from_config is not None:
+            configured = setting.from_config(cfg, root)
+        else:
+            value = getattr(cfg, setting.key)
+            configured = (value, setting.key) if _given(value) else None
+    where = f"{root / CONFIG}: {configured[1]}" if configured else ""
+    if setting.adds:
+        # uros.yaml's first, then the command line's: a later value wins where they meet
+        parts: list[tuple[object, str]] = [(configured[0], where)] if configured else []
+        parts += [(given, str(setting.flag))] if _given(given) else []
+        if not parts:
+            return Chosen(setting.default, DEFAULT)
+        total = tuple(item for value, _ in parts for item in cast(tuple[Any, ...], value))
+        return Chosen(cast(T, total), " + ".join(source for _, source in parts))
+    if _given(given):
+        return Chosen(cast(T, given), str(setting.flag))
+    text = env.get(setting.env) if setting.env and not blocked else None
+    if text:  # an empty variable is an unset one
+        return Chosen(setting.from_env(text) if setting.from_env else cast(T, text), f"${setting.env}")
+    if configured is not None:
+        return Chosen(configured[0], where)
+    if setting.default_from_env is not None:
+        return Chosen(setting.default_from_env(env), DEFAULT)
+    return Chosen(setting.default, DEFAULT)
+
+
+@dataclass(frozen=True)
+class Resolved:
+    """Every setting a command reads, each with who chose it."""
+
+    chosen: Mapping[str, Chosen[Any]]
+
+    def __getitem__(self, setting: Setting[T]) -> Chosen[T]:
+        return cast(Chosen[T], self.chosen[setting.name])
+
+    def value(self, setting: Setting[T]) -> T:
+        return self[setting].value
+
+    def lines(self) -> list[str]:
+        """One line a setting, in the table's order: its value and where it came from (`uros build -v`)."""
+        out = []
+        for setting in SETTINGS:
+            if setting.name in self.chosen:
+                chosen = self.chosen[setting.name]
+                out.append(f"{setting.name} = {shown(setting, chosen.value)}  ({chosen.source})")
+        return out
+
+
+def shown(setting: Setting[Any], value: object) -> str:
+    """A value as `uros build -v` prints it."""
+    if value is None:
+        return setting.default_text
+    if isinstance(value, bool):
+        return "on" if value else "off"
+    if isinstance(value, tuple):
+        return ", ".join(str(v) for v in value) if value else setting.default_text
+    return str(value)
+
+
+def resolve(
+    flags: Mapping[str, object],
+    cfg: WorkspaceConfig | None,
+    root: Path,
+    env: Mapping[str, str],
+    rows: tuple[Setting[Any], ...] = SETTINGS,
+) -> Resolved:
+    """The settings ``rows`` (all by default) for a command: ``flags`` (the command line's values
+    by row name; None or () for not given), ``cfg`` (the uros.yaml of the workspace at ``root``;
+    None: there is none) and ``env`` (the environment). Pure."""
+    chosen: dict[str, Chosen[Any]] = {}
+    for setting in rows:
+        if setting is WORKSPACE:
+            given = flags.get(setting.name) is not None
+            chosen[setting.name] = Chosen(root, str(setting.flag) if given else _found_where(root))
+        else:
+            chosen[setting.name] = resolve_one(setting, flags, cfg, root, env)
+    return Resolved(chosen)
+
+
+def resolve_outside(
+    setting: Setting[T], given: T | None = None, env: Mapping[str, str] | None = None
+) -> Chosen[T]:
+    """A setting read outside a workspace (the agent of `uros probe` and `uros doctor`): the command
+    line's value, else the environment's, else the default."""
+    return resolve_one(setting, {setting.name: given}, None, Path(), os.environ if env is None else env)
+
+
+def _found_where(root: Path) -> str:
+    return f"{root / CONFIG}: found upward" if (root / CONFIG).is_file() else DEFAULT
+
 
 # ---------------------------------------------------------------------------------------------
 # the workspace: one default for every command
@@ -66,7 +366,7 @@ def open_workspace(given: Path | None, cwd: Path | None = None) -> Workspace:
 
 @dataclass(frozen=True)
 class BuildArgs:
-    """What the command line said, unvalidated."""
+    """What the command line said, unvalidated (one field a row of the table, by its name)."""
 
     workspace: Path | None = None  # None: resolve_workspace's default
     toolchain: str | None = None
@@ -74,7 +374,7 @@ class BuildArgs:
     profile: Path | None = None
     metas: tuple[Path, ...] = ()
     sets: tuple[str, ...] = ()
-    preset: str = defaults.PRESET
+    preset: str | None = None  # None: not given (defaults.PRESET)
     transport: str | None = None
     output: Path | None = None
     verbose: bool = False
@@ -94,6 +394,14 @@ class BuildArgs:
 
     def names_a_target(self) -> bool:
         return bool(self.toolchain or self.toolchains or self.profile or self.compiler_prefix or self.cflags)
+
+    def flags(self) -> dict[str, object]:
+        """The command line's values by row name (a flag left out: None, False or ())."""
+        given: dict[str, object] = {f.name: getattr(self, f.name) for f in fields(self)}
+        given["toolchains"] = self.toolchains or ((self.toolchain,) if self.toolchain else ())
+        for name in ("verbose", "force", "rebuild", "cache_upload"):  # on/off flags: off is "not given"
+            given[name] = True if given[name] else None
+        return given
 
 
 def expand_targets(args: BuildArgs) -> tuple[BuildArgs, ...]:
@@ -118,60 +426,52 @@ def expand_targets(args: BuildArgs) -> tuple[BuildArgs, ...]:
         return (args,)
     root = resolve_workspace(args.workspace)
     cfg = load_config(root) if root.is_dir() else None
-    if cfg is None:
+    chosen = resolve_one(TARGETS, args.flags(), cfg, root, {})  # no variable names a target
+    names = chosen.value
+    if not names:
         return (args,)
-    names = cfg.targets or ((cfg.target,) if cfg.target else ())
     if len(names) > 1 and args.output is not None:
         raise ConfigError(
             f"--output with {len(names)} targets ({', '.join(names)} from {root / CONFIG})",
             "pass --toolchain NAME to build one of them into --output, or leave --output out",
         )
-    key = "targets" if cfg.targets else "target"
-    where = f"{root / CONFIG}: {key}"
-    expanded = tuple(replace(args, workspace=root, toolchain=n, toolchain_from=where) for n in names)
-    return expanded or (args,)
+    return tuple(replace(args, toolchain=n, toolchain_from=chosen.source) for n in names)
 
 
-@dataclass(frozen=True)
-class Chosen(Generic[T]):
-    """A setting's value and who chose it: a flag, a uros.yaml line (``/ws/uros.yaml: transport``)
-    or ``default``."""
-
-    value: T
-    source: str
-
-
-def pick(given: T | None, flag: str, configured: T | None, config_line: str, default: T) -> Chosen[T]:
-    """The command line's value, else uros.yaml's, else the default (None: not given)."""
-    if given is not None:
-        return Chosen(given, flag)
-    if configured is not None:
-        return Chosen(configured, config_line)
-    return Chosen(default, "default")
+def build_settings(
+    args: BuildArgs, cfg: WorkspaceConfig | None, root: Path, env: Mapping[str, str] | None = None
+) -> Resolved:
+    """Every row for `uros build`: ``args`` over the environment over ``cfg`` (the uros.yaml of
+    the workspace at ``root``; None: there is none) over the defaults."""
+    resolved = resolve(args.flags(), cfg, root, env if env is not None else {}, _BUILD_ROWS)
+    if args.toolchain is None:
+        return resolved
+    # one target of the run (expand_targets): the one this build is for, and who named it
+    return Resolved({**resolved.chosen, TARGETS.name: Chosen((args.toolchain,), args.toolchain_from)})
 
 
-@dataclass(frozen=True)
-class BuildSettings:
-    """The settings of one build after the precedence above (before plan.py checks them)."""
-
-    transport: Chosen[str | None]
-    sets: tuple[str, ...]  # uros.yaml's set:, then --set (a later --set of an option wins)
-    packages: Chosen[tuple[str, ...]]  # () : every package (or --for-firmware's alone)
-    cache: Chosen[str | None]  # a URL, "none", or None
-    idf_build: Chosen[Path | None]  # uros.yaml's is relative to the workspace
+_BUILD_ROWS = tuple(s for s in SETTINGS if "build" in s.commands)
 
 
-def build_settings(args: BuildArgs, cfg: WorkspaceConfig | None, root: Path) -> BuildSettings:
-    """``args`` over ``cfg`` (the uros.yaml of the workspace at ``root``; None: there is none)."""
-    line = f"{root / CONFIG}:"
-    # --for-firmware reads what the firmware wants: uros.yaml's packages: list does not add to it
-    packages = (cfg.packages if cfg is not None and args.for_firmware is None else ()) or None
-    transport = cfg.transport if cfg else None
-    idf_build = root / cfg.idf_build if cfg is not None and cfg.idf_build else None
-    return BuildSettings(
-        transport=pick(args.transport, "--transport", transport, f"{line} transport", None),
-        sets=(*(cfg.set if cfg else ()), *args.sets),
-        packages=pick(args.packages or None, "--packages", packages, f"{line} packages", ()),
-        cache=pick(args.cache, "--cache", cfg.cache if cfg else None, f"{line} cache", None),
-        idf_build=pick(args.idf_build, "--idf-build", idf_build, f"{line} idf_build", None),
-    )
+# ---------------------------------------------------------------------------------------------
+# the table as the docs print it
+
+
+def markdown_table() -> str:
+    """The table as docs/settings.md prints it (a unit test keeps that page equal to this)."""
+
+    def cell(text: str | None) -> str:
+        return f"`{text}`" if text else "—"
+
+    lines = [
+        "| setting | command line | uros.yaml | environment | default | meaning | read by |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for s in SETTINGS:
+        key = " / ".join(f"`{k}:`" for k in s.key.split(" / ")) if s.key else "—"
+        meaning = s.meaning + (" (adds up)" if s.adds and "adds up" not in s.meaning else "")
+        lines.append(
+            f"| `{s.name}` | {cell(s.flag)} | {key} | {cell(s.env)} | {s.default_text} | {meaning} "
+            f"| {', '.join(s.commands)} |"
+        )
+    return "\n".join(lines).replace("<", "&lt;").replace(">", "&gt;") + "\n"

@@ -132,26 +132,12 @@ def _ccache(plan: BuildPlan, env: Mapping[str, str], runner: Runner) -> str | No
     return found
 
 
-SHARE_SWITCH = "UROS_GEN_CACHE"  # "off": every generator run and configure call runs as CMake asks
-GEN_CACHE_DIR = "UROS_GEN_CACHE_DIR"
-
-
-def gen_cache_dir(env: Mapping[str, str]) -> Path:
-    """The user's generation and configure-call cache (pyshim.py): $UROS_GEN_CACHE_DIR, else
-    uros/gen in the XDG cache folder (~/.cache), beside ccache's own. Shared by every workspace:
-    no key or entry holds a workspace's folder."""
-    if env.get(GEN_CACHE_DIR):
-        return Path(env[GEN_CACHE_DIR]).expanduser()
-    base = env.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "uros" / "gen"
-
-
 def python_shim(plan: BuildPlan, runner: Runner, folder: Path) -> Path:
     """The Python of the CMake builds of a target (or of the host stage: ``folder``): the real one,
     with rosidl's generator runs and the configures' Python calls going through the workspace's
     caches (shared by every target: pyshim.py), and FindPython's questions about the interpreter
     answered as it answered them once for this build."""
-    if os.environ.get(SHARE_SWITCH, "").lower() == "off":
+    if not plan.gen_cache:  # UROS_GEN_CACHE=off (config/settings.py)
         return Path(colcon.host_python())
     shim = folder / "uros-python"
     python, code_dir = colcon.host_python(), Path(uros_build.__file__).resolve().parent.parent
@@ -167,7 +153,7 @@ def python_shim(plan: BuildPlan, runner: Runner, folder: Path) -> Path:
         answers, has_distutils = {}, False
     text = pyshim.shim_text(
         python,
-        gen_cache_dir(os.environ),
+        plan.gen_cache_dir,  # $UROS_GEN_CACHE_DIR, else the XDG cache's uros/gen: every workspace's
         folder,
         plan.workspace.root,
         code_dir,

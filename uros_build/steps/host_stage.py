@@ -4,7 +4,6 @@ the host, and taken into a target's trees before its colcon runs.
 
 from __future__ import annotations
 
-import os
 from collections.abc import Mapping, Sequence
 from contextlib import AbstractContextManager
 from pathlib import Path
@@ -29,7 +28,7 @@ def stage_for(
     env: Mapping[str, str],
 ) -> hoststage.Stage | None:
     """The stage of this target's build: None when switched off or when no package qualifies."""
-    if os.environ.get(hoststage.SWITCH, "").lower() == "off":
+    if not plan.host_stage:
         return None
     chosen = hoststage.choose(list(plan.packages), building, hoststage.load_list().packages)
     if not chosen:

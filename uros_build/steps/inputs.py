@@ -45,7 +45,7 @@ def ready_host_stage(plan: BuildPlan, facts: HostFacts, runner: Runner, inputs: 
         found = host_stage.shared_if_built(plan, stage)
         if found is None:
             python = str(python_shim(plan, runner, stage.folder))
-            toolchain = host_toolchain(stage.folder, facts, runner, setup.env)
+            toolchain = host_toolchain(plan, stage.folder, facts, runner, setup.env)
             building = building_names(plan, setup.plan)
             found = host_stage.build(plan, facts, runner, stage, setup.env, building, python, toolchain)
         if found != setup.shared:

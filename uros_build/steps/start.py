@@ -17,6 +17,10 @@ def open_run(plan: BuildPlan) -> Runner:
     runner = Runner(ws.new_log("build", plan.target.key), verbose=plan.verbose, owner=str(plan.target_dir))
     console.step(f"uros build: target {plan.target.key}, workspace {ws.root}")
     console.info(f"log: {runner.log_path}")
+    if plan.verbose:  # what each setting is and who chose it (config/settings.py's precedence)
+        console.info("settings (the command line, then the environment, then uros.yaml, then the default):")
+        for line in plan.settings.lines():
+            console.info(f"  {line}")
     for warning in plan.warnings:
         console.warn(warning)
     if plan.idf is not None:

@@ -28,7 +28,6 @@ from uros_build.target.toolchain import (
     seeded_toolchain_text,
 )
 
-SEED_SWITCH = "UROS_COMPILER_SEED"  # "off": every package's configure finds the compilers itself
 # 2: per-language CMakeDetermine<LANG>Compiler.cmake (1 put every language's facts in the toolchain);
 # 3: the archive rules name GCC's LTO plugin (hosttools.archive_plugin)
 SEED_FORMAT = "3"
@@ -40,11 +39,15 @@ def seeded_toolchain(
     """The toolchain file colcon passes to every package: the target's, with CMake's compiler facts
     found once per target (and again only when the toolchain, compiler or CMake changes). The
     rendered toolchain file stays what the build key and build-info describe."""
+    if not plan.compiler_seed:  # UROS_COMPILER_SEED=off (config/settings.py)
+        return toolchain_file
     identity = (compiler_identity(facts), facts.cmake, facts.cmake_version, str(colcon.generator(env)))
     return seed_compilers(plan.target_dir, toolchain_file, identity, facts.cmake, runner, env)
 
 
-def host_toolchain(folder: Path, facts: HostFacts, runner: Runner, env: Mapping[str, str]) -> Path:
+def host_toolchain(
+    plan: BuildPlan, folder: Path, facts: HostFacts, runner: Runner, env: Mapping[str, str]
+) -> Path:
     """The host stage's toolchain file: none of its own (CMake takes the host's compilers), with
     the host compilers' facts found once for the stage, as a target's are (each of its packages
     would otherwise identify the host's C and C++ compilers again, ~1 s per configure)."""
@@ -54,6 +57,8 @@ def host_toolchain(folder: Path, facts: HostFacts, runner: Runner, env: Mapping[
         f"# Written by uros {__version__} build: the host stage compiles nothing for the target; CMake\n"
         "# takes the host's compilers (their facts come from the seed beside this file).\n",
     )
+    if not plan.compiler_seed:
+        return plain
     compilers = []
     for name in ("cc", "c++"):
         found = shutil.which(name, path=env.get("PATH"))
@@ -73,9 +78,7 @@ def seed_compilers(
 ) -> Path:
     """``toolchain_file`` with CMake's compiler facts for it found once (in ``folder``) and given
     to every configure; found again only when the toolchain file or ``identity`` (compilers,
-    CMake, generator) changes. ``toolchain_file`` itself when switched off or not found."""
-    if os.environ.get(SEED_SWITCH, "").lower() == "off":
-        return toolchain_file
+    CMake, generator) changes. ``toolchain_file`` itself when not found."""
     seed = folder / "toolchain-seeded.cmake"
     stamp = folder / "toolchain-seeded.key"
     modules = folder / "compiler-seed"
