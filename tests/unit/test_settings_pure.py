@@ -146,3 +146,12 @@ def test_the_table_is_one_row_a_name_and_every_build_argument_is_a_row() -> None
     for setting in SETTINGS:
         assert setting.flag or setting.env, setting.name  # every setting can be given somewhere
         assert setting.meaning and setting.default_text, setting.name
+
+
+@pytest.mark.parametrize(
+    ("text", "seconds"),
+    [("2", 2.0), (" 0.5 ", 0.5), ("soon", 60.0), ("0", 60.0), ("-1", 60.0), ("86400", 60.0)],
+)
+def test_the_team_cache_wait_from_the_environment_a_bad_one_is_the_default(text: str, seconds: float) -> None:
+    chosen = build_settings(BuildArgs(), None, ROOT, {"UROS_CACHE_TIMEOUT": text})[rows.CACHE_TIMEOUT]
+    assert chosen == Chosen(seconds, "$UROS_CACHE_TIMEOUT")

@@ -452,7 +452,9 @@ def plan_build(args: BuildArgs, env: Mapping[str, str] | None = None) -> BuildPl
         selection=selection,
         force=args.force,
         output_flag=flag,
-        cache=_cache_settings(settings[rows.CACHE], args.cache_upload, ws.root / CONFIG),
+        cache=_cache_settings(
+            settings[rows.CACHE], args.cache_upload, ws.root / CONFIG, settings.value(rows.CACHE_TIMEOUT)
+        ),
         ccache=args.ccache,
         settings=Resolved({**settings.chosen, rows.OUTPUT.name: Chosen(out, settings[rows.OUTPUT].source)}),
         host_stage=settings.value(rows.HOST_STAGE),
@@ -462,7 +464,9 @@ def plan_build(args: BuildArgs, env: Mapping[str, str] | None = None) -> BuildPl
     )
 
 
-def _cache_settings(chosen: Chosen[str | None], upload: bool, config_path: Path) -> CacheSettings | None:
+def _cache_settings(
+    chosen: Chosen[str | None], upload: bool, config_path: Path, timeout: float = cache_mod.TIMEOUT_SECONDS
+) -> CacheSettings | None:
     """The team cache the settings name (settings.py); --cache-upload needs one."""
     text, where = chosen.value, chosen.source
     if text is None:
@@ -475,4 +479,4 @@ def _cache_settings(chosen: Chosen[str | None], upload: bool, config_path: Path)
         if upload:
             raise ConfigError("--cache-upload with --cache none", "give the cache's URL to upload to")
         return None
-    return CacheSettings(cache_mod.parse_url(text, where), upload=upload)
+    return CacheSettings(cache_mod.parse_url(text, where), upload=upload, timeout=timeout)

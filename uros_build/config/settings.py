@@ -27,6 +27,7 @@ from typing import Any, Generic, TypeVar, cast
 
 from uros_build import defaults
 from uros_build.errors import ConfigError
+from uros_build.output.team_cache import TIMEOUT_SECONDS
 from uros_build.sources.workspace import Workspace
 from uros_build.sources.wsfiles import CONFIG, WorkspaceConfig, find_workspace, load_config
 
@@ -78,6 +79,16 @@ def _targets_of(cfg: WorkspaceConfig, root: Path) -> tuple[tuple[str, ...], str]
 def _idf_build_of(cfg: WorkspaceConfig, root: Path) -> tuple[Path | None, str] | None:
     # relative to the workspace (or absolute)
     return (root / cfg.idf_build, "idf_build") if cfg.idf_build else None
+
+
+def _seconds(text: str) -> float:
+    """A wait in seconds; one that is no number, not above 0 or a day or more: the default (a
+    typo in a CI variable must not make the team cache wait forever or never)."""
+    try:
+        seconds = float(text)
+    except ValueError:
+        return TIMEOUT_SECONDS
+    return seconds if 0 < seconds < 86400 else TIMEOUT_SECONDS
 
 
 def _user_cache(env: Mapping[str, str]) -> Path:
@@ -159,6 +170,11 @@ CACHE: Setting[str | None] = Setting(
     "cache", "--cache", "cache", None, None, "none",
     "the team cache of outputs: file:///DIR or http(s)://...; none: no cache for this build",
 )  # fmt: skip
+CACHE_TIMEOUT: Setting[float] = Setting(
+    "cache_timeout", None, None, "UROS_CACHE_TIMEOUT", TIMEOUT_SECONDS, f"{TIMEOUT_SECONDS:g} seconds",
+    "how long an HTTP team cache may stay silent (seconds; more than 0, less than a day)",
+    from_env=_seconds,
+)  # fmt: skip
 CACHE_UPLOAD: Setting[bool] = Setting(
     "cache_upload", "--cache-upload", None, None, False, "off", "upload this build's output to the team cache"
 )
@@ -204,8 +220,8 @@ AGENT: Setting[str | None] = Setting(
 # The table, in the order `uros build -v` prints it and docs/settings.md lists it.
 SETTINGS: tuple[Setting[Any], ...] = (
     WORKSPACE, TARGETS, PROFILE, COMPILER_PREFIX, CFLAGS, OUTPUT, TRANSPORT, PRESET, METAS, SETS,
-    PACKAGES, FOR_FIRMWARE, PACKAGES_UP_TO, JOBS, IDF_BUILD, CACHE, CACHE_UPLOAD, CCACHE, FORCE,
-    REBUILD, VERBOSE, HOST_STAGE, COMPILER_SEED, GEN_CACHE, GEN_CACHE_DIR, AGENT,
+    PACKAGES, FOR_FIRMWARE, PACKAGES_UP_TO, JOBS, IDF_BUILD, CACHE, CACHE_TIMEOUT, CACHE_UPLOAD,
+    CCACHE, FORCE, REBUILD, VERBOSE, HOST_STAGE, COMPILER_SEED, GEN_CACHE, GEN_CACHE_DIR, AGENT,
 )  # fmt: skip
 
 

@@ -42,8 +42,9 @@ from uros_build.errors import ConfigError
 
 FORMAT = 2  # 2: the manifest names every file with its size and sha256 (1: the tarball's only)
 TOKEN_VARIABLE = "UROS_CACHE_TOKEN"
-TIMEOUT_VARIABLE = "UROS_CACHE_TIMEOUT"
-TIMEOUT_SECONDS = 60.0  # a socket's silence; the whole of a request has a deadline too (HttpStore)
+# a socket's silence, unless $UROS_CACHE_TIMEOUT says otherwise (config/settings.py); the whole of a
+# request has a deadline too (HttpStore)
+TIMEOUT_SECONDS = 60.0
 MIN_RATE = 256 * 1024  # bytes per second a download may not fall below, on average, for its deadline
 _SCHEMES = ("file", "http", "https")
 
@@ -134,6 +135,7 @@ def _no_credentials(text: str) -> str:
 class CacheSettings:
     url: CacheUrl
     upload: bool  # write entries after a build (CI); developers read only by default
+    timeout: float = TIMEOUT_SECONDS  # an HTTP store's wait for a socket ($UROS_CACHE_TIMEOUT)
 
 
 def may_hold(name: str) -> bool:
@@ -621,16 +623,11 @@ def _http_reason(exc: BaseException) -> str:
     return _reason(exc)
 
 
-def store(url: CacheUrl, environ: Mapping[str, str] | None = None) -> Store:
-    """The store of ``url``; an HTTP one waits as long as ``$UROS_CACHE_TIMEOUT`` says (seconds)."""
+def store(url: CacheUrl, timeout: float = TIMEOUT_SECONDS) -> Store:
+    """The store of ``url``; an HTTP one waits ``timeout`` seconds for a socket."""
     if url.is_file:
         return FileStore(Path(url.location))
-    text = (environ if environ is not None else os.environ).get(TIMEOUT_VARIABLE, "").strip()
-    try:
-        seconds = float(text) if text else TIMEOUT_SECONDS
-    except ValueError:
-        seconds = TIMEOUT_SECONDS
-    return HttpStore(url, seconds if 0 < seconds < 86400 else TIMEOUT_SECONDS)
+    return HttpStore(url, timeout)
 
 
 def token(environ: Mapping[str, str]) -> str:

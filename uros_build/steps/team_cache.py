@@ -40,7 +40,7 @@ def _from_cache(runner: Runner, plan: BuildPlan, settings: CacheSettings, key: s
     shown = settings.url.shown
     staging = outputs.staging_dir(plan.output)
     try:
-        store = cache_mod.store(settings.url)
+        store = cache_mod.store(settings.url, settings.timeout)
         raw = store.get(cache_mod.manifest_name(key), cache_mod.MAX_MANIFEST_BYTES)
         if raw is None:
             console.info(f"cache: no entry {key[:16]} in {shown}: building")
@@ -142,7 +142,7 @@ def _upload(plan: BuildPlan, key: str, entries: list[str]) -> None:
     assert plan.cache is not None
     shown = plan.cache.url.shown
     try:
-        store = cache_mod.store(plan.cache.url)
+        store = cache_mod.store(plan.cache.url, plan.cache.timeout)
         if store.get(cache_mod.manifest_name(key), cache_mod.MAX_MANIFEST_BYTES) is not None:
             try:
                 _existing_entry_is_whole(store, key)
