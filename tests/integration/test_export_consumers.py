@@ -34,15 +34,10 @@ def exported(m7_build: Path, tmp_path: Path) -> Path:
     return out
 
 
-def test_a_make_firmware_links(exported: Path, tmp_path: Path) -> None:
-    need("make", "arm-none-eabi-gcc")
-    app = tmp_path / "app"
-    app.mkdir()
-    (app / "main.c").write_text(_MAIN)
-    # make cannot include a path with a space: the firmware links the export in, as users copy it
-    (app / "microros").symlink_to(exported)
+def _make_firmware(app: Path, folder: str) -> None:
+    """The README's Makefile, including ``folder``/microros.mk, builds app.elf calling the library."""
     (app / "Makefile").write_text(
-        "include microros/microros.mk\n"
+        f"include {folder}/microros.mk\n"
         "CC = arm-none-eabi-gcc\n"
         "CFLAGS += $(MICROROS_CPU_FLAGS) $(MICROROS_CFLAGS)\n"
         "LDFLAGS += $(MICROROS_CPU_FLAGS) --specs=nosys.specs\n"
@@ -51,6 +46,16 @@ def test_a_make_firmware_links(exported: Path, tmp_path: Path) -> None:
     proc = subprocess.run(["make", "-C", str(app)], capture_output=True, text=True)
     assert proc.returncode == 0, proc.stdout + proc.stderr
     _calls_the_library(app / "app.elf")
+
+
+def test_a_make_firmware_links(exported: Path, tmp_path: Path) -> None:
+    need("make", "arm-none-eabi-gcc")
+    app = tmp_path / "app"
+    app.mkdir()
+    (app / "main.c").write_text(_MAIN)
+    # make cannot include a path with a space: the firmware links the export in, as users copy it
+    (app / "microros").symlink_to(exported)
+    _make_firmware(app, "microros")
     text = (exported / "microros.mk").read_text()
     assert "MICROROS_TARGET := cortex-m7\n" in text and "-mfloat-abi=hard" in text
 
@@ -284,3 +289,62 @@ def test_exports_beside_the_library_survive_the_next_build(tmp_path: Path) -> No
     owned = json.loads((out / ".uros-output").read_text())["files"]
     assert {"microros.mk", "microros.pc", "microros-cross.ini"} <= set(owned) and "notes.txt" not in owned
     assert "up to date" in run_uros(*build).stderr
+
+
+def _consume(kind: str, folder: Path, work: Path) -> None:
+    """The real consumer of an export in ``folder`` compiles and links a firmware against it."""
+    work.mkdir()
+    (work / "main.c").write_text(_MAIN)
+    if kind == "cmake":
+        (work / "CMakeLists.txt").write_text(
+            "cmake_minimum_required(VERSION 3.16)\nproject(p C)\nfind_package(microros CONFIG REQUIRED)\n"
+            "add_executable(app main.c)\ntarget_link_libraries(app PRIVATE microros::microros)\n"
+        )
+        argv = ["cmake", "-S", str(work), "-B", str(work / "b"), "-G", "Ninja", f"-Dmicroros_DIR={folder}"]
+        toolchain = _FIRMWARE_TOOLCHAIN.format(flags=" ".join(_M7))
+        (work / "tc.cmake").write_text(toolchain)
+        subprocess.run(
+            [*argv, f"-DCMAKE_TOOLCHAIN_FILE={work / 'tc.cmake'}"], check=True, capture_output=True
+        )
+        subprocess.run(["cmake", "--build", str(work / "b")], check=True, capture_output=True)
+        _calls_the_library(work / "b" / "app")
+    elif kind == "pkg-config":  # its answer is for a shell to read, as a Makefile's recipe does
+        line = 'eval "arm-none-eabi-gcc main.c $(pkg-config --cflags --libs microros) --specs=nosys.specs -o app.elf"'
+        env = {**os.environ, "PKG_CONFIG_PATH": str(folder)}
+        subprocess.run(["sh", "-c", line], cwd=work, env=env, check=True)
+        _calls_the_library(work / "app.elf")
+    elif kind == "make":  # included by its own path (no space in these)
+        _make_firmware(work, str(folder))
+    else:
+        raise AssertionError(f"{kind}: accepted a folder this test expects refused")
+
+
+@pytest.mark.parametrize("char", ["$", "'", '"', "(", ";", "\\", "é"])
+def test_export_folders_with_special_characters_work_or_are_refused(
+    m7_build: Path, tmp_path: Path, char: str
+) -> None:
+    """Issue 34, item 7: an export folder holding one of these was accepted, and pkg-config, Meson or
+    CMake then failed on it. Each format's export either works in its real consumer or is refused
+    before anything is written, with one line naming the character and the format."""
+    need("cmake", "ninja", "make", "pkg-config", "meson", "arm-none-eabi-gcc")
+    source = m7_build / "build" / "cortex-m7"
+    refuses = {
+        "cmake": char in ";\\",
+        "pkg-config": char != "é",
+        "make": char != "é",
+        "meson": True,
+    }
+    for kind, refused in refuses.items():
+        folder = tmp_path / kind / f"micro{char}ros"
+        proc = run_uros("export", kind, "--from", str(source), "--output", str(folder), check=False)
+        if refused:
+            fmt = {"meson": "Meson", "cmake": "CMake"}.get(kind, kind)
+            assert proc.returncode == 2, (kind, proc.stderr)
+            first = proc.stderr.splitlines()[0]
+            assert first.startswith(f"error: --output {folder}: holds {char!r}, which {fmt} cannot use"), (
+                first
+            )
+            assert not folder.exists()
+        else:
+            assert proc.returncode == 0, (kind, proc.stderr)
+            _consume(kind, folder, tmp_path / f"{kind}-app")

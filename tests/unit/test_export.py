@@ -163,3 +163,23 @@ def test_a_build_carries_over_the_exports_its_marker_names(tmp_path: Path) -> No
     # microros.pc is the user's (not in the marker); microros-cross.ini was removed by the user
     assert ex.carry_over(out, staging, info) == ["make", "platformio"]
     assert sorted(p.name for p in staging.iterdir()) == ["library.json", "microros.mk"]
+
+
+@pytest.mark.parametrize(
+    ("kind", "folder", "char"),
+    [
+        ("pkg-config", "/w/a$b", "$"),
+        ("make", "/w/it's", "'"),
+        ("meson", "/w/caf\u00e9", "\u00e9"),
+        ("cmake", "/w/a;b", ";"),
+        ("zephyr", "/w/a\\b", "\\"),
+        ("cmake", "/w/a$b (1) 'q' \u00e9", None),
+        ("pkg-config", "/w/micro ros/caf\u00e9#1", None),
+        ("platformio", "/w/a;b$", None),
+    ],
+)
+def test_export_folders_each_consumer_cannot_use(kind: str, folder: str, char: str | None) -> None:
+    from uros_build.output import export as ex
+
+    refused = ex.folder_refusal(kind, folder)
+    assert (refused[0] if refused else None) == char

@@ -28,10 +28,23 @@ def _check_complete(src: Path, info: BuildInfo, flag: str) -> None:
             )
 
 
-def _prepare(source: Path | None, output: Path) -> tuple[BuildInfo, Path]:
+def _check_folder(out: Path, kind: str) -> None:
+    """A folder whose package the consumer of ``kind`` could not use is refused before anything is
+    written (the consumers cannot be told the folder escaped: they find it themselves)."""
+    refused = export.folder_refusal(kind, str(out))
+    if refused is not None:
+        char, fmt, why = refused
+        raise ConfigError(
+            f"--output {out}: holds {char!r}, which {fmt} cannot use in the folder of a package ({why})",
+            f"export into a folder without {char!r} (or link one to it)",
+        )
+
+
+def _prepare(source: Path | None, output: Path, kind: str) -> tuple[BuildInfo, Path]:
     """Read the build-info of the output to export and copy that output to ``output``."""
     src = (source or output).resolve()
     out = output.resolve()
+    _check_folder(out, kind)
     for folder in {src, out}:  # a swap a killed build left half-way is finished or undone first
         for line in swap.recover(folder):
             console.info(line)
@@ -51,7 +64,7 @@ def _record(out: Path, written: list[Path] | list[str]) -> None:
 
 
 def export_cmake(source: Path | None, output: Path) -> Path:
-    info, out = _prepare(source, output)
+    info, out = _prepare(source, output, "cmake")
     written = export.write_cmake_package(out, info)
     _record(out, written)
     console.step(f"wrote {', '.join(p.name for p in written)} in {out}")
@@ -66,7 +79,7 @@ def export_esp_idf(source: Path | None, output: Path) -> Path:
             f"{src}: built for {info.target}, which is not an ESP-IDF target",
             "build for esp32, esp32s2, esp32s3 or esp32c3 first: uros build --toolchain esp32s3",
         )
-    info, out = _prepare(source, output)
+    info, out = _prepare(source, output, "esp-idf")
     written = export.write_esp_idf_component(out, info)
     _record(out, written)
     console.step(
@@ -77,9 +90,9 @@ def export_esp_idf(source: Path | None, output: Path) -> Path:
 
 
 def _simple(
-    source: Path | None, output: Path, write: Callable[[Path, BuildInfo], list[Path]], use: str
+    kind: str, source: Path | None, output: Path, write: Callable[[Path, BuildInfo], list[Path]], use: str
 ) -> Path:
-    info, out = _prepare(source, output)
+    info, out = _prepare(source, output, kind)
     written = write(out, info)
     _record(out, written)
     console.step(f"wrote {', '.join(p.name for p in written)} in {out}: {use}")
@@ -87,11 +100,14 @@ def _simple(
 
 
 def export_make(source: Path | None, output: Path) -> Path:
-    return _simple(source, output, export.write_make_fragment, "include it from your Makefile (README: Make)")
+    return _simple(
+        "make", source, output, export.write_make_fragment, "include it from your Makefile (README: Make)"
+    )
 
 
 def export_pkg_config(source: Path | None, output: Path) -> Path:
     return _simple(
+        "pkg-config",
         source,
         output,
         export.write_pkg_config,
@@ -101,11 +117,11 @@ def export_pkg_config(source: Path | None, output: Path) -> Path:
 
 def export_platformio(source: Path | None, output: Path) -> Path:
     use = "in platformio.ini: lib_deps = file://<that folder>"
-    return _simple(source, output, export.write_platformio, use)
+    return _simple("platformio", source, output, export.write_platformio, use)
 
 
 def export_zephyr(source: Path | None, output: Path) -> Path:
-    info, out = _prepare(source, output)
+    info, out = _prepare(source, output, "zephyr")
     written = export.write_zephyr_module(out, info)
     _record(out, ["zephyr", *(p.name for p in written if p.parent == out)])
     console.step(
@@ -121,7 +137,9 @@ def export_meson(source: Path | None, output: Path) -> Path:
             f"{src}: built with your own toolchain file, so uros does not know the compiler to name",
             "use `uros export pkg-config` with your own Meson cross file",
         )
-    return _simple(source, output, export.write_meson_cross, "meson setup build --cross-file <that file>")
+    return _simple(
+        "meson", source, output, export.write_meson_cross, "meson setup build --cross-file <that file>"
+    )
 
 
 def _tree_digest(folder: Path) -> dict[str, str]:

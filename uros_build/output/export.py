@@ -15,6 +15,48 @@ from uros_build.output import folders
 from uros_build.output.buildinfo import BuildInfo
 
 CMAKE_FILES = ("microrosConfig.cmake", "microrosConfigVersion.cmake", "microros.cmake")
+
+# ---------------------------------------------------------------------------------------------
+# The export's folder: what each consumer can carry in it (measured with pkgconf 1.8.1, Meson 1.0,
+# CMake 3.25 and GNU make 4.3; tests/integration/test_export_consumers.py). None of them can be
+# told the folder in an escaped form: pkg-config finds it as ${pcfiledir}, make as MAKEFILE_LIST,
+# CMake as CMAKE_CURRENT_LIST_DIR, so what they cannot carry is refused before anything is written.
+
+# pkgconf prints ${pcfiledir} into the compile line with only spaces (and non-ASCII bytes)
+# escaped, a line a shell (or Meson's shlex) reads: any other shell character breaks it (a '$' is
+# expanded, a quote left open, '(' or ';' a syntax error or a second command); microros.mk's
+# -I$(MICROROS_DIR)/include reaches the recipe's shell the same way.
+_SHELL_SAFE = frozenset("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789 /._+-,:@%=~^#")
+_WHY_SHELL = "{tool} puts the folder unquoted into the command line a shell reads"
+_FOLDER_RULES = {
+    "pkg-config": ("pkg-config", _WHY_SHELL.format(tool="pkg-config")),
+    "make": ("make", _WHY_SHELL.format(tool="microros.mk")),
+    # Meson decodes pkgconf's output as UTF-8 before undoing its byte escapes (e-acute: \\303\\251)
+    "meson": ("Meson", "Meson reads pkg-config's answer, which escapes every non-ASCII byte, as UTF-8"),
+    "cmake": ("CMake", "CMake splits the folder at ';' into a list and reads '\\' as an escape"),
+}
+_FOLDER_KINDS = {"esp-idf": "cmake", "zephyr": "cmake"}
+
+
+def folder_refusal(kind: str, folder: str) -> tuple[str, str, str] | None:
+    """(the character, the format, why) when the consumer of export ``kind`` cannot use a package
+    in ``folder``; None when it can (pure)."""
+    rule = _FOLDER_KINDS.get(kind, kind)
+    if rule not in _FOLDER_RULES:
+        return None  # platformio (-L. from the library's folder), arduino: the folder is not written
+    fmt, why = _FOLDER_RULES[rule]
+    for char in folder:
+        if rule == "cmake":
+            bad = char in ";\\"
+        elif rule == "meson":
+            bad = char not in _SHELL_SAFE
+        else:
+            bad = char not in _SHELL_SAFE and char.isascii()
+        if bad:
+            return char, fmt, why
+    return None
+
+
 ESP_IDF_COMPONENT_FILE = "CMakeLists.txt"
 
 
