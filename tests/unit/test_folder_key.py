@@ -91,3 +91,22 @@ def test_resolve_output_finds_the_output_of_a_toolchain_file(tmp_path: Path) -> 
     write_marker(output, "my-board", ["libmicroros.a"])
     assert resolve_output(None, ws, None, {}) == Workspace(ws.resolve()).default_output("my-board")
     assert resolve_output(None, ws, "path/to/my-board.cmake", {}).name == "my-board"
+
+
+def test_clean_chooses_by_the_same_rule(tmp_path: Path) -> None:
+    from uros_build.commands.clean import _chosen
+
+    ws = _ws(tmp_path, "distro: humble\ntargets: [cortex-m7, boards/my-board.cmake]\n")
+    for key in ("cortex-m7", "my-board"):
+        (ws / ".uros" / "targets" / key).mkdir(parents=True)
+    workspace = Workspace(ws)
+    assert _chosen(workspace, None, False) == ["cortex-m7", "my-board"]  # uros.yaml's, as build's
+    assert _chosen(workspace, "elsewhere/my-board.cmake", False) == ["my-board"]
+    (tmp_path / "board.yaml").write_text(PROFILE, encoding="utf-8")
+    assert _chosen(workspace, None, False, tmp_path / "board.yaml") == ["my-board"]
+    with pytest.raises(ConfigError, match=r"--profile .*missing\.yaml: no such file"):
+        _chosen(workspace, None, False, tmp_path / "missing.yaml")
+    with pytest.raises(ConfigError, match="--toolchain and --profile name a target twice"):
+        _chosen(workspace, "cortex-m7", False, tmp_path / "board.yaml")
+    with pytest.raises(ConfigError, match=r"--toolchain x/cortex-m4\.cmake: nothing of it .*did you mean"):
+        _chosen(workspace, "x/cortex-m4.cmake", False)

@@ -103,7 +103,10 @@ from uros_build.config.settings import BuildArgs
 @click.option(
     "--rebuild", is_flag=True, help="Run every step even when no input changed (the cache is not read)."
 )
-@VERBOSE
+@click.option(
+    "-v", "--verbose", is_flag=True,
+    help="Print every setting in force and who chose it (docs/settings.md), and stream the tools' output.",
+)  # fmt: skip
 def build(
     toolchains: tuple[str, ...],
     profile: Path | None,
