@@ -66,6 +66,28 @@ def test_dependencies_become_depends(tmp_path: Path) -> None:
             'string s "a"b"\n',
             r"Bad.msg:1: default value '\"a\"b\"': a \" inside the string is not",
         ),
+        (
+            "Bad.msg",
+            'string[] names ["left", "right]\n',
+            r"Bad.msg:1: default value .*: the string '\"right' is not",
+        ),
+        (
+            "Bad.msg",
+            "int32[3] v [1, 2]\n",
+            r"Bad.msg:1: default value '\[1, 2\]' has 2 elements; the type's \[3\] holds exactly 3",
+        ),
+        ("Bad.msg", "int32[<=1] v [1, 2]\n", r"has 2 elements; the type's \[<=1\] holds at most 1"),
+        (
+            "Bad.msg",
+            "uint8[] v [1, 300]\n",
+            r"Bad.msg:1: array element '300' is outside 0..255 for type uint8",
+        ),
+        ("Bad.msg", "int32[] v 1, 2\n", r"Bad.msg:1: default value '1, 2' of an array is not in \[ \]"),
+        (
+            "Bad.msg",
+            "geometry_msgs/Twist t 5\n",
+            r"field 't' of type 'geometry_msgs/Twist' cannot have a default",
+        ),
     ],
 )
 def test_bad_interface_files(tmp_path: Path, name: str, text: str, expected: str) -> None:
@@ -94,3 +116,8 @@ def test_the_same_interface_file_twice_is_refused(tmp_path: Path) -> None:
         with pytest.raises(ConfigError) as info:
             interfaces.package_files("my_msgs", files)
         assert info.value.message == f"--msg {again}: a second Wheel.msg (the first: --msg {first})"
+
+
+def test_array_defaults_rosidl_takes(tmp_path: Path) -> None:
+    text = "string[2] names [\"a, b\", 'c']\nint32[<=3] v [1, 2]\nbool[] b [true, 0]\nstring[] e []\n"
+    assert interfaces.read_interface(_file(tmp_path, "Arrays.msg", text), "msg").name == "Arrays"

@@ -80,9 +80,71 @@ def _check_lines(lines: list[tuple[int, str]], source: str) -> set[str]:
                 "field names are lower_snake_case, start with a letter, no double or trailing underscore",
             )
         _once(names, name, number, source, "field")
-        if default and match.group("array") is None:
-            _check_default(base, default[0].strip(), f"{source}:{number}")
+        if default:
+            where, value, array = f"{source}:{number}", default[0].strip(), match.group("array")
+            if pkg is not None or base not in PRIMITIVES:  # rosidl: "not supported", deep in CMake
+                raise ConfigError(
+                    f"{where}: field {name!r} of type {type_text!r} cannot have a default value",
+                    "only primitive types (and arrays of them) take one",
+                )
+            if array is None:
+                _check_default(base, value, where)
+            else:
+                _check_array_default(base, array, value, where)
     return deps
+
+
+def _check_array_default(base: str, array: str, value: str, where: str) -> None:
+    """An array's default as rosidl_adapter reads it (parse_value_string): ``[a, b]``, as many
+    elements as a fixed size says (at most a bound's), each a valid value of the type."""
+    if not (value.startswith("[") and value.endswith("]")):
+        raise ConfigError(f"{where}: default value {value!r} of an array is not in [ ]", "e.g. [1, 2, 3]")
+    inner = value[1:-1]
+    if base in ("string", "wstring"):
+        items = _string_items(inner, value, where)
+    else:
+        items = [v.strip() for v in inner.split(",")] if inner else []
+    size = array[1:-1]
+    if size:
+        bound = int(size.removeprefix("<="))
+        if len(items) > bound or (not size.startswith("<=") and len(items) != bound):
+            raise ConfigError(
+                f"{where}: default value {value!r} has {len(items)} elements; the type's {array} "
+                f"holds {'at most' if size.startswith('<=') else 'exactly'} {bound}"
+            )
+    for item in items:
+        if base not in ("string", "wstring"):
+            _check_default(base, item, where, "array element")
+
+
+def _string_items(inner: str, value: str, where: str) -> list[str]:
+    """The elements of a string array's default: quoted ones may hold ',' (rosidl's
+    parse_string_array_value_string); a quote opened and never closed is refused."""
+    items, rest = [], inner.strip()
+    while rest:
+        quote = rest[0]
+        if quote in ("'", '"'):
+            end = 1
+            while True:
+                end = rest.find(quote, end)
+                if end == -1:
+                    raise ConfigError(
+                        f"{where}: default value {value!r}: the string {rest!r} is not closed",
+                        f"end it with {quote}; a '#' starts a comment even inside quotes",
+                    )
+                if rest[end - 1] != "\\":
+                    break
+                end += 1
+            items.append(rest[1:end])
+            rest = rest[end + 1 :].lstrip()
+            if rest and not rest.startswith(","):
+                raise ConfigError(f"{where}: default value {value!r}: expected ',' after {items[-1]!r}")
+            rest = rest[1:].lstrip()
+        else:
+            item, _comma, rest = rest.partition(",")
+            items.append(item.strip())
+            rest = rest.lstrip()
+    return items
 
 
 def _once(names: dict[str, int], name: str, number: int, source: str, what: str) -> None:
