@@ -63,7 +63,7 @@ def test_sets_add_up_uros_yaml_first() -> None:
     settings = build_settings(BuildArgs(sets=("rmw_microxrcedds.RMW_UXRCE_MAX_NODES=3",)), CFG, ROOT)
     assert settings[rows.SETS] == Chosen(
         ("rmw_microxrcedds.RMW_UXRCE_MAX_NODES=2", "rmw_microxrcedds.RMW_UXRCE_MAX_NODES=3"),
-        "/ws/uros.yaml: set + --set",
+        "/ws/uros.yaml: set, then --set",
     )
 
 

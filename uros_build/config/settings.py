@@ -270,7 +270,7 @@ def resolve_one(
         if not parts:
             return Chosen(setting.default, DEFAULT)
         total = tuple(item for value, _ in parts for item in cast(tuple[Any, ...], value))
-        return Chosen(cast(T, total), " + ".join(source for _, source in parts))
+        return Chosen(cast(T, total), ", then ".join(source for _, source in parts))
     if _given(given):
         return Chosen(cast(T, given), str(setting.flag))
     text = env.get(setting.env) if setting.env and not blocked else None
