@@ -81,3 +81,31 @@ def test_the_build_key_is_the_same_for_the_same_build_anywhere(m7_build: Path, t
         *base, "--meta", str(elsewhere / "fixture.meta"), "--set", "rmw_microxrcedds.RMW_UXRCE_MAX_NODES=2"
     )
     assert json.loads((out / "build-info.json").read_text())["build_key"] != here
+
+
+DEAD = 2**22 + 1000  # above the largest pid_max Linux allows: a run that is gone
+
+
+def test_info_after_a_killed_swap_reads_the_output_the_next_build_would_keep(
+    m7_build: Path, tmp_path: Path
+) -> None:
+    """Issue 34, item 7: a swap cut by SIGKILL between its two renames (the journal in place) left
+    the output in `.cortex-m7.old-PID`; `uros info` then said there was no output. It finishes or
+    undoes the swap as the next build would (here: undoes it, the new output never got in place)."""
+    ws = tmp_path / "ws"
+    shutil.copytree(m7_build, ws, symlinks=True)
+    build = ws / "build"
+    out = build / "cortex-m7"
+    old, staging = build / f".cortex-m7.old-{DEAD}", build / f".cortex-m7.staging-{DEAD}"
+    for given in (True, False):  # OUTPUT named, or found through the workspace
+        out.rename(old)
+        staging.mkdir()
+        (staging / "libmicroros.a").write_text("the new output, never put in place")
+        moves = [{"dest": "cortex-m7", "new": staging.name, "old": old.name}]
+        (build / ".cortex-m7.swap").write_text(json.dumps({"pid": DEAD, "moves": moves, "cleanup": []}))
+        args = ("info", str(out), "--json") if given else ("info", "-w", str(ws), "--json")
+        proc = run_uros(*args, check=False)
+        assert proc.returncode == 0, proc.stderr
+        assert json.loads(proc.stdout)["target"] == "cortex-m7"
+        assert "rolled back the swap of a uros run" in proc.stderr
+        assert sorted(p.name for p in build.iterdir()) == ["COLCON_IGNORE", "cortex-m7"]

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import json
+import shutil
 import subprocess
 from pathlib import Path
 
@@ -53,3 +54,31 @@ def test_size_per_package_and_after_linking(m7_build: Path, tmp_path: Path) -> N
 
     alone = run_uros("size", str(out), "--elf", str(elf), check=False)
     assert alone.returncode == 2 and "--map" in alone.stderr
+
+
+DEAD = 2**22 + 1000  # above the largest pid_max Linux allows: a run that is gone
+
+
+def test_size_after_a_killed_swap_of_entries_reads_the_whole_output(m7_build: Path, tmp_path: Path) -> None:
+    """Issue 34, item 7: an output swapped entry by entry (a mount point, a folder with the user's
+    files), cut by SIGKILL after libmicroros.a was moved aside (the journal in the output): `uros
+    size` found no library. It finishes or undoes the swap as the next build would."""
+    ws = tmp_path / "ws"
+    shutil.copytree(m7_build, ws, symlinks=True)
+    out = ws / "build" / "cortex-m7"
+    expected = json.loads(run_uros("size", str(out), "--json").stdout)
+    new, old = out / f".uros-new-{DEAD}", out / f".uros-old-{DEAD}"
+    new.mkdir()
+    (new / "libmicroros.a").write_text("the new library, never put in place")
+    old.mkdir()
+    (out / "libmicroros.a").rename(old / "libmicroros.a")
+    moves = [
+        {"dest": "libmicroros.a", "new": f"{new.name}/libmicroros.a", "old": f"{old.name}/libmicroros.a"}
+    ]
+    journal = {"pid": DEAD, "moves": moves, "cleanup": [new.name, old.name]}
+    (out / ".uros-swap").write_text(json.dumps(journal))
+    proc = run_uros("size", str(out), "--json", check=False)
+    assert proc.returncode == 0, proc.stderr
+    assert json.loads(proc.stdout) == expected
+    assert "rolled back the swap of a uros run" in proc.stderr
+    assert not new.exists() and not old.exists() and not (out / ".uros-swap").exists()

@@ -294,6 +294,40 @@ def test_recover_puts_back_an_output_a_killed_swap_moved_aside(tmp_path: Path) -
     assert sorted(p.name for p in tmp_path.iterdir()) == ["cortex-m7"]
 
 
+def test_a_journal_is_carried_out_once_by_runs_that_find_it_together(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """`uros info`/`uros size` finish a killed swap as a build would (issue 34, item 7), so two
+    runs may find one journal: each claims it by a rename, the one whose rename fails does
+    nothing; a claim left by a run killed while carrying it out is taken over; a reader never
+    removes the journal a live run may be writing (.swap.tmp)."""
+    out = _output(tmp_path / "cortex-m7")
+    staging = _staging(out)
+    old = tmp_path / f".cortex-m7.old-{DEAD}"
+    out.rename(old)
+    journal_path = tmp_path / ".cortex-m7.swap"
+    journal_path.write_text(Journal(DEAD, (Move("cortex-m7", staging.name, old.name),)).to_json())
+    (tmp_path / ".cortex-m7.swap.tmp").write_text("being written")
+
+    def other_run_claims_first(pid: int) -> bool:  # between this run's read and its claim
+        if journal_path.exists():
+            journal_path.rename(tmp_path / f".cortex-m7.swap.claimed-{os.getpid() + 1}")
+        return False
+
+    monkeypatch.setattr(swap, "pid_alive", other_run_claims_first)
+    assert swap.finish_swaps(out, tidy=False) == []
+    assert not out.exists()  # the other run carries it out
+    # ... and is killed doing so: its claim is taken over by the next run
+    (tmp_path / f".cortex-m7.swap.claimed-{os.getpid() + 1}").rename(
+        tmp_path / f".cortex-m7.swap.claimed-{DEAD}"
+    )
+    monkeypatch.setattr(swap, "pid_alive", lambda pid: pid == os.getpid())
+    done = swap.finish_swaps(out, tidy=False)
+    assert len(done) == 1 and "rolled back the swap" in done[0], done
+    assert (out / "include" / "pkg" / "a.h").is_file()
+    assert sorted(p.name for p in tmp_path.iterdir()) == [".cortex-m7.swap.tmp", "cortex-m7"]
+
+
 def test_recover_without_a_journal_puts_back_the_old_folder(tmp_path: Path) -> None:
     """The state a uros without the journal left (issue 8, item 5): no output, `.X.old-PID`."""
     out = _output(tmp_path / "cortex-m7")

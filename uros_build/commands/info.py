@@ -10,7 +10,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from uros_build.config.plan import resolve_output
+from uros_build.config.plan import finish_killed_swaps, resolve_output
 from uros_build.output import contents
 from uros_build.output.buildinfo import BuildInfo, read_build_info
 
@@ -97,6 +97,7 @@ def render(data: dict[str, Any]) -> str:
 
 
 def show_info(output: Path | None, workspace: Path | None, toolchain: str | None, as_json: bool) -> None:
+    finish_killed_swaps(output, workspace)
     out = resolve_output(output, workspace, toolchain).resolve()
     data = gather(out)
     sys.stdout.write(json.dumps(data, indent=2, sort_keys=True) + "\n" if as_json else render(data))

@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from uros_build import loader
-from uros_build.config.plan import resolve_output
+from uros_build.config.plan import finish_killed_swaps, resolve_output
 from uros_build.errors import ConfigError
 from uros_build.output import sizes
 from uros_build.output.buildinfo import BuildInfo, read_build_info
@@ -204,6 +204,7 @@ def show_size(
     for path, flag in ((elf, "--elf"), (map_file, "--map")):
         if path is not None and not path.is_file():
             raise ConfigError(f"{flag} {path}: no such file")
+    finish_killed_swaps(library, workspace)
     lib, info = _library(library, workspace, toolchain)
     if not lib.is_file():
         raise ConfigError(

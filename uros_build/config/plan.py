@@ -14,7 +14,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-from uros_build import defaults
+from uros_build import console, defaults
 from uros_build.config import settings as rows
 from uros_build.config.settings import (
     BuildArgs,
@@ -26,6 +26,7 @@ from uros_build.config.settings import (
     resolve_workspace,
 )
 from uros_build.errors import ConfigError, did_you_mean
+from uros_build.output import swap
 from uros_build.output import team_cache as cache_mod
 from uros_build.output.folders import check_output_dir, check_output_owner, is_uros_output, target_keys
 from uros_build.output.team_cache import CacheSettings
@@ -50,6 +51,24 @@ from uros_build.target.profiles import (
 
 # ---------------------------------------------------------------------------------------------
 # the workspace: one default for every command
+
+
+def finish_killed_swaps(output: Path | None, workspace: Path | None) -> None:
+    """Before an output is read (`uros info`, `uros size`): a swap into it that a killed build left
+    half-way is finished or undone as the next build would (swap.finish_swaps), so the reader sees
+    a whole output, the previous or the new. ``output``: the folder (or its libmicroros.a) named,
+    else every target's output in the workspace."""
+    if output is not None:
+        folders = [output.parent if output.suffix == ".a" else output]
+    else:
+        try:
+            ws = Workspace(resolve_workspace(workspace).resolve())
+            folders = [ws.default_output(key) for key in target_keys(ws)]
+        except (ConfigError, OSError):
+            return  # no workspace: resolve_output says so
+    for folder in folders:
+        for line in swap.finish_swaps(folder.absolute(), tidy=False):
+            console.info(line)
 
 
 def resolve_output(

@@ -99,7 +99,12 @@ def owned_entries(out: Path) -> frozenset[str] | None:
 
 def entries(folder: Path) -> set[str]:
     """The entries of a folder that are not uros's temporary ones."""
-    return {p.name for p in folder.iterdir() if not TEMP_INSIDE.match(p.name) and p.name != JOURNAL}
+    claimed = f"{JOURNAL}.claimed-"  # a swap's journal that a run carries out (swap.finish_swaps)
+    return {
+        p.name
+        for p in folder.iterdir()
+        if not TEMP_INSIDE.match(p.name) and p.name != JOURNAL and not p.name.startswith(claimed)
+    }
 
 
 def write_marker(out: Path, target: str, names: Collection[str]) -> None:
@@ -280,5 +285,6 @@ def target_keys(ws: Workspace) -> list[str]:
     keys = set(ws.tree_keys())
     outputs = ws.root / "build"
     if outputs.is_dir():
-        keys |= {p.name for p in outputs.iterdir() if is_uros_output(p)}
+        # not the hidden folders of a swap beside an output (.cortex-m7.old-PID): never a target's
+        keys |= {p.name for p in outputs.iterdir() if not p.name.startswith(".") and is_uros_output(p)}
     return sorted(keys)

@@ -291,30 +291,51 @@ def _journal_at(path: Path) -> Journal | None:
         return None
 
 
-def recover(out: Path) -> list[str]:
-    """Finish or roll back a swap into ``out`` that a killed run left half-way, and remove the
-    staging folders of runs that are gone; returns what was done, for the console."""
+def finish_swaps(out: Path, tidy: bool = True) -> list[str]:
+    """Finish or roll back a swap into ``out`` that a killed run left half-way, as its journal
+    says; returns what was done, for the console. A run claims a journal by renaming it to
+    ``<journal>.claimed-<pid>`` (one rename wins), so two runs that find it at once (a build and
+    `uros info`, two readers) never both carry it out; the claim of a run killed while carrying it
+    out is taken over. ``tidy``: also remove the journal a run was writing when it was killed,
+    before its first rename (only where no other run can be writing one: under the target's lock)."""
     done = []
     for folder, journal_path in ((out.parent, out.with_name(f".{out.name}.swap")), (out, out / JOURNAL)):
         if not folder.is_dir():
             continue  # no folder, no swap (an --output that is a file is refused later)
-        journal = _journal_at(journal_path)
-        if journal is None:
-            # killed while writing it, before the first rename: nothing to undo
-            with contextlib.suppress(OSError):
-                journal_path.with_name(journal_path.name + ".tmp").unlink(missing_ok=True)
-        if journal is None or pid_alive(journal.pid):
-            continue
-        verdict, actions = recovery_actions(journal, _existing(folder, journal))
-        left = _apply(folder, actions)
-        journal_path.unlink(missing_ok=True)
-        state = "the new output is in place" if verdict == "finished" else "the previous output is back"
-        done.append(
-            f"{out}: {verdict} the swap of a uros run (pid {journal.pid}) that stopped half-way: {state}"
-        )
-        done += [f"could not remove {why}" for why in left]
-    done += _remove_stale(out)
+        claims = re.compile(rf"^{re.escape(journal_path.name)}\.claimed-(\d+)$")
+        found = [journal_path]
+        with contextlib.suppress(OSError):
+            found += sorted(p for p in folder.iterdir() if claims.match(p.name))
+        for path in found:
+            journal = _journal_at(path)
+            if journal is None:
+                if tidy and path == journal_path:  # killed while writing it: nothing to undo
+                    with contextlib.suppress(OSError):
+                        path.with_name(path.name + ".tmp").unlink(missing_ok=True)
+                continue
+            claimer = claims.match(path.name)
+            if pid_alive(journal.pid) or (claimer and pid_alive(int(claimer.group(1)))):
+                continue
+            mine = journal_path.with_name(f"{journal_path.name}.claimed-{os.getpid()}")
+            try:
+                path.rename(mine)
+            except FileNotFoundError:
+                continue  # another run claimed it first
+            verdict, actions = recovery_actions(journal, _existing(folder, journal))
+            left = _apply(folder, actions)
+            mine.unlink(missing_ok=True)
+            state = "the new output is in place" if verdict == "finished" else "the previous output is back"
+            done.append(
+                f"{out}: {verdict} the swap of a uros run (pid {journal.pid}) that stopped half-way: {state}"
+            )
+            done += [f"could not remove {why}" for why in left]
     return done
+
+
+def recover(out: Path) -> list[str]:
+    """At the start of a build (the target's lock held): :func:`finish_swaps`, then the staging
+    folders of runs that are gone removed; returns what was done, for the console."""
+    return finish_swaps(out) + _remove_stale(out)
 
 
 def _removed(path: Path, shown: str) -> str:
