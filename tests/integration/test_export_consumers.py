@@ -189,12 +189,19 @@ def test_one_arduino_library_for_two_boards(m7_build: Path, tmp_path: Path) -> N
     run_uros("export", "arduino", "--from", str(m7), "--from", str(m4f), "--output", str(lib))
     props = (lib / "library.properties").read_text()
     assert "precompiled=true\n" in props and "ldflags=-lmicroros\n" in props
-    assert (lib / "src/cortex-m7/fpv5-d16-hard/libmicroros.a").read_bytes() == (
-        m7 / "libmicroros.a"
-    ).read_bytes()
-    assert (lib / "src/cortex-m4/fpv4-sp-d16-hard/libmicroros.a").read_bytes() == (
-        m4f / "libmicroros.a"
-    ).read_bytes()
+    # issue 34, item 5: the M7 (fpv5-d16) library where Teensy 4 looks, the M4F one where STM32duino
+    # does, each also in src/<mcu>/ (PlatformIO's and arduino-cli >= #3199's fallback)
+    assert "architectures=avr,stm32\n" in props
+    for folder, output in (
+        ("imxrt1062/fpv5-d16-hard", m7),
+        ("imxrt1062", m7),
+        ("cortex-m4/fpv4-sp-d16-hard", m4f),
+        ("cortex-m4", m4f),
+    ):
+        assert (lib / "src" / folder / "libmicroros.a").read_bytes() == (
+            output / "libmicroros.a"
+        ).read_bytes()
+    assert not (lib / "src/cortex-m7").exists()  # STM32duino's M7 boards compile fpv5-sp-d16
     assert (lib / "src/fx_core/core.h").is_file() and (lib / "src/micro_ros_uros.h").is_file()
     # two include trees that differ cannot make one library
     other = tmp_path / "other"

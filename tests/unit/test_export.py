@@ -50,34 +50,56 @@ def test_tool_prefix_and_meson_cpu_family() -> None:
 
 
 @pytest.mark.parametrize(
-    ("flags", "folder"),
+    ("flags", "folders", "architectures"),
     [
-        (("-mcpu=cortex-m7", "-mthumb", "-mfpu=fpv5-d16", "-mfloat-abi=hard"), "cortex-m7/fpv5-d16-hard"),
+        # Teensy 4: build.mcu=imxrt1062, -mfpu=fpv5-d16 -mfloat-abi=hard (cores/teensy4/Makefile)
+        (
+            ("-mcpu=cortex-m7", "-mthumb", "-mfpu=fpv5-d16", "-mfloat-abi=hard"),
+            ["imxrt1062/fpv5-d16-hard", "imxrt1062"],
+            ["avr"],
+        ),
+        # STM32duino F7/H7 boards all compile -mfpu=fpv5-sp-d16 (boards.txt), not fpv5-d16
+        (
+            ("-mcpu=cortex-m7", "-mthumb", "-mfpu=fpv5-sp-d16", "-mfloat-abi=hard"),
+            ["cortex-m7/fpv5-sp-d16-hard", "cortex-m7"],
+            ["stm32"],
+        ),
         (
             ("-mcpu=cortex-m4", "-mthumb", "-mfpu=fpv4-sp-d16", "-mfloat-abi=hard"),
-            "cortex-m4/fpv4-sp-d16-hard",
+            ["cortex-m4/fpv4-sp-d16-hard", "cortex-m4"],
+            ["stm32"],
         ),
-        (("-mcpu=cortex-m3", "-mthumb"), "cortex-m3"),
-        (("-mcpu=cortex-m4", "-mthumb", "-mfloat-abi=soft"), "cortex-m4/soft"),
+        (("-mcpu=cortex-m3", "-mthumb", "-mfloat-abi=soft"), ["cortex-m3"], ["stm32"]),
+        (
+            ("-march=armv6-m", "-mcpu=cortex-m0plus", "-mthumb"),
+            ["cortex-m0plus"],
+            ["mbed_nano", "mbed_rp2040", "stm32"],
+        ),
+        # soft-float Cortex-M4 and the ESP32-C3's RISC-V: no core checked compiles so
+        (("-mcpu=cortex-m4", "-mthumb", "-mfloat-abi=soft"), [], []),
+        (("-march=rv32imc", "-mabi=ilp32"), [], []),
     ],
 )
-def test_arduino_folders_as_its_builder_looks_for_them(flags: tuple[str, ...], folder: str) -> None:
+def test_arduino_folders_as_the_cores_look_them_up(
+    flags: tuple[str, ...], folders: list[str], architectures: list[str]
+) -> None:
+    """Issue 34, item 5: the folders as arduino-cli composes them for the cores' own flags, with
+    the src/<mcu> fallback; the architectures of those cores only (not '*')."""
     from uros_build.output import export as ex
 
-    assert ex.arduino_folder(flags) == folder
+    assert ex.arduino_folders(flags) == folders
+    assert sorted({c.architecture for c in ex.arduino_cores(flags)}) == architectures
 
 
-def test_arduino_needs_an_mcu_and_declares_a_precompiled_library() -> None:
+def test_arduino_declares_a_precompiled_library_for_its_cores_only() -> None:
     from uros_build.output import export as ex
 
-    with pytest.raises(ValueError):
-        ex.arduino_folder(("-march=rv32imc",))
-    props = ex.arduino_properties(["cortex-m7", "cortex-m4f"])
+    props = ex.arduino_properties(["cortex-m7", "cortex-m4f"], ["stm32", "avr", "stm32"])
     fields = dict(
         line.split("=", 1) for line in props.splitlines() if "=" in line and not line.startswith("#")
     )
     assert fields["precompiled"] == "true" and fields["ldflags"] == "-lmicroros"
-    assert fields["includes"] == "micro_ros_uros.h" and fields["architectures"] == "*"
+    assert fields["includes"] == "micro_ros_uros.h" and fields["architectures"] == "avr,stm32"
     # every field the library specification requires
     assert {"name", "version", "author", "maintainer", "sentence", "paragraph", "category", "url"} <= set(
         fields

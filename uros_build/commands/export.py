@@ -160,23 +160,27 @@ def export_arduino(sources: tuple[Path, ...], output: Path) -> Path:
     out = output.resolve()
     placed: dict[str, Path] = {}
     includes: tuple[Path, dict[str, str]] | None = None
-    targets = []
+    targets: list[str] = []
+    architectures: list[str] = []
     for given in sources:
         src = given.resolve()
         info = read_build_info(src, "--from")
         _check_complete(src, info, "--from")
-        try:
-            folder = export.arduino_folder(info.flags.cpu)
-        except ValueError:
+        folders = export.arduino_folders(info.flags.cpu)
+        if not folders:
             raise ConfigError(
-                f"--from {src}: built for {info.target}, which has no -mcpu: Arduino's precompiled "
-                "libraries are found by build.mcu (ARM boards)",
-                "export the ARM targets' outputs",
-            ) from None
-        if folder in placed:
-            raise ConfigError(
-                f"--from {src}: {placed[folder]} is for src/{folder} too", "one output per board"
+                f"--from {src}: built for {info.target} ({' '.join(info.flags.cpu)}), the flags of none of "
+                "the Arduino cores uros knows (README, Arduino: Teensy 4, STM32duino, Arduino mbed)",
+                "build for the board's flags: cortex-m7 (Teensy 4), cortex-m7-sp, cortex-m4f, cortex-m33, "
+                "cortex-m3, cortex-m0plus or rp2040",
             )
+        for folder in folders:
+            if folder in placed:
+                raise ConfigError(
+                    f"--from {src}: {placed[folder]} is for src/{folder} too", "one output per board"
+                )
+            placed[folder] = src
+        architectures += [core.architecture for core in export.arduino_cores(info.flags.cpu)]
         tree = _tree_digest(src / info.include.dir)
         if includes is None:
             includes = (src, tree)
@@ -186,7 +190,6 @@ def export_arduino(sources: tuple[Path, ...], output: Path) -> Path:
                 f"--from {src}: its headers differ from {includes[0]}'s (first: include/{differs[0]})",
                 "one Arduino library has one include tree: build the targets with the same colcon.meta",
             )
-        placed[folder] = src
         targets.append(info.target)
     assert includes is not None
     check_folder_target(out, "--output")
@@ -198,7 +201,9 @@ def export_arduino(sources: tuple[Path, ...], output: Path) -> Path:
         (out / "src" / folder).mkdir(parents=True, exist_ok=True)
         shutil.copy2(src / "libmicroros.a", out / "src" / folder / "libmicroros.a")
     (out / "src" / f"{export.ARDUINO_NAME}.h").write_text(export.arduino_header(), encoding="utf-8")
-    (out / "library.properties").write_text(export.arduino_properties(targets), encoding="utf-8")
+    (out / "library.properties").write_text(
+        export.arduino_properties(targets, architectures), encoding="utf-8"
+    )
     outputs.write_marker(out, "arduino", ["library.properties", "src"])
     console.step(
         f"wrote the Arduino library {out} ({', '.join(f'src/{f}' for f in sorted(placed))}): put it in your "
