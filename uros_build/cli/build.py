@@ -113,7 +113,7 @@ def build(
     workspace: Path | None,
     metas: tuple[Path, ...],
     sets: tuple[str, ...],
-    preset: str | None,
+    preset: str,
     transport: str | None,
     output: Path | None,
     packages: tuple[str, ...],

@@ -107,8 +107,8 @@ TRANSPORT = click.option(
     "--transport", help="XRCE-DDS transport: custom, udp or serial (default: the target's)."
 )
 PRESET = click.option(
-    "--preset", show_default=defaults.PRESET, help="colcon.meta starting point (meta/presets/)."
-)  # None: not given (config/settings.py says who chose each setting)
+    "--preset", default=defaults.PRESET, show_default=True, help="colcon.meta starting point (meta/presets/)."
+)
 # `--from` names the build output to copy; without it, --output is that output, rewritten in place.
 FROM = click.option(
     "--from", "source", type=PATH_ARG, help="A `uros build` output to copy (default: --output itself)."

@@ -86,7 +86,7 @@ def meta() -> None:
 @SETS
 @output_option("Write here instead of standard output.")
 def meta_write(
-    preset: str | None,
+    preset: str,
     toolchain: str | None,
     transport: str | None,
     metas: tuple[Path, ...],

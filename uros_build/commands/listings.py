@@ -128,7 +128,7 @@ def render_toolchain_file(target: str, output: Path | None, micro_ros: bool, gcc
 
 
 def write_meta(
-    preset: str | None,
+    preset: str,
     target: str | None,
     transport: str | None,
     metas: tuple[Path, ...],
@@ -139,7 +139,7 @@ def write_meta(
     resolved = resolve_target(target, None) if target else None
     for warning in options_mod.check_sets(sets, options_mod.by_package(options_mod.known_options())):
         console.warn(warning)
-    merged = meta_for(preset or defaults.PRESET, resolved, transport, list(metas), list(sets))
+    merged = meta_for(preset, resolved, transport, list(metas), list(sets))
     text = meta_mod.dump_meta(merged, f"uros meta write --preset {preset or defaults.PRESET}")
     write_output_file(output, text)
 

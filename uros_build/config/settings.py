@@ -390,7 +390,7 @@ class BuildArgs:
     profile: Path | None = None
     metas: tuple[Path, ...] = ()
     sets: tuple[str, ...] = ()
-    preset: str | None = None  # None: not given (defaults.PRESET)
+    preset: str = defaults.PRESET
     transport: str | None = None
     output: Path | None = None
     verbose: bool = False
@@ -417,6 +417,8 @@ class BuildArgs:
         given["toolchains"] = self.toolchains or ((self.toolchain,) if self.toolchain else ())
         for name in ("verbose", "force", "rebuild", "cache_upload"):  # on/off flags: off is "not given"
             given[name] = True if given[name] else None
+        # click fills in --preset's default: that value is the default's, whoever typed it
+        given["preset"] = None if self.preset == PRESET.default else self.preset
         return given
 
 
