@@ -44,9 +44,18 @@ class StepFailed(UrosError):
 
     exit_code = 4
 
-    def __init__(self, message: str, hint: str | None = None, output: tuple[str, ...] = ()) -> None:
+    def __init__(
+        self,
+        message: str,
+        hint: str | None = None,
+        output: tuple[str, ...] = (),
+        code: int | None = None,
+        cause: str = "",
+    ) -> None:
         super().__init__(message, hint)
         self.output = output  # what the command printed, for a caller that can explain it better
+        self.code = code  # the command's exit status (None: it did not start)
+        self.cause = cause  # the command's own error line (proc.first_error), for a caller to quote
 
 
 class VerifyError(UrosError):

@@ -37,6 +37,7 @@ from typing import IO, NoReturn
 
 from uros_build import console
 from uros_build.errors import DiskFull, MissingToolError, StepFailed, interrupted
+from uros_build.files import link_atomic, pid_alive
 
 # Where a missing program comes from, by name pattern. Target compilers carry their own hint
 # in the target profile (toolchains/*.yaml); this covers the host tools.
@@ -149,10 +150,7 @@ def new_run_log(log_dir: Path, command: str, key: str = "") -> Path:
     log_dir.mkdir(parents=True, exist_ok=True)
     latest = log_dir / "latest.log"
     with contextlib.suppress(OSError):  # a folder without symlinks (some mounts) keeps no link
-        tmp = log_dir / f".latest-{os.getpid()}"
-        tmp.unlink(missing_ok=True)
-        tmp.symlink_to(path.name)
-        tmp.replace(latest)
+        link_atomic(latest, path.name)
     return path
 
 
@@ -346,9 +344,8 @@ class Runner:
                 preexec_fn=_dies_with(os.getpid()),
             )
         except OSError as exc:
-            raise StepFailed(
-                f"{step}: could not start {argv[0]}: {exc}", f"the log is {self.log_path}"
-            ) from exc
+            cause = f"could not start {argv[0]}: {exc}"
+            raise StepFailed(f"{step}: {cause}", f"the log is {self.log_path}", cause=cause) from exc
 
     def _marked(self, env: Mapping[str, str]) -> dict[str, str]:
         out = dict(env)
@@ -387,6 +384,8 @@ class Runner:
             f"{step} failed (exit {code}){detail}",
             hint or f"the full output is in {self.log_path}",
             output=tuple(lines),
+            code=code,
+            cause=cause or f"exit {code}",
         )
 
 
@@ -513,23 +512,13 @@ def stop_processes(pids: Sequence[int], grace: float = 5.0) -> list[int]:
             stopped.append(pid)
     deadline = time.monotonic() + grace
     while stopped and time.monotonic() < deadline:
-        if not [p for p in stopped if not _zombie(Path(f"/proc/{p}")) and _exists(p)]:
+        if not [p for p in stopped if not _zombie(Path(f"/proc/{p}")) and pid_alive(p)]:
             return stopped
         time.sleep(0.1)
     for pid in stopped:
         with contextlib.suppress(ProcessLookupError, PermissionError):
             os.kill(pid, signal.SIGKILL)
     return stopped
-
-
-def _exists(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True
-    return True
 
 
 def stop_leftovers(owner: str) -> list[int]:

@@ -29,7 +29,7 @@ from uros_build.output import folders as outputs
 from uros_build.output import swap
 from uros_build.output.swap import Journal, Move, recovery_actions
 from uros_build.proc import Runner, disk_full_line, disk_full_path, environ_has
-from uros_build.sources.workspace import Workspace, lock_holder, target_key
+from uros_build.sources.workspace import Workspace, target_key
 
 DEAD = 2**22 + 1000  # above the largest pid_max Linux allows: never a live process
 
@@ -351,11 +351,6 @@ def test_recover_removes_what_runs_that_are_gone_left_inside_an_output(tmp_path:
 
 
 # -- faults (pure) ------------------------------------------------------------------------------
-
-
-def test_lock_holder() -> None:
-    assert lock_holder("1234\n") == 1234
-    assert lock_holder("") is None and lock_holder("x\n") is None
 
 
 @pytest.mark.parametrize(

@@ -7,7 +7,8 @@ from pathlib import Path
 import pytest
 
 from uros_build.commands.update import Move, describe
-from uros_build.errors import ConfigError
+from uros_build.errors import ConfigError, StepFailed
+from uros_build.sources import clones
 from uros_build.sources.clones import UPDATE_REFS, checkout_argv, fetch_argv, fetched_commit_argv
 from uros_build.sources.distros import Repo, Source
 from uros_build.sources.wsfiles import with_distro
@@ -64,3 +65,36 @@ def test_with_distro_keeps_comments_order_and_other_keys() -> None:
 def test_with_distro_refuses_what_is_not_one_plain_line(text: str) -> None:
     with pytest.raises(ConfigError, match=r"'distro:' line|could not set"):
         with_distro(text, "iron", "uros.yaml")
+
+
+# --- git's failures, classified once in sources/clones.py -------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("said", "kind"),
+    [
+        ("fatal: Remote branch no-such-branch not found in upstream origin", "version"),
+        ("fatal: couldn't find remote ref refs/heads/gone", "version"),
+        ("fatal: unable to access 'https://x/': Could not resolve host: x", "unreachable"),
+        ("fatal: '/m/none' does not appear to be a git repository", "unreachable"),
+        ("fatal: index file corrupt", "other"),
+    ],
+)
+def test_git_failure_kind_is_decided_once(said: str, kind: str) -> None:
+    exc = StepFailed(f"clone x failed (exit 128): {said}", output=("Cloning...", said), code=128, cause=said)
+    assert clones.git_failure(exc) == clones.GitFailure(kind, 128, said)
+
+
+def test_source_failed_quotes_git_and_names_the_fix() -> None:
+    src = Source(_REPO, "/m/rcl", "nope")
+    said = "fatal: Remote branch nope not found in upstream origin"
+    exc = clones.source_failed(
+        "cloning", "mcu_ws/ros2/rcl", src, StepFailed("x", code=128, cause=said), "fix it"
+    )
+    assert exc.message == f"cloning mcu_ws/ros2/rcl from /m/rcl at 'nope' failed: {said}"
+    assert exc.hint == "check that the source has 'nope', or fix it" and exc.code == 128
+    gone = StepFailed("x", code=128, cause="fatal: '/m/rcl' does not appear to be a git repository")
+    assert (
+        clones.source_failed("fetching", "p", src, gone, "fix it").hint
+        == "check that /m/rcl can be reached, or fix it"
+    )

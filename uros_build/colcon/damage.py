@@ -8,7 +8,8 @@ from __future__ import annotations
 import os
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+
+from uros_build.target import arfile
 
 # What CMake's configure writes into a package's build folder and reads back at every build. A
 # write that fails on a full disk leaves it empty or cut short, and every later build fails
@@ -38,22 +39,15 @@ def configure_damage(name: str, size: int, tail: bytes) -> str | None:
     return None
 
 
-_AR_MAGIC = b"!<arch>\n"
-_AR_HEADER = 60  # https://en.wikipedia.org/wiki/Ar_(Unix)#File_header: size at 48..58, "`\n" at 58
-
-
 def archive_damage(size: int, read_at: Callable[[int, int], bytes]) -> str | None:
     """Why an ar archive of ``size`` bytes is cut short or broken, or None: its member headers,
     read with ``read_at(offset, length)``, must chain exactly to its end (pure over the reader)."""
-    if read_at(0, len(_AR_MAGIC)) != _AR_MAGIC:
-        return "is not an ar archive (a write cut short?)"
-    offset = len(_AR_MAGIC)
-    while offset < size:
-        header = read_at(offset, _AR_HEADER)
-        if len(header) < _AR_HEADER or header[58:60] != b"`\n" or not header[48:58].strip().isdigit():
-            return f"is cut short or broken at byte {offset}"
-        offset += _AR_HEADER + int(header[48:58]) + int(header[48:58]) % 2
-    return None if offset in (size, size + 1) else f"is cut short (a member ends at byte {offset} of {size})"
+    try:
+        for _entry in arfile.entries(read_at, size):
+            pass
+    except arfile.ArFormatError as exc:
+        return f"{exc} (a write cut short?)" if exc.kind == "not ar" else str(exc)
+    return None
 
 
 def damaged_archives(folders: list[Path]) -> list[tuple[Path, str]]:
@@ -63,12 +57,8 @@ def damaged_archives(folders: list[Path]) -> list[tuple[Path, str]]:
         for path in sorted(folder.glob("*.a")) if folder.is_dir() else []:
             try:
                 with path.open("rb") as handle:
-
-                    def read_at(offset: int, length: int, handle: Any = handle) -> bytes:
-                        handle.seek(offset)
-                        return bytes(handle.read(length))
-
-                    why = archive_damage(os.fstat(handle.fileno()).st_size, read_at)
+                    read_at, size = arfile.stream_reader(handle)
+                    why = archive_damage(size, read_at)
             except OSError as exc:
                 why = f"cannot be read ({exc.strerror})"
             if why is not None:

@@ -26,6 +26,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from uros_build.files import write_atomic
+
 STATE = "state.json"
 SOURCES_CACHE = "sources-cache.json"
 STATE_VERSION = 1
@@ -197,7 +199,7 @@ def save_sources_cache(path: Path, records: Mapping[str, FileRecord]) -> None:
             rel: [r.size, r.mtime_ns, r.inode, r.sha256, r.ctime_ns] for rel, r in sorted(records.items())
         }
     }
-    _write_atomic(path, json.dumps(data, separators=(",", ":")))
+    write_atomic(path, json.dumps(data, separators=(",", ":")))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -294,7 +296,7 @@ def read_state(path: Path) -> BuildState | None:
 
 
 def write_state(path: Path, state: BuildState) -> None:
-    _write_atomic(path, state.to_json())
+    write_atomic(path, state.to_json())
 
 
 def forget_state(path: Path) -> None:
@@ -321,10 +323,3 @@ def output_intact(state: BuildState, output: Path, library: str, library_sha256:
         return False
     lib = output / library
     return lib.is_file() and file_sha256(lib) == state.library_sha256
-
-
-def _write_atomic(path: Path, text: str) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f"{path.name}.tmp-{os.getpid()}")
-    tmp.write_text(text, encoding="utf-8")
-    tmp.replace(path)

@@ -29,6 +29,7 @@ from uros_build import loader, resources
 from uros_build.colcon import fingerprint as fp
 from uros_build.colcon import installtree
 from uros_build.errors import ConfigError
+from uros_build.files import write_atomic
 from uros_build.sources.packages import PackageInfo
 
 FORMAT = "1"
@@ -176,9 +177,7 @@ def write_marker(stage: Stage, marker: Marker, generated_by: str) -> None:
         indent=1,
         sort_keys=True,
     )
-    tmp = stage.folder / f".{MARKER}.tmp"
-    tmp.write_text(text + "\n", encoding="utf-8")
-    os.replace(tmp, stage.folder / MARKER)
+    write_atomic(stage.folder / MARKER, text + "\n")
 
 
 _OBJECTS = (".o", ".obj")

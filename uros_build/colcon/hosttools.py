@@ -20,6 +20,7 @@ from uros_build import console
 from uros_build.colcon import command as colcon
 from uros_build.colcon import fingerprint, relocate
 from uros_build.errors import MissingToolError, StepFailed, UrosError
+from uros_build.files import write_atomic
 from uros_build.proc import Runner
 from uros_build.sources import distros as distros_mod
 from uros_build.sources import packages as packages_mod
@@ -70,10 +71,7 @@ class ProbeCache:
                 self._data = {}
         if key not in self._data:
             self._data[key] = compute()
-            self.path.parent.mkdir(parents=True, exist_ok=True)
-            tmp = self.path.with_name(f"{self.path.name}.tmp-{os.getpid()}")
-            tmp.write_text(json.dumps(self._data, indent=1, sort_keys=True) + "\n", encoding="utf-8")
-            tmp.replace(self.path)
+            write_atomic(self.path, json.dumps(self._data, indent=1, sort_keys=True) + "\n")
         return self._data[key]
 
 

@@ -8,10 +8,11 @@ from pathlib import Path
 from uros_build import console
 from uros_build.config.settings import resolve_workspace
 from uros_build.errors import ConfigError, StepFailed
+from uros_build.files import write_if_changed
 from uros_build.proc import Runner
 from uros_build.sources import packages as packages_mod
 from uros_build.sources.workspace import Workspace, check_extra_package, sync_tree
-from uros_build.sources.wsfiles import CONFIG, with_extra_package, write_if_changed
+from uros_build.sources.wsfiles import CONFIG, with_extra_package
 
 
 def _is_url(source: str) -> bool:

@@ -19,7 +19,7 @@ from uros_build.errors import (
     Interrupted,
     UrosError,
 )
-from uros_build.sources.workspace import locked
+from uros_build.files import locked
 from uros_build.steps import colcon_run, deliver, inputs, prepare, start, team_cache
 
 

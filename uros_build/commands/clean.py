@@ -15,9 +15,9 @@ from uros_build import console
 from uros_build.config.plan import folder_key, named_keys
 from uros_build.config.settings import resolve_workspace
 from uros_build.errors import ConfigError, did_you_mean
+from uros_build.files import locked, remove_tree
 from uros_build.output import folders as outputs
-from uros_build.output import swap
-from uros_build.sources.workspace import Workspace, locked, tree_bytes
+from uros_build.sources.workspace import Workspace, tree_bytes
 
 
 def human(n: int) -> str:
@@ -77,7 +77,7 @@ def _clean_host_stages(ws: Workspace) -> int:
             continue
         size = tree_bytes(stage)
         with locked(stage, "the host stage"):  # never under a build that is taking from it
-            why = swap.remove_tree(stage)
+            why = remove_tree(stage)
         shutil.rmtree(stage, ignore_errors=True)  # the lock file locked() leaves
         if why is not None:
             console.warn(f"could not remove all of {stage}: {why}")
@@ -108,7 +108,7 @@ def clean(
         sizes = [tree_bytes(path) if path.exists() else 0 for path in paths]
         with locked(tree, key):  # never under a running build of the same target
             for path, size in zip(paths, sizes, strict=True):
-                why = swap.remove_tree(path)
+                why = remove_tree(path)
                 if why is not None:
                     console.warn(f"could not remove all of {path}: {why}")
                     continue
@@ -129,7 +129,7 @@ def clean(
         # ~/.cache/uros/gen, not the workspace's to drop)
         gen = ws.state_dir / "gen-cache"
         size = tree_bytes(gen) if gen.exists() else 0
-        if size and swap.remove_tree(gen) is None:
+        if size and remove_tree(gen) is None:
             freed += size
             console.info(f"removed {gen} ({human(size)})")
     console.step(f"freed {human(freed)} ({freed:,} bytes) in {ws.root}")

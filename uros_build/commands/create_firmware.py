@@ -20,7 +20,7 @@ from uros_build.sources import clones
 from uros_build.sources import meta as meta_mod
 from uros_build.sources.distros import Source
 from uros_build.sources.workspace import PENDING, USER_META, Workspace, sync_tree
-from uros_build.sources.wsfiles import CONFIG, EXTRA, LOCK, Lock, WorkspaceConfig, save_config
+from uros_build.sources.wsfiles import CONFIG, DEV_WS, LOCK, MCU_WS, Lock, WorkspaceConfig, save_config
 
 
 def _clone_all(
@@ -34,12 +34,8 @@ def _clone_all(
             for argv in clones.clone_argv(git, source, dest):
                 runner.run(argv, step=f"clone {path}", quiet=True, label=label)
         except StepFailed as exc:
-            git_error = exc.message.split(": ", 1)[-1]
-            raise StepFailed(
-                f"cloning {path} from {source.url} at {source.version!r} failed: {git_error}",
-                f"check that the source has {source.version!r}, or override it: "
-                f"--mirror-override {source.repo.path}=URL@VERSION (log: {runner.log_path})",
-            ) from exc
+            fix = f"override it: --mirror-override {source.repo.path}=URL@VERSION (log: {runner.log_path})"
+            raise clones.source_failed("cloning", path, source, exc, fix) from exc
         head = runner.query([git, "-C", str(dest), "rev-parse", "HEAD"], step=f"read {path}")
         return path, head.strip()
 
@@ -67,7 +63,9 @@ def _precheck(runner: Runner, plan: CreatePlan) -> str:
     runner.which("cmake")
     if plan.probe is not None:
         tools, _ = hosttools.probe_target_tools(runner, plan.probe)
-        hosttools.check_target_prerequisites(runner, plan.probe, tools, plan.root / ".uros" / "probe")
+        hosttools.check_target_prerequisites(
+            runner, plan.probe, tools, Workspace(plan.root).state_dir / "probe"
+        )
     return git
 
 
@@ -77,7 +75,7 @@ def create_firmware(args: CreateArgs) -> Path:
     root.mkdir(parents=True, exist_ok=True)
     # A new folder is removed whole when a step fails, so its log must live elsewhere for the
     # error's hint to name a file that exists.
-    logs = root / ".uros" / "log" if plan.existed else user_log_dir()
+    logs = Workspace(root).log_dir if plan.existed else user_log_dir()
     runner = Runner(new_run_log(logs, "create-firmware"), verbose=args.verbose)
     console.step(f"uros create-firmware {args.platform}: micro-ROS {distro.name} in {root}")
     console.info(f"log: {runner.log_path}")
@@ -105,14 +103,14 @@ def create_firmware(args: CreateArgs) -> Path:
     try:
         commits = _clone_all(runner, git, root, plan.sources, args.jobs)
         (root / LOCK).write_text(Lock.from_clones(distro.name, plan.sources, commits).to_json(), "utf-8")
-        for ws, ignored in (("mcu_ws", distro.colcon_ignore), ("dev_ws", distro.dev_colcon_ignore)):
+        for ws, ignored in ((MCU_WS, distro.colcon_ignore), (DEV_WS, distro.dev_colcon_ignore)):
             for missing in clones.mark_ignored(root, ws, ignored):
                 console.warn(f"{missing} is not in the workspace; nothing to ignore there")
         extras = list(plan.existing.extra_packages) if plan.existing else []
         for path, name in plan.extra_packages:
             if str(path.resolve()) not in extras:
                 extras.append(str(path.resolve()))
-            sync_tree(path, root / "mcu_ws" / EXTRA / name)
+            sync_tree(path, Workspace(root).extra_dir / name)
         # --force keeps what the user added to uros.yaml (target, set, ...); --toolchain becomes the
         # target `uros build` builds by default, unless the file names one already
         cfg = replace(

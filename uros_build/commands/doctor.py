@@ -373,9 +373,7 @@ def probe_workspace(runner: Runner, ws: Workspace) -> list[Check]:
     if lock is not None:
         heads = {p: _head(runner, ws.root / p) for p in lock.repositories}
         checks.append(eval_lock(lock, heads))
-        same = ws.dev_built() and (ws.dev_install / ".uros-dev-built").read_text(encoding="utf-8") == (
-            lock_path.read_text(encoding="utf-8")
-        )
+        same = ws.dev_built() and ws.dev_built_from() == lock_path.read_text(encoding="utf-8")
         checks.append(eval_dev_ws(ws.dev_built(), same, ws.dev_dir.is_dir()))
     for key in outputs.target_keys(ws):
         built = (ws.default_output(key) / BUILD_INFO).is_file()

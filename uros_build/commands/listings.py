@@ -11,13 +11,13 @@ from uros_build import console, defaults, loader
 from uros_build.config.plan import meta_for, resolve_target
 from uros_build.config.settings import resolve_workspace
 from uros_build.errors import ConfigError
+from uros_build.files import write_if_changed
 from uros_build.output import contents
 from uros_build.sources import distros as distros_mod
 from uros_build.sources import meta as meta_mod
 from uros_build.sources import options as options_mod
 from uros_build.sources import packages as packages_mod
-from uros_build.sources.workspace import check_file_target
-from uros_build.sources.wsfiles import write_if_changed
+from uros_build.sources.workspace import Workspace, check_file_target
 from uros_build.target.profiles import OR_PROFILE_FILE, find_profile, load_profile_file, shipped_profiles
 from uros_build.target.toolchain import (
     CLOCK_HEADER_NAME,
@@ -165,8 +165,7 @@ def package_names(workspace: Path | None) -> list[str]:
     """The packages of the workspace (-w, else the default one), for --packages-up-to and --set."""
     try:
         root = resolve_workspace(workspace)
-        source = root / "mcu_ws" if (root / "mcu_ws").is_dir() else root
-        return [p.name for p in packages_mod.discover(source)] if root.is_dir() else []
+        return [p.name for p in packages_mod.discover(Workspace(root).source_dir)] if root.is_dir() else []
     except Exception:
         return []
 

@@ -18,8 +18,6 @@ from uros_build.output.sizes import Sizes
 from uros_build.proc import Runner, new_run_log, user_log_dir
 from uros_build.sources.workspace import Workspace, workspace_of_output
 
-LIBRARY = "libmicroros.a"
-
 
 def size_tool(info: BuildInfo | None) -> str:
     """The target's ``size`` beside the compiler that built the library (host ``size`` reads only

@@ -14,10 +14,11 @@ from dataclasses import dataclass
 from uros_build import console
 from uros_build.config.sourceplan import UpdateArgs, UpdatePlan, plan_update
 from uros_build.errors import ConfigError, StepFailed, UrosError
+from uros_build.files import write_if_changed
 from uros_build.proc import Runner, new_run_log
 from uros_build.sources import clones, distros
-from uros_build.sources.distros import Source
-from uros_build.sources.wsfiles import CONFIG, LOCK, Lock, LockedRepo, with_distro, write_if_changed
+from uros_build.sources.workspace import Workspace
+from uros_build.sources.wsfiles import CONFIG, DEV_WS, LOCK, MCU_WS, Lock, LockedRepo, with_distro
 
 
 @dataclass(frozen=True)
@@ -41,15 +42,6 @@ def describe(move: Move) -> str:
     return f"{move.path}: {move.old[:12]} -> {move.new[:12]} ({counts} commits)"
 
 
-def _fail(path: str, source: Source, exc: StepFailed, log: object) -> StepFailed:
-    git_error = exc.message.split(": ", 1)[-1]
-    return StepFailed(
-        f"fetching {path} from {source.url} at {source.version!r} failed: {git_error}",
-        f"check that the source has {source.version!r}, or point this repository elsewhere with a "
-        f"mirror override in {CONFIG} (nothing was changed; log: {log})",
-    )
-
-
 def _fetch_all(runner: Runner, git: str, plan: UpdatePlan) -> dict[str, str]:
     """path -> the commit its branch is at now, for every clone kept; moves nothing."""
 
@@ -60,7 +52,11 @@ def _fetch_all(runner: Runner, git: str, plan: UpdatePlan) -> dict[str, str]:
             runner.run(clones.fetch_argv(git, source, dest), step=f"fetch {path}", quiet=True, label=label)
             commit = runner.query(clones.fetched_commit_argv(git, source, dest), step=f"read {path}").strip()
         except StepFailed as exc:
-            raise _fail(path, source, exc, runner.log_path) from exc
+            fix = (
+                f"point this repository elsewhere with a mirror override in {CONFIG} "
+                f"(nothing was changed; log: {runner.log_path})"
+            )
+            raise clones.source_failed("fetching", path, source, exc, fix) from exc
         before = plan.args.before
         if before is not None and not source.is_commit:
             argv = clones.before_argv(git, dest, commit, before)
@@ -100,7 +96,7 @@ def _new_lock(plan: UpdatePlan, commits: Mapping[str, str]) -> Lock:
 def update(args: UpdateArgs) -> tuple[Move, ...]:
     plan = plan_update(args)
     root, old_lock = plan.root, plan.lock
-    runner = Runner(new_run_log(root / ".uros" / "log", "update"), verbose=args.verbose)
+    runner = Runner(new_run_log(Workspace(root).log_dir, "update"), verbose=args.verbose)
     switching = plan.distro.name != plan.config.distro
     target = f"micro-ROS {plan.distro.name}" + (f" (from {plan.config.distro})" if switching else "")
     when = f" committed before {args.before}" if args.before else ""
@@ -138,16 +134,16 @@ def update(args: UpdateArgs) -> tuple[Move, ...]:
     # uros's COLCON_IGNORE markers are untracked files: a commit that tracks one (micro-ROS/rcl's
     # rcl_yaml_param_parser/COLCON_IGNORE) cannot be checked out over it, so they go first
     old_mcu, old_dev = _distro_ignores(plan.config.distro)
-    clones.unmark_ignored(root, "mcu_ws", old_mcu)
-    clones.unmark_ignored(root, "dev_ws", old_dev)
+    clones.unmark_ignored(root, MCU_WS, old_mcu)
+    clones.unmark_ignored(root, DEV_WS, old_dev)
     try:
         _checkout_all(runner, git, plan, [m for m in moves if m.old is not None and m.new is not None])
     except (UrosError, KeyboardInterrupt):
-        clones.mark_ignored(root, "mcu_ws", old_mcu)
-        clones.mark_ignored(root, "dev_ws", old_dev)
+        clones.mark_ignored(root, MCU_WS, old_mcu)
+        clones.mark_ignored(root, DEV_WS, old_dev)
         raise
     clones.remove_clones(root, plan.removed)
-    for ws, ignored in (("mcu_ws", plan.distro.colcon_ignore), ("dev_ws", plan.distro.dev_colcon_ignore)):
+    for ws, ignored in ((MCU_WS, plan.distro.colcon_ignore), (DEV_WS, plan.distro.dev_colcon_ignore)):
         for missing in clones.mark_ignored(root, ws, ignored):
             console.warn(f"{missing} is not in the workspace; nothing to ignore there")
     write_if_changed(root / LOCK, _new_lock(plan, fetched).to_json("update"))
@@ -156,7 +152,7 @@ def update(args: UpdateArgs) -> tuple[Move, ...]:
         write_if_changed(
             config, with_distro(config.read_text(encoding="utf-8"), plan.distro.name, str(config))
         )
-    if any(m.path.startswith("dev_ws/") for m in moves):
+    if any(m.path.startswith(f"{DEV_WS}/") for m in moves):
         # the host tools were built from the old clones: the next build rebuilds them
         clones.drop_dev_trees(root)
     _report(plan, moves, dry_run=False)

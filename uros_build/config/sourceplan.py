@@ -20,7 +20,10 @@ from uros_build.sources.distros import Distro, Mirror, Source
 from uros_build.sources.workspace import PENDING, Workspace, check_build_folder, check_extra_package
 from uros_build.sources.wsfiles import (
     CONFIG,
+    DEV_WS,
     LOCK,
+    MCU_WS,
+    STATE,
     Lock,
     WorkspaceConfig,
     load_config,
@@ -72,7 +75,7 @@ class CreatePlan:
 def plan_sources(distro: Distro, mirror: Mirror, locked: Mapping[str, str] | None) -> dict[str, Source]:
     """Workspace path (dev_ws/..., mcu_ws/...) -> what to clone (pure)."""
     sources = {}
-    for ws, repos in (("dev_ws", distro.dev), ("mcu_ws", distro.mcu)):
+    for ws, repos in ((DEV_WS, distro.dev), (MCU_WS, distro.mcu)):
         for repo in repos:
             sources[f"{ws}/{repo.path}"] = distros_mod.resolve(repo, mirror, locked, prefix=f"{ws}/")
     return sources
@@ -117,7 +120,7 @@ def _existing(root: Path, force: bool) -> tuple[bool, WorkspaceConfig | None, Lo
         return False, None, None
     if not root.is_dir():
         raise ConfigError(f"--workspace {root}: is a file", "pass a new or empty folder")
-    if not any(p.name != ".uros" for p in root.iterdir()) and not (root / PENDING).is_file():
+    if not any(p.name != STATE for p in root.iterdir()) and not (root / PENDING).is_file():
         return True, None, None  # empty, or only uros's own .uros/ (logs of a run that cloned nothing)
     if not force and (root / PENDING).is_file() and not (root / CONFIG).is_file():
         raise ConfigError(
@@ -235,9 +238,7 @@ def _check_lock_covers(lock: Lock, distro: Distro, where: str) -> None:
             f"{where}: locks micro-ROS {lock.distro}, not {distro.name}",
             f"pass --distro {lock.distro}, or a lock written for {distro.name}",
         )
-    wanted = {
-        f"{ws}/{r.path}" for ws, repos in (("dev_ws", distro.dev), ("mcu_ws", distro.mcu)) for r in repos
-    }
+    wanted = {f"{ws}/{r.path}" for ws, repos in ((DEV_WS, distro.dev), (MCU_WS, distro.mcu)) for r in repos}
     missing = sorted(wanted - set(lock.repositories))
     if missing:
         raise ConfigError(

@@ -18,7 +18,6 @@ one ``ar xN`` per instance number) cost real Humble 119 processes, about 2 s of 
 
 from __future__ import annotations
 
-import os
 import re
 import shutil
 from collections import Counter
@@ -29,6 +28,7 @@ from typing import BinaryIO
 
 from uros_build.errors import VerifyError
 from uros_build.proc import Runner
+from uros_build.target import arfile
 from uros_build.target.toolsearch import BinTools
 
 
@@ -87,12 +87,6 @@ def _safe(name: str) -> str:
     return re.sub(r"[^A-Za-z0-9_.+-]", "_", name)
 
 
-_AR_MAGIC = b"!<arch>\n"
-_AR_HEADER = 60
-# Symbol tables: GNU/SysV "/" and "/SYM64/", BSD "__.SYMDEF[ SORTED]" and its 64-bit forms.
-_SYMBOL_TABLES = (b"/", b"/SYM64/")
-
-
 def parse_ar(stream: BinaryIO, source: str) -> tuple[str, ...]:
     """Member names of an ar archive in archive order, as ``ar t`` lists them (pure over the
     stream). Reading the table here saves one ``ar t`` process per archive."""
@@ -101,46 +95,17 @@ def parse_ar(stream: BinaryIO, source: str) -> tuple[str, ...]:
 
 def parse_ar_members(stream: BinaryIO, source: str) -> tuple[tuple[str, bytes], ...]:
     """Each member of an ar archive in archive order: its name, as ``ar t`` lists it, and its
-    content, the bytes ``ar x`` writes (pure over the stream). GNU/SysV names (``name/``, long names
-    as ``/offset`` into the ``//`` table) and BSD names (``#1/length`` before the data, which is
-    not part of the content), symbol tables left out
-    (https://en.wikipedia.org/wiki/Ar_(Unix)#File_format_details)."""
-    if stream.read(len(_AR_MAGIC)) != _AR_MAGIC:
-        raise VerifyError(
-            f"{source}: not an ar archive (thin archives are not supported)",
-            "the package installed something that is not a static library under lib/",
-        )
-    members: list[tuple[str, bytes]] = []
-    long_names = b""
-    while True:
-        header = stream.read(_AR_HEADER)
-        if not header.strip(b"\n"):
-            return tuple(members)
-        size_text = header[48:58].strip()
-        if len(header) < _AR_HEADER or header[58:60] != b"`\n" or not size_text.isdigit():
-            raise VerifyError(f"{source}: a damaged ar archive", "rebuild it: uros build --rebuild")
-        size = int(size_text)
-        raw = header[:16].rstrip(b" ")
-        body = stream.read(size + (size & 1))
-        if len(body) < size:
-            raise VerifyError(f"{source}: a cut ar archive", "rebuild it: uros build --rebuild")
-        data = body[:size]
-        if raw == b"//":
-            long_names = data
-        elif raw in _SYMBOL_TABLES or raw.startswith(b"__.SYMDEF"):
-            continue
-        elif raw.startswith(b"#1/") and raw[3:].isdigit():
-            length = int(raw[3:])
-            name = data[:length].rstrip(b"\0")
-            if not name.startswith(b"__.SYMDEF"):
-                members.append((os.fsdecode(name), data[length:]))
-        elif raw.startswith(b"/") and raw[1:].isdigit():
-            start = int(raw[1:])
-            end = long_names.find(b"\n", start)
-            entry = long_names[start : end if end >= 0 else len(long_names)]
-            members.append((os.fsdecode(entry.removesuffix(b"/")), data))
-        else:
-            members.append((os.fsdecode(raw.removesuffix(b"/")), data))
+    content, the bytes ``ar x`` writes (pure over the stream; the format: target/arfile.py)."""
+    try:
+        return arfile.members(*arfile.stream_reader(stream))
+    except arfile.ArFormatError as exc:
+        if exc.kind == "not ar":
+            raise VerifyError(
+                f"{source}: not an ar archive (thin archives are not supported)",
+                "the package installed something that is not a static library under lib/",
+            ) from None
+        what = "a cut" if exc.kind == "cut" else "a damaged"
+        raise VerifyError(f"{source}: {what} ar archive", "rebuild it: uros build --rebuild") from None
 
 
 def read_members(archive: Path) -> tuple[str, ...]:

@@ -25,6 +25,7 @@ from uros_build.defaults import BUILD_INFO
 from uros_build.errors import ConfigError
 from uros_build.output.buildinfo import parse_build_info
 from uros_build.sources.workspace import Workspace, nearest_existing
+from uros_build.sources.wsfiles import CONFIG, DEV_WS, LOCK, MCU_WS, STATE
 
 MARKER = ".uros-output"
 JOURNAL = ".uros-swap"  # a swap of the entries inside an output folder (swap.py)
@@ -42,7 +43,7 @@ _LEGACY_NAMES = (
 )
 _OWN_NAMES = frozenset([*_LEGACY_NAMES, MARKER])
 # What an output folder must never be, or hold, even with --force: a workspace or its sources.
-_WORKSPACE_SIGNS = ("uros.yaml", "uros.lock", ".uros", "mcu_ws", "dev_ws", "package.xml", "COLCON_IGNORE")
+_WORKSPACE_SIGNS = (CONFIG, LOCK, STATE, MCU_WS, DEV_WS, "package.xml", "COLCON_IGNORE")
 _SEARCH_DEPTH = 3
 _SEARCH_LIMIT = 20000
 
@@ -209,7 +210,7 @@ def check_output_dir(
         ws = workspace.resolve()
         if ws == out or ws.is_relative_to(out):
             raise ConfigError(f"{flag} {out}: is the workspace {ws} or holds it", fix)
-        for part in (".uros", "mcu_ws", "dev_ws"):
+        for part in (STATE, MCU_WS, DEV_WS):
             if out.is_relative_to(ws / part):
                 raise ConfigError(f"{flag} {out}: is inside the workspace's {part}/", fix)
         for parent in out.parents:
@@ -283,7 +284,7 @@ def is_uros_output(folder: Path) -> bool:
 def target_keys(ws: Workspace) -> list[str]:
     """The targets uros has trees or outputs of in ``ws`` (.uros/targets/<key>, build/<key>)."""
     keys = set(ws.tree_keys())
-    outputs = ws.root / "build"
+    outputs = ws.outputs_dir
     if outputs.is_dir():
         # not the hidden folders of a swap beside an output (.cortex-m7.old-PID): never a target's
         keys |= {p.name for p in outputs.iterdir() if not p.name.startswith(".") and is_uros_output(p)}

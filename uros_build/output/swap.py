@@ -15,15 +15,14 @@ import json
 import os
 import re
 import shutil
-import stat
-import sys
-from collections.abc import Callable, Collection
+from collections.abc import Collection
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from uros_build import __version__, console, proc
 from uros_build.errors import StepFailed, interrupted
+from uros_build.files import leftover_temps, pid_alive, remove_tree, write_atomic
 from uros_build.output.folders import (
     JOURNAL,
     TEMP_INSIDE,
@@ -116,52 +115,12 @@ def recovery_actions(journal: Journal, exists: Collection[str]) -> tuple[str, li
 # the swap
 
 
-def pid_alive(pid: int) -> bool:
-    if pid == os.getpid():
-        return True
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True  # someone else's process
-    return True
-
-
 def _write_journal(path: Path, journal: Journal) -> None:
-    tmp = path.with_name(path.name + ".tmp")
-    with tmp.open("w", encoding="utf-8") as handle:
-        handle.write(journal.to_json())
-        handle.flush()
-        os.fsync(handle.fileno())
-    tmp.replace(path)
+    write_atomic(path, journal.to_json(), sync=True)
 
 
 def _exists(path: Path) -> bool:
     return path.exists() or path.is_symlink()
-
-
-def remove_tree(path: Path) -> str | None:
-    """Remove a file or folder uros wrote, making read-only folders in it writable first (an
-    output copied from a read-only store); the reason when some of it could not be removed."""
-
-    def retry(func: Callable[..., Any], name: str, _exc: BaseException) -> None:
-        parent = Path(name).parent
-        with contextlib.suppress(OSError):
-            parent.chmod(parent.stat().st_mode | stat.S_IWUSR | stat.S_IXUSR)
-        func(name)
-
-    try:
-        if path.is_dir() and not path.is_symlink():
-            if sys.version_info >= (3, 12):
-                shutil.rmtree(path, onexc=retry)
-            else:
-                shutil.rmtree(path, onerror=lambda func, name, info: retry(func, name, info[1]))
-        elif _exists(path):
-            path.unlink()
-    except OSError as exc:
-        return f"{exc.filename or path} ({exc.strerror or exc})"
-    return None
 
 
 def _apply(folder: Path, actions: list[Action]) -> list[str]:
@@ -310,8 +269,9 @@ def finish_swaps(out: Path, tidy: bool = True) -> list[str]:
             journal = _journal_at(path)
             if journal is None:
                 if tidy and path == journal_path:  # killed while writing it: nothing to undo
-                    with contextlib.suppress(OSError):
-                        path.with_name(path.name + ".tmp").unlink(missing_ok=True)
+                    for tmp in leftover_temps(journal_path):
+                        with contextlib.suppress(OSError):
+                            os.unlink(tmp)
                 continue
             claimer = claims.match(path.name)
             if pid_alive(journal.pid) or (claimer and pid_alive(int(claimer.group(1)))):

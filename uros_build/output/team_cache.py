@@ -39,6 +39,7 @@ if TYPE_CHECKING:
     from _typeshed import WriteableBuffer
 
 from uros_build.errors import ConfigError
+from uros_build.files import write_atomic
 
 FORMAT = 2  # 2: the manifest names every file with its size and sha256 (1: the tarball's only)
 TOKEN_VARIABLE = "UROS_CACHE_TOKEN"
@@ -485,13 +486,9 @@ class FileStore:
     def put(self, name: str, data: bytes) -> None:
         # written beside and renamed: a reader never sees half a file, two writers never mix
         path = self.folder / name
-        tmp = path.with_name(f".{name}.tmp-{os.getpid()}")
         try:
-            self.folder.mkdir(parents=True, exist_ok=True)
-            tmp.write_bytes(data)
-            tmp.replace(path)
+            write_atomic(path, data)
         except OSError as exc:
-            tmp.unlink(missing_ok=True)
             raise CacheUnusable(f"{path}: {_reason(exc)}") from None
 
 

@@ -30,6 +30,7 @@ import hashlib
 import os
 import sys
 
+from uros_build.files import write_atomic
 from uros_build.shim import gencache
 
 TYPE_CHECKING = False
@@ -39,7 +40,6 @@ if TYPE_CHECKING:
     from uros_build.shim.gencache import StrPath
 
 FORMAT = 3  # 3: keys and manifests without JSON, the adapter's .msg files in the manifest
-ADAPTER_FLAGS = {"--package-name", "--arguments-file", "--output-dir", "--output-file"}
 OUT = "<out>"  # the scratch folder of a miss, in a kept output
 
 
@@ -286,8 +286,8 @@ def run(argv: Sequence[str], cache_dir: StrPath, target_dir: StrPath, workspace:
         if any("\n" in p for p in listing):
             raise ValueError("a path with a line break")
         entry = os.path.join(cache_dir, first[:2], f"{_second_key(first, code, top, ws)}.entry")
-        gencache.store(entry, gencache.pack(files))
-        gencache.store(manifest, "\n".join(listing).encode())
+        write_atomic(entry, gencache.pack(files))
+        write_atomic(manifest, "\n".join(listing).encode())
     except (OSError, ValueError):
         pass  # not kept: the next configure asks again
     _restore(files, call, ws)

@@ -37,6 +37,8 @@ import hashlib
 import os
 import sys
 
+from uros_build.files import write_atomic, write_if_changed
+
 TYPE_CHECKING = False
 if TYPE_CHECKING:
     from collections.abc import Callable, Iterable, Mapping, Sequence
@@ -249,37 +251,13 @@ def write_changed(files: Mapping[str, bytes], output_dir: StrPath) -> int:
     the generators do). Returns how many were written."""
     written = 0
     for name, data in sorted(files.items()):
-        path = os.path.join(output_dir, name)
-        try:
-            with open(path, "rb") as f:
-                if f.read() == data:
-                    continue
-        except OSError:
-            pass
-        folder, base = os.path.split(path)
-        os.makedirs(folder, exist_ok=True)
-        tmp = os.path.join(folder, f".{base}.uros-{os.getpid()}")
-        with open(tmp, "wb") as f:
-            f.write(data)
-        os.replace(tmp, path)
-        written += 1
+        written += write_if_changed(os.path.join(output_dir, name), data)
     return written
 
 
 def _package_tree(folder: StrPath) -> str:
     """The content of a Python package's .py files."""
     return hashlib.sha256(_tree_digest(os.fspath(folder))).hexdigest()
-
-
-def store(path: StrPath, data: bytes) -> None:
-    """Write a cache file whole or not at all (a part file renamed into place: a reader sees the old
-    file, none, or the new one). OSError when it cannot be written."""
-    folder, base = os.path.split(os.fspath(path))
-    os.makedirs(folder, exist_ok=True)
-    part = os.path.join(folder, f".{base}.{os.getpid()}")
-    with open(part, "wb") as f:
-        f.write(data)
-    os.replace(part, path)
 
 
 def _parse_memo(parse: Callable[..., Any], memo_dir: StrPath, salt: str) -> Callable[..., Any]:
@@ -302,7 +280,7 @@ def _parse_memo(parse: Callable[..., Any], memo_dir: StrPath, salt: str) -> Call
             pass
         content = parse(idl_string)
         with contextlib.suppress(OSError, pickle.PicklingError):
-            store(path, pickle.dumps(content, protocol=pickle.HIGHEST_PROTOCOL))
+            write_atomic(path, pickle.dumps(content, protocol=pickle.HIGHEST_PROTOCOL))
         return content
 
     return memo
@@ -440,7 +418,7 @@ def generate(
         if any("\n" in line for line in listing):
             raise ValueError("a path with a line break")
         entry = os.path.join(os.path.dirname(index), f"{second_key(first, named, top, ws)}.entry")
-        store(entry, pack(files))
-        store(index, "\n".join(listing).encode())
+        write_atomic(entry, pack(files))
+        write_atomic(index, "\n".join(listing).encode())
     write_changed(files, output_dir)
     return "miss"

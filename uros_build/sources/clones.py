@@ -5,19 +5,68 @@ through the one runner (proc.py), and argv is built by pure functions that unit 
 
 from __future__ import annotations
 
+import re
 import shutil
 from collections.abc import Iterable
+from dataclasses import dataclass
 from pathlib import Path
 
-from uros_build.errors import ConfigError
+from uros_build.errors import ConfigError, StepFailed
 from uros_build.proc import Runner
 from uros_build.sources.distros import Source
-from uros_build.sources.wsfiles import LOCK, Lock, clone_state
+from uros_build.sources.wsfiles import DEV_WS, LOCK, MCU_WS, Lock, clone_state
 
 # git's own advice ("You are in 'detached HEAD' state...") is noise for clones uros pins
 _QUIET = ("-c", "advice.detachedHead=false")
 # where `update` keeps what it fetched for a pinned commit: its own namespace, never the user's refs
 UPDATE_REFS = "refs/uros-update"
+
+
+# What git says (the runner runs tools with their messages in English, LC_MESSAGES=C) when the source
+# has no such branch, tag or commit, and when the source cannot be reached at all.
+_NO_VERSION = re.compile(
+    r"Remote branch .* not found|couldn't find remote ref|did not match any file|unknown revision"
+    r"|reference is not a tree|not our ref|Needed a single revision"
+)
+_UNREACHABLE = re.compile(
+    r"Could not resolve host|Repository not found|does not appear to be a git repository"
+    r"|unable to access|Connection refused|Could not read from remote repository"
+)
+
+
+@dataclass(frozen=True)
+class GitFailure:
+    """Why a git command failed, decided here once (pure), so that no command reads message text:
+    ``kind`` is "version" (the source has no such branch, tag or commit), "unreachable" (the source
+    cannot be reached) or "other"; ``detail`` is git's own error line."""
+
+    kind: str
+    code: int | None
+    detail: str
+
+
+def git_failure(exc: StepFailed) -> GitFailure:
+    said = "\n".join([exc.cause, *exc.output])
+    kind = "version" if _NO_VERSION.search(said) else "unreachable" if _UNREACHABLE.search(said) else "other"
+    return GitFailure(kind, exc.code, exc.cause or exc.message)
+
+
+def source_failed(action: str, path: str, source: Source, exc: StepFailed, fix: str) -> StepFailed:
+    """The one error for a clone or fetch of ``source`` that git refused (``action``: "cloning",
+    "fetching"); ``fix``: what else the user can do."""
+    failure = git_failure(exc)
+    check = (
+        f"check that {source.url} can be reached"
+        if failure.kind == "unreachable"
+        else f"check that the source has {source.version!r}"
+    )
+    return StepFailed(
+        f"{action} {path} from {source.url} at {source.version!r} failed: {failure.detail}",
+        f"{check}, or {fix}",
+        output=exc.output,
+        code=failure.code,
+        cause=failure.detail,
+    )
 
 
 def clone_argv(git: str, source: Source, dest: Path) -> list[list[str]]:
@@ -133,7 +182,7 @@ def built_from(
 def remove_clones(root: Path, paths: Iterable[str]) -> None:
     """Remove these clones (and the folders they leave empty): all of it written by uros.
     Everything else in the workspace stays."""
-    stops = {root / "dev_ws", root / "mcu_ws", root}
+    stops = {root / DEV_WS, root / MCU_WS, root}
     for path in sorted(paths, reverse=True):
         folder = root / path
         shutil.rmtree(folder, ignore_errors=True)
@@ -177,4 +226,4 @@ def unmark_ignored(root: Path, ws: str, paths: Iterable[str]) -> None:
 def drop_dev_trees(root: Path) -> None:
     """dev_ws's colcon trees (uros's): the host tools are rebuilt from the clones at the next build."""
     for tree in ("build", "install", "log"):
-        shutil.rmtree(root / "dev_ws" / tree, ignore_errors=True)
+        shutil.rmtree(root / DEV_WS / tree, ignore_errors=True)

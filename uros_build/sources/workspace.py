@@ -22,21 +22,27 @@ import os
 import re
 import shutil
 import xml.etree.ElementTree as ET
-from collections.abc import Iterator, Mapping
-from contextlib import contextmanager
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
-import filelock
-
 from uros_build import console, proc
 from uros_build.errors import ConfigError
-from uros_build.sources.wsfiles import CONFIG, EXTRA, LOCK, WorkspaceConfig, load_config
+from uros_build.sources.wsfiles import (
+    CONFIG,
+    DEV_WS,
+    EXTRA,
+    LOCK,
+    MCU_WS,
+    STATE,
+    WorkspaceConfig,
+    load_config,
+)
 
 USER_META = "colcon.meta"
 # written by create-firmware before it clones (a lock without commits), removed when it is done: a
 # folder a killed create-firmware left is recognised, and --force finishes it
-PENDING = ".uros/create-firmware.pending"
+PENDING = f"{STATE}/create-firmware.pending"
 DEV_MARKER = ".uros-dev-built"  # in dev_ws/install: the lock the dev workspace was built from
 _IGNORE_NOTE = "uros: colcon must not look for packages here\n"
 
@@ -158,17 +164,20 @@ class Workspace:
     # -- layout --------------------------------------------------------------------------------
 
     @property
+    def mcu_dir(self) -> Path:
+        return self.root / MCU_WS
+
+    @property
     def source_dir(self) -> Path:
-        mcu = self.root / "mcu_ws"
-        return mcu if mcu.is_dir() else self.root
+        return self.mcu_dir if self.mcu_dir.is_dir() else self.root
 
     @property
     def extra_dir(self) -> Path:
-        return self.root / "mcu_ws" / EXTRA
+        return self.mcu_dir / EXTRA
 
     @property
     def state_dir(self) -> Path:
-        return self.root / ".uros"
+        return self.root / STATE
 
     @property
     def log_dir(self) -> Path:
@@ -183,25 +192,41 @@ class Workspace:
         return self.root / LOCK
 
     @property
+    def pending(self) -> Path:
+        return self.root / PENDING
+
+    @property
     def dev_dir(self) -> Path:
-        return self.root / "dev_ws"
+        return self.root / DEV_WS
 
     @property
     def dev_install(self) -> Path:
         return self.dev_dir / "install"
 
+    @property
+    def dev_marker(self) -> Path:
+        return self.dev_install / DEV_MARKER
+
     def dev_built(self) -> bool:
-        return (self.dev_install / DEV_MARKER).is_file()
+        return self.dev_marker.is_file()
+
+    def dev_built_from(self) -> str:
+        """The uros.lock text dev_ws was built from ("" when it is not built)."""
+        return self.dev_marker.read_text(encoding="utf-8") if self.dev_marker.is_file() else ""
 
     def mark_dev_built(self) -> None:
         lock = self.lock_path.read_text(encoding="utf-8") if self.lock_path.is_file() else ""
-        (self.dev_install / DEV_MARKER).write_text(lock, encoding="utf-8")
+        self.dev_marker.write_text(lock, encoding="utf-8")
 
     def target_dir(self, key: str) -> Path:
         return _target_folder(self.state_dir / "targets", key)
 
+    @property
+    def outputs_dir(self) -> Path:
+        return self.root / "build"
+
     def default_output(self, key: str) -> Path:
-        return _target_folder(self.root / "build", key)
+        return _target_folder(self.outputs_dir, key)
 
     def tree_keys(self) -> list[str]:
         """The targets uros has trees of here (.uros/targets/<key>); outputs.target_keys adds
@@ -226,7 +251,7 @@ class Workspace:
 
     def mark_ignored(self) -> None:
         """Keep colcon from finding installed package.xml files in uros's own folders."""
-        for folder in (self.state_dir, self.root / "build"):
+        for folder in (self.state_dir, self.outputs_dir):
             folder.mkdir(parents=True, exist_ok=True)
             marker = folder / "COLCON_IGNORE"
             if not marker.exists():
@@ -294,43 +319,6 @@ def _target_folder(base: Path, key: str) -> Path:
     if not _KEY.fullmatch(key) or path.parent != base:
         raise ConfigError(f"{key!r} cannot name a target folder", "name targets with letters, digits, '.-_'")
     return path
-
-
-def lock_holder(text: str) -> int | None:
-    """The process id a target's lock file names (pure)."""
-    first = text.split("\n", 1)[0].strip()
-    return int(first) if first.isdigit() else None
-
-
-@contextmanager
-def locked(folder: Path, target: str) -> Iterator[None]:
-    """One build per target tree at a time: a second `uros build` waits, then reuses the trees.
-    filelock takes an OS lock on <folder>/.lock (flock on POSIX, msvcrt on Windows), which the
-    OS releases when the process ends, however it ends. The holder writes its process id beside
-    it (filelock truncates the lock file itself), so that a waiting build can say whom it waits for."""
-    folder.mkdir(parents=True, exist_ok=True)
-    if (folder / ".lock").is_dir() and not (folder / ".lock").is_symlink():
-        raise ConfigError(
-            f"{folder / '.lock'}: is a folder, where uros keeps the lock file of {target}",
-            "move it away (uros does not remove what it did not write), then run the command again",
-        )
-    lock = filelock.FileLock(str(folder / ".lock"))
-    owner = folder / ".lock.owner"
-    try:
-        lock.acquire(timeout=0)
-    except filelock.Timeout:
-        try:
-            holder = lock_holder(owner.read_text(encoding="utf-8"))
-        except OSError:
-            holder = None
-        who = f" (pid {holder})" if holder else ""
-        console.info(f"waiting for another uros build of {target}{who} to finish (lock: {folder / '.lock'})")
-        lock.acquire()
-    try:
-        owner.write_text(f"{os.getpid()}\n", encoding="utf-8")
-        yield
-    finally:
-        lock.release()
 
 
 def workspace_of_output(out: Path, key: str) -> Workspace | None:

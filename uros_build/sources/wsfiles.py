@@ -17,6 +17,7 @@ import yaml
 
 from uros_build import __version__, defaults, loader
 from uros_build.errors import ConfigError, did_you_mean
+from uros_build.files import write_if_changed
 from uros_build.sources import distros as distros_mod
 from uros_build.sources.distros import Mirror, Source
 from uros_build.sources.meta import split_set
@@ -25,6 +26,10 @@ from uros_build.target.profiles import TRANSPORTS
 CONFIG = defaults.WORKSPACE_MARKER  # "uros.yaml"
 LOCK = "uros.lock"
 EXTRA = "extra_packages"  # mcu_ws/extra_packages: the user's packages, synced at every build
+# The workspace's folders (sources/workspace.py draws them; Workspace gives their paths)
+MCU_WS = "mcu_ws"  # the sources colcon builds for the MCU
+DEV_WS = "dev_ws"  # the host tools' workspace
+STATE = ".uros"  # uros's own: colcon's trees per target, logs, caches
 
 
 # ---------------------------------------------------------------------------------------------
@@ -246,9 +251,9 @@ def check_clone_path(path: str, where: str) -> str:
     parts = path.split("/")
     if (
         len(parts) < 2
-        or parts[0] not in ("dev_ws", "mcu_ws")
+        or parts[0] not in (DEV_WS, MCU_WS)
         or any(p in ("", ".", "..") for p in parts)
-        or parts[:2] == ["mcu_ws", EXTRA]
+        or parts[:2] == [MCU_WS, EXTRA]
         or "\\" in path
     ):
         raise ConfigError(
@@ -303,14 +308,3 @@ def clone_state(status: str) -> tuple[str, int]:
         elif line and not line.startswith("#"):
             changed += 1
     return head, changed
-
-
-def write_if_changed(path: Path, text: str) -> bool:
-    """Write only when the content differs, so CMake sees no change and rebuilds nothing."""
-    if path.is_file() and path.read_text(encoding="utf-8") == text:
-        return False
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(text, encoding="utf-8")
-    tmp.replace(path)
-    return True

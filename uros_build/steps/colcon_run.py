@@ -23,9 +23,9 @@ from uros_build.errors import (
     StepFailed,
     VerifyError,
 )
+from uros_build.files import write_if_changed
 from uros_build.proc import Runner, disk_full_line, disk_full_path, first_error
 from uros_build.shim import pyshim
-from uros_build.sources.wsfiles import write_if_changed
 from uros_build.steps.colcon_setup import CCACHE_STATS, ColconSetup, building_names
 from uros_build.steps.inputs import Inputs, flags_fingerprint, ready_host_stage
 from uros_build.steps.prepare import DISK_FULL_MARK, drop_removed_packages

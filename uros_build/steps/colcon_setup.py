@@ -19,10 +19,10 @@ from uros_build.colcon import hoststage, hosttools
 from uros_build.colcon.hosttools import HostFacts
 from uros_build.config.plan import BuildPlan, ProfileTarget
 from uros_build.errors import DiskFull, StepFailed
+from uros_build.files import write_if_changed
 from uros_build.proc import Runner
 from uros_build.shim import gencache, pyshim
 from uros_build.sources import packages as packages_mod
-from uros_build.sources.wsfiles import write_if_changed
 from uros_build.steps import host_stage
 from uros_build.steps.toolchain_file import seeded_toolchain
 

@@ -28,6 +28,7 @@ from uros_build.errors import (
     interrupted,
     written_path,
 )
+from uros_build.files import locked, remove_tree
 from uros_build.output import contents, export, includes, swap
 from uros_build.output import folders as outputs
 from uros_build.output.archive import MergeReport, merge_archives
@@ -42,7 +43,6 @@ from uros_build.output.buildinfo import (
 )
 from uros_build.proc import Runner
 from uros_build.sources import clones
-from uros_build.sources.workspace import locked
 from uros_build.sources.wsfiles import read_lock
 from uros_build.steps.colcon_run import Compiled
 from uros_build.steps.colcon_setup import ColconSetup
@@ -97,7 +97,7 @@ def _put_in_place(plan: BuildPlan, assembled: Assembled) -> list[str]:
                     raise
                 raise DiskFull.at(plan.output, f"writing the output {plan.output}: {exc.strerror}") from exc
     except BaseException:
-        swap.remove_tree(staging)
+        remove_tree(staging)
         raise
 
 
@@ -337,7 +337,7 @@ def merge_and_verify(
             runner, plan, facts, staging, inputs.setup, compiled.packages, inputs.previous
         )
     except OSError as exc:
-        swap.remove_tree(staging)
+        remove_tree(staging)
         # a file named (a copy's destination, the path a call or write names) is main's to report;
         # with none, the disk of the step's folders with the least room is the full one (not the
         # log's, which main would name)
@@ -346,7 +346,7 @@ def merge_and_verify(
         fullest = min((plan.target_dir, staging.parent), key=_free_bytes)
         raise DiskFull.at(fullest, f"merging the library in {fullest}: {exc.strerror}") from exc
     except BaseException:
-        swap.remove_tree(staging)
+        remove_tree(staging)
         raise
     info = dataclasses.replace(info, build_key=inputs.key, ccache=compiled.ccache)
     return Assembled(staging, info), merge_key

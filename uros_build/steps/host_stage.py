@@ -15,9 +15,9 @@ from uros_build.colcon import hoststage, relocate
 from uros_build.colcon.hosttools import HostFacts
 from uros_build.config.plan import BuildPlan
 from uros_build.errors import StepFailed
+from uros_build.files import locked
 from uros_build.proc import Runner
 from uros_build.sources import packages as packages_mod
-from uros_build.sources.workspace import DEV_MARKER, locked
 
 
 def stage_for(
@@ -36,8 +36,7 @@ def stage_for(
     ws = plan.workspace
     by_name = {p.name: p for p in plan.packages}
     sources = {name: hoststage.package_sources(records, ws.source_dir, by_name[name]) for name in chosen}
-    marker = ws.dev_install / DEV_MARKER
-    dev = marker.read_text(encoding="utf-8") if marker.is_file() else ""
+    dev = ws.dev_built_from()
     tools = (facts.cmake, facts.cmake_version, facts.colcon, str(colcon.generator(env)), colcon.host_python())
     return hoststage.plan_stage(ws.state_dir, chosen, plan.meta.names, tools, sources, dev)
 

@@ -19,12 +19,13 @@ from uros_build.colcon import fingerprint as fp
 from uros_build.colcon.hosttools import HostFacts
 from uros_build.config.plan import BuildPlan, ProfileTarget
 from uros_build.errors import ConfigError
+from uros_build.files import write_if_changed
 from uros_build.output.buildinfo import read_build_info
 from uros_build.proc import Runner
 from uros_build.sources import meta as meta_mod
 from uros_build.sources import packages as packages_mod
-from uros_build.sources.workspace import DEV_MARKER, Workspace
-from uros_build.sources.wsfiles import CONFIG, write_if_changed
+from uros_build.sources.workspace import Workspace
+from uros_build.sources.wsfiles import CONFIG
 from uros_build.steps import host_stage
 from uros_build.steps.colcon_setup import ColconSetup, building_names, colcon_setup, python_shim
 from uros_build.steps.prepare import compiler_identity, drop_readers_of_changed_headers
@@ -183,7 +184,6 @@ def _input_parts(
 ) -> dict[str, str]:
     """Every input of the build, each as a digest: equal parts, equal build."""
     ws = plan.workspace
-    marker = ws.dev_install / DEV_MARKER
     ninja = colcon.ninja_program(setup.env)
     parts = content_parts(plan, fp.tree_digest(sources))
     return {
@@ -201,9 +201,7 @@ def _input_parts(
             __version__,
             _uros_code(),
         ),
-        "dev_ws": fp.digest(
-            marker.read_text(encoding="utf-8") if marker.is_file() else "", fp.stat_key(marker)
-        ),
+        "dev_ws": fp.digest(ws.dev_built_from(), fp.stat_key(ws.dev_marker)),
         **colcon_parts(facts, setup),
     }
 

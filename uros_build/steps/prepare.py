@@ -14,10 +14,10 @@ from uros_build.colcon import fingerprint as fp
 from uros_build.colcon.damage import damaged_archives, damaged_configures
 from uros_build.colcon.hosttools import HostFacts
 from uros_build.config.plan import BuildPlan
+from uros_build.files import remove_tree, write_if_changed
 from uros_build.output import swap
 from uros_build.proc import stop_leftovers
 from uros_build.sources import packages as packages_mod
-from uros_build.sources.wsfiles import write_if_changed
 
 
 def compiler_identity(facts: HostFacts) -> str:
@@ -50,7 +50,7 @@ def _redo_what_must_be_redone(plan: BuildPlan, facts: HostFacts) -> None:
     if why is not None and any(t.exists() for t in trees):
         console.info(f"{why}: building every package afresh (dropping the target's colcon trees)")
         for tree in trees:
-            swap.remove_tree(tree)
+            remove_tree(tree)
     write_if_changed(identity, now + "\n")
 
 
@@ -77,7 +77,7 @@ def drop_readers_of_changed_headers(plan: BuildPlan) -> str:
         names = ", ".join(existing)
         console.info(f"headers outside the workspace changed since the last build: building {names} afresh")
         for package in existing:
-            swap.remove_tree(plan.target_dir / "build" / package)
+            remove_tree(plan.target_dir / "build" / package)
     return digest
 
 
@@ -99,11 +99,11 @@ def _repair(plan: BuildPlan) -> bool:
     for path, why in damaged_archives([trees / "install" / "lib", *sorted((trees / "build").glob("*/"))]):
         # ninja builds it again, colcon's install step copies it again
         console.warn(f"{path.name} {why} (a full disk or a crash?): removing {path}")
-        swap.remove_tree(path)
+        remove_tree(path)
         repaired = True
     for folder, why in damaged_configures(plan.target_dir / "build"):
         console.warn(f"{folder.name}: {why} (a full disk or a crash?): configuring it afresh in {folder}")
-        swap.remove_tree(folder)
+        remove_tree(folder)
         repaired = True
     return repaired or bool(stopped)
 

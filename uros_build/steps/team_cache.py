@@ -17,7 +17,8 @@ from uros_build.errors import (
     ConfigError,
     VerifyError,
 )
-from uros_build.output import export, swap
+from uros_build.files import remove_tree
+from uros_build.output import export
 from uros_build.output import folders as outputs
 from uros_build.output import team_cache as cache_mod
 from uros_build.output.buildinfo import (
@@ -59,7 +60,7 @@ def _from_cache(runner: Runner, plan: BuildPlan, settings: CacheSettings, key: s
         data = store.get(cache_mod.archive_name(key), manifest.archive_bytes)
         if data is None:
             raise CacheUnusable(f"the entry {key[:16]} has a manifest and no tarball")
-        swap.remove_tree(staging)
+        remove_tree(staging)
         console.step(f"cache: entry {key[:16]} found in {shown} ({len(data):,} bytes): checking it")
         cache_mod.unpack(data, manifest, staging)
         info = _check_cached(runner, plan, staging, key)
@@ -78,7 +79,7 @@ def _drop(staging: Path) -> None:
     """The staging folder of an entry that is not used, removed; a folder that cannot be removed
     is the next build's staging to replace, never this build's failure."""
     try:
-        swap.remove_tree(staging)
+        remove_tree(staging)
     except OSError as exc:
         console.warn(f"could not remove {staging} ({exc.strerror}): the next build replaces it")
 

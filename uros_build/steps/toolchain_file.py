@@ -16,8 +16,8 @@ from uros_build.colcon import fingerprint as fp
 from uros_build.colcon import hosttools
 from uros_build.colcon.hosttools import HostFacts
 from uros_build.config.plan import BuildPlan, ProfileTarget, meta_transport
+from uros_build.files import write_if_changed
 from uros_build.proc import Runner
-from uros_build.sources.wsfiles import write_if_changed
 from uros_build.steps.prepare import compiler_identity, forget_configured_flags
 from uros_build.target.toolchain import (
     CLOCK_HEADER_NAME,
