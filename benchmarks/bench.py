@@ -18,10 +18,12 @@ import time
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
+# the helpers the tests share (tests/: the folder pytest's `pythonpath` names in pyproject.toml)
 sys.path.insert(0, str(HERE.parent / "tests"))
 
 from fixture_ws import make_fixture_workspace  # noqa: E402
-from uros_helpers import build_firmware_project  # noqa: E402
+from uros_helpers import STM32H7_EXAMPLE as EXAMPLE  # noqa: E402
+from uros_helpers import build_firmware_project, humble_mirror_args  # noqa: E402
 
 
 def uros(*args: str) -> float:
@@ -60,9 +62,6 @@ def fixture(rows: list[tuple[str, str]]) -> None:
 
 
 def real(rows: list[tuple[str, str]], mirror: str) -> None:
-    sys.path.insert(0, str(HERE.parent / "tests" / "integration"))
-    from test_real_sources import EXAMPLE, humble_mirror_args
-
     with tempfile.TemporaryDirectory() as tmp:
         fw = Path(tmp) / "firmware"
         pkg = Path(tmp) / "eic_demo_interface"

@@ -21,7 +21,6 @@ import tempfile
 import threading
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
 from side_by_side import (
     EXAMPLE,
     EXTRA_PACKAGE,

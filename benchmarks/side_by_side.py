@@ -51,12 +51,11 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parent
-sys.path.insert(0, str(REPO))
+# the helpers the tests share (tests/: the folder pytest's `pythonpath` names in pyproject.toml)
 sys.path.insert(0, str(REPO / "tests"))
-sys.path.insert(0, str(REPO / "tests" / "integration"))
 
-from test_real_sources import EXAMPLE, humble_mirror_args  # noqa: E402
-from uros_helpers import build_firmware_project  # noqa: E402
+from uros_helpers import STM32H7_EXAMPLE as EXAMPLE  # noqa: E402
+from uros_helpers import build_firmware_project, humble_mirror_args  # noqa: E402
 
 from uros_build.sources import distros as distros_mod  # noqa: E402
 from uros_build.sources import wsfiles as workspace_mod  # noqa: E402

@@ -15,6 +15,7 @@ import pytest
 from uros_build.sources import distros
 
 REPO = Path(__file__).resolve().parent.parent
+STM32H7_EXAMPLE = REPO / "examples" / "stm32h7-custom-interfaces"
 
 
 def default_sigint() -> None:
@@ -40,6 +41,50 @@ def run_uros(
             f"uros {' '.join(args)} failed ({proc.returncode}):\n{proc.stdout}\n{proc.stderr}"
         )
     return proc
+
+
+def run_uros_here(
+    *args: str, check: bool = True, env: dict[str, str | None] | None = None
+) -> subprocess.CompletedProcess[str]:
+    """The real `uros` CLI in this process, for a case that starts no process (bad input answered
+    before anything runs): ``uros_build.cli.main``, the path a user's command takes, whose one
+    handler turns errors into the line and the exit code a user sees; click's CliRunner isolation
+    swaps stdin, stdout, stderr and the environment (``env``: variables to set, None to unset).
+    Starting a process is refused: such a case belongs to :func:`run_uros`."""
+    import signal
+
+    from click.testing import CliRunner
+
+    from uros_build import cli, console, proc
+
+    handlers = {s: signal.getsignal(s) for s in (signal.SIGTERM, signal.SIGHUP)}  # main sets its own
+    refused = pytest.MonkeyPatch()
+    refused.setattr(subprocess, "Popen", _no_process)
+    try:
+        with CliRunner().isolation(env=env) as (out, err, _):
+            try:
+                cli.main(list(args))
+                code = 0
+            except SystemExit as exc:
+                code = exc.code if isinstance(exc.code, int) else 1
+            done = subprocess.CompletedProcess(
+                ["uros", *args], code, out.getvalue().decode(), err.getvalue().decode()
+            )
+    finally:
+        refused.undo()
+        for signum, handler in handlers.items():
+            signal.signal(signum, handler)
+        console.record_to(None)
+        proc._current_log = None
+    if check and done.returncode != 0:
+        raise AssertionError(
+            f"uros {' '.join(args)} failed ({done.returncode}):\n{done.stdout}\n{done.stderr}"
+        )
+    return done
+
+
+def _no_process(*args: object, **kwargs: object) -> None:
+    raise AssertionError(f"run_uros_here: this case starts a process ({args[0]!r}); use run_uros")
 
 
 def build_firmware_project(source: Path, package: Path, build: Path, *cmake_args: str) -> Path:
@@ -155,3 +200,72 @@ def need(*programs: str) -> None:
         if os.environ.get("UROS_TEST_TOOLS_REQUIRED") == "1":
             pytest.fail(message)
         pytest.skip(message)
+
+
+def humble_mirror_args(mirror: str) -> list[str]:
+    """create-firmware's mirror options for humble from a local mirror of the upstream clones
+    (<owner>+<repo>/repo, UROS_MIRROR): the substitutions such a mirror needs (docs/real-humble.md)."""
+
+    def git_dir(name: str) -> str:
+        base = Path(mirror) / name / "repo"
+        return str(base / ".git") if (base / ".git").is_dir() else str(base)
+
+    return [
+        "--mirror",
+        f"https://github.com/{{owner}}/{{repo}}={mirror}/{{owner}}+{{repo}}/repo",
+        # humble branch missing from ament/googletest: its ros2 branch stands in
+        "--mirror-override",
+        f"ament/googletest={git_dir('ament+googletest')}@ros2",
+        # micro-ROS' humble fork of rosidl_typesupport, as carried by fictionlab's clone
+        "--mirror-override",
+        f"uros/rosidl_typesupport={git_dir('fictionlab+rosidl_typesupport')}",
+        # the gitlab fork of tracetools is not mirrored: upstream ros2_tracing's humble branch
+        "--mirror-override",
+        f"uros/tracetools={git_dir('ros2+ros2_tracing')}",
+    ]
+
+
+# -- mount namespaces: outputs on mount points (docker -v, CI volumes) -------------------------
+
+
+def mount_namespace(tmp_path: Path) -> list[str]:
+    """The command prefix that runs a shell in a mount namespace of its own (root: `unshare -m`;
+    others: a user namespace too, `unshare -rm`), where `mount --bind` and tmpfs work; skipped where
+    the system allows neither (containers without CAP_SYS_ADMIN)."""
+    if shutil.which("unshare") is None:
+        pytest.skip("no unshare (util-linux)")
+    probe = tmp_path / "probe"
+    probe.mkdir()
+    for prefix in (["unshare", "-m"], ["unshare", "-rm"]):
+        done = subprocess.run(
+            [*prefix, "sh", "-c", f"mount -t tmpfs -o size=1m tmpfs {probe} && mount --bind {probe} {probe}"],
+            capture_output=True,
+        )
+        if done.returncode == 0:
+            probe.rmdir()
+            return prefix
+    pytest.skip("mount namespaces are not allowed here (unshare -m / -rm failed)")
+
+
+def in_namespace(prefix: list[str], script: str) -> subprocess.CompletedProcess[str]:
+    """``script`` run by bash in the namespace :func:`mount_namespace` gives (``set -u``)."""
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(REPO), os.environ.get("PYTHONPATH", "")])}
+    return subprocess.run(
+        [*prefix, "bash", "-c", "set -u\n" + script], capture_output=True, text=True, env=env
+    )
+
+
+def uros_build_line(ws: Path, log: Path, *more: str) -> str:
+    """A shell line running `uros build` of the fixture's fx_core for cortex-m7 into ``log``.{out,err,rc}."""
+    args = " ".join(
+        [sys.executable, "-m", "uros_build", "build", "--toolchain", "cortex-m7", "--workspace", str(ws),
+         "--packages-up-to", "fx_core", *more]
+    )  # fmt: skip
+    return f"{args} >{log}.out 2>{log}.err; echo $? >{log}.rc\n"
+
+
+def line_result(log: Path) -> tuple[int, str]:
+    """The exit status and stderr of a :func:`uros_build_line` (no traceback in it)."""
+    err = Path(f"{log}.err").read_text()
+    assert "Traceback" not in err, err
+    return int(Path(f"{log}.rc").read_text()), err

@@ -16,7 +16,7 @@ from pathlib import Path
 import filelock
 import pytest
 from fixture_ws import make_fixture_workspace
-from uros_helpers import env_without, need, run_uros
+from uros_helpers import env_without, need, run_uros, run_uros_here
 
 pytestmark = pytest.mark.integration
 
@@ -291,7 +291,7 @@ def test_bad_input_is_one_line_naming_what_and_nothing_is_created(tmp_path: Path
     setup, code, expected = CASES[case]
     args = setup(tmp_path)
     before = sorted(p for p in tmp_path.rglob("*") if ".uros" not in p.parts)
-    proc = run_uros(*args, check=False)
+    proc = run_uros_here(*args, check=False)
     assert proc.returncode == code, proc.stderr
     line = _one_error(proc)
     assert expected in line, line
@@ -332,7 +332,7 @@ def test_corrupt_build_info_in_export_cmake(m7_build: Path, tmp_path: Path, case
     corrupt, expected = BAD_BUILD_INFO[case]
     (out / "build-info.json").write_bytes(corrupt((out / "build-info.json").read_bytes()))
     for args in (["--output", str(out)], ["--from", str(out), "--output", str(tmp_path / "copy")]):
-        proc = run_uros("export", "cmake", *args, check=False)
+        proc = run_uros_here("export", "cmake", *args, check=False)
         assert proc.returncode == 2, proc.stderr
         assert expected in _one_error(proc) and "build-info.json" in _one_error(proc)
     assert not (tmp_path / "copy").exists()
@@ -368,7 +368,7 @@ def test_lock_hints_name_a_fix_that_works(tmp_path: Path) -> None:
 
 def test_export_to_a_file_is_refused(m7_build: Path, tmp_path: Path) -> None:
     mine = _a_file(tmp_path)
-    proc = run_uros(
+    proc = run_uros_here(
         "export", "cmake", "--from", str(m7_build / "build" / "cortex-m7"), "--output", str(mine), check=False
     )
     assert proc.returncode == 2 and "notes.txt: is a file" in _one_error(proc)
@@ -378,7 +378,9 @@ def test_export_to_a_file_is_refused(m7_build: Path, tmp_path: Path) -> None:
 def test_toolchain_render_into_a_folder_writes_nothing_beside_it(tmp_path: Path) -> None:
     folder = tmp_path / "tc"
     folder.mkdir()
-    proc = run_uros("toolchain", "render", "cortex-m7", "--for", "micro-ros", "-o", str(folder), check=False)
+    proc = run_uros_here(
+        "toolchain", "render", "cortex-m7", "--for", "micro-ros", "-o", str(folder), check=False
+    )
     assert proc.returncode == 2
     assert sorted(tmp_path.iterdir()) == [folder]  # no uros_clock_gettime.h beside the folder
 

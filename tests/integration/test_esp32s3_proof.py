@@ -33,8 +33,7 @@ import time
 from pathlib import Path
 
 import pytest
-from test_real_sources import humble_mirror_args
-from uros_helpers import REPO, run_uros
+from uros_helpers import REPO, humble_mirror_args, run_uros
 
 pytestmark = [pytest.mark.integration, pytest.mark.realsources]
 

@@ -13,8 +13,7 @@ from pathlib import Path
 
 import pytest
 from fixture_ws import make_fixture_workspace
-from test_trust_outputs import _in_namespace, _mount_namespace, _result, _uros_line
-from uros_helpers import need, run_uros
+from uros_helpers import in_namespace, line_result, mount_namespace, need, run_uros, uros_build_line
 
 pytestmark = pytest.mark.integration
 
@@ -140,7 +139,7 @@ def test_a_full_disk_is_one_line_and_the_next_run_repairs_it(tmp_path: Path) -> 
     (it fails anywhere from 150 to 350 KiB, each time naming the trees' disk; a 400 KiB tmpfs was
     enough once colcon stopped writing bash, zsh and PowerShell scripts)."""
     need("arm-none-eabi-gcc", "cmake")
-    prefix = _mount_namespace(tmp_path)
+    prefix = mount_namespace(tmp_path)
     ws = make_fixture_workspace(tmp_path / "ws")
     trees = ws / ".uros" / "targets" / "cortex-m7"
     trees.mkdir(parents=True)
@@ -148,13 +147,13 @@ def test_a_full_disk_is_one_line_and_the_next_run_repairs_it(tmp_path: Path) -> 
     logs.mkdir()
     script = (
         f"mount -t tmpfs -o size=256k tmpfs {trees}\n"
-        + _uros_line(ws, logs / "full")
+        + uros_build_line(ws, logs / "full")
         + f"mount -o remount,size=64m {trees}\n"
-        + _uros_line(ws, logs / "again")
+        + uros_build_line(ws, logs / "again")
     )
-    done = _in_namespace(prefix, script)
+    done = in_namespace(prefix, script)
     assert done.returncode == 0, done.stderr
-    code, err = _result(logs / "full")
+    code, err = line_result(logs / "full")
     assert code == 4, err
     (error,) = [line for line in err.splitlines() if line.startswith("error:")]
     assert error.startswith("error: no space left on device: "), error
@@ -162,7 +161,7 @@ def test_a_full_disk_is_one_line_and_the_next_run_repairs_it(tmp_path: Path) -> 
     # the full disk is the trees', not the log's (it blamed the log file: issue 16, item 9)
     assert f"free on the disk of {trees}" in error and ".uros/log/" not in error, error
     assert "hint: free some space" in err
-    code, err = _result(logs / "again")
+    code, err = line_result(logs / "again")
     assert code == 0, err
 
 
@@ -170,7 +169,7 @@ def test_a_full_output_disk_names_the_output_disk(tmp_path: Path) -> None:
     """Issue 16, item 9: the output on its own (full) disk -- a mount point, filled in place -- was
     reported with the free space of the workspace's disk."""
     need("arm-none-eabi-gcc", "cmake")
-    prefix = _mount_namespace(tmp_path)
+    prefix = mount_namespace(tmp_path)
     ws = make_fixture_workspace(tmp_path / "ws")
     out = tmp_path / "out"
     out.mkdir()
@@ -180,25 +179,25 @@ def test_a_full_output_disk_names_the_output_disk(tmp_path: Path) -> None:
     args = f"--output {out} --force"
     script = (
         f"mount -t tmpfs -o size=2m tmpfs {out}\n"
-        + _uros_line(ws, logs / "first", *args.split())
+        + uros_build_line(ws, logs / "first", *args.split())
         + f"echo 'int fx_core_more(void) {{ return 7; }}' >> {ws}/mcu_ws/src/fx_core/src/core.c\n"
         + f"head -c $(( $(df -B1 --output=avail {out} | tail -1) - 4096 )) /dev/zero > {filler} || true\n"
-        + _uros_line(ws, logs / "full", *args.split())
+        + uros_build_line(ws, logs / "full", *args.split())
         + f"cp {out}/libmicroros.a {tmp_path}/after-full.a 2>/dev/null || true\n"
         + f"rm -f {filler}\n"
-        + _uros_line(ws, logs / "again", *args.split())
+        + uros_build_line(ws, logs / "again", *args.split())
         + f"cp {out}/libmicroros.a {tmp_path}/after-again.a\n"
     )
-    done = _in_namespace(prefix, script)
+    done = in_namespace(prefix, script)
     assert done.returncode == 0, done.stderr
-    code, err = _result(logs / "first")
+    code, err = line_result(logs / "first")
     assert code == 0, err
-    code, err = _result(logs / "full")
+    code, err = line_result(logs / "full")
     assert code == 4, err
     (error,) = [line for line in err.splitlines() if line.startswith("error:")]
     assert error.startswith("error: no space left on device: "), error
     assert f"free on the disk of {out}" in error, error
-    code, err = _result(logs / "again")
+    code, err = line_result(logs / "again")
     assert code == 0, err
     nm = subprocess.run(
         ["arm-none-eabi-nm", str(tmp_path / "after-again.a")], capture_output=True, text=True, check=True

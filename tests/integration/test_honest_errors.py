@@ -14,7 +14,7 @@ import time
 from pathlib import Path
 
 import pytest
-from uros_helpers import default_sigint, fake_upstream, need, run_uros, upstream_mirror
+from uros_helpers import default_sigint, fake_upstream, need, run_uros, run_uros_here, upstream_mirror
 
 pytestmark = pytest.mark.integration
 
@@ -32,7 +32,9 @@ def test_export_from_an_incomplete_output(m7_build: Path, tmp_path: Path, missin
     shutil.copytree(m7_build / "build" / "cortex-m7", out)
     victim = out / missing
     shutil.rmtree(victim) if victim.is_dir() else victim.unlink()
-    proc = run_uros("export", "cmake", "--from", str(out), "--output", str(tmp_path / "pkg"), check=False)
+    proc = run_uros_here(
+        "export", "cmake", "--from", str(out), "--output", str(tmp_path / "pkg"), check=False
+    )
     assert proc.returncode == 2
     line = _error_line(proc.stderr)
     assert f"--from {out}: its build-info.json names {missing}" in line
@@ -43,7 +45,7 @@ def test_export_never_suggests_a_force_it_lacks(m7_build: Path, tmp_path: Path) 
     mine = tmp_path / "mine"
     mine.mkdir()
     (mine / "notes.txt").write_text("mine\n")
-    proc = run_uros(
+    proc = run_uros_here(
         "export", "cmake", "--from", str(m7_build / "build" / "cortex-m7"), "--output", str(mine), check=False
     )
     assert proc.returncode == 2 and "holds files uros did not write" in _error_line(proc.stderr)
@@ -144,7 +146,7 @@ def test_a_lock_file_that_does_not_pin_this_distro(upstream: Path, tmp_path: Pat
         lock.write_text(json.dumps({"distro": "humble", "repositories": {}}))
         expected = f"--lock-file {lock}: has no commit for 32 of the 32 repositories of humble"
     fw = tmp_path / "fw"
-    proc = run_uros(
+    proc = run_uros_here(
         "create-firmware", "-w", str(fw), "--no-dev-build", "--lock-file", str(lock), *upstream_mirror(upstream),
         check=False,
     )  # fmt: skip

@@ -15,32 +15,12 @@ import subprocess
 from pathlib import Path
 
 import pytest
-from uros_helpers import REPO, build_firmware_project, run_uros
+from uros_helpers import STM32H7_EXAMPLE as EXAMPLE
+from uros_helpers import build_firmware_project, humble_mirror_args, run_uros
 
 pytestmark = [pytest.mark.integration, pytest.mark.realsources]
 
 MIRROR = os.environ.get("UROS_MIRROR")
-EXAMPLE = REPO / "examples" / "stm32h7-custom-interfaces"
-
-
-def humble_mirror_args(mirror: str) -> list[str]:
-    def git_dir(name: str) -> str:
-        base = Path(mirror) / name / "repo"
-        return str(base / ".git") if (base / ".git").is_dir() else str(base)
-
-    return [
-        "--mirror",
-        f"https://github.com/{{owner}}/{{repo}}={mirror}/{{owner}}+{{repo}}/repo",
-        # humble branch missing from ament/googletest: its ros2 branch stands in
-        "--mirror-override",
-        f"ament/googletest={git_dir('ament+googletest')}@ros2",
-        # micro-ROS' humble fork of rosidl_typesupport, as carried by fictionlab's clone
-        "--mirror-override",
-        f"uros/rosidl_typesupport={git_dir('fictionlab+rosidl_typesupport')}",
-        # the gitlab fork of tracetools is not mirrored: upstream ros2_tracing's humble branch
-        "--mirror-override",
-        f"uros/tracetools={git_dir('ros2+ros2_tracing')}",
-    ]
 
 
 @pytest.mark.skipif(not MIRROR, reason="set UROS_MIRROR to a folder of upstream clones (<owner>+<repo>/repo)")

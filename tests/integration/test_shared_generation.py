@@ -15,8 +15,7 @@ import shutil
 from pathlib import Path
 
 import pytest
-from test_real_sources import humble_mirror_args
-from uros_helpers import run_uros
+from uros_helpers import humble_mirror_args, run_uros
 
 pytestmark = [pytest.mark.integration, pytest.mark.realsources]
 

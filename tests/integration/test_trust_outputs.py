@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 from fixture_ws import make_fixture_workspace
-from uros_helpers import REPO, need, run_uros
+from uros_helpers import REPO, in_namespace, line_result, mount_namespace, need, run_uros, uros_build_line
 
 pytestmark = pytest.mark.integration
 
@@ -131,53 +131,12 @@ def test_force_never_takes_the_workspace_or_other_outputs(tmp_path: Path, where:
 # -- outputs on mount points (docker -v, CI volumes) ----------------------------------------------
 
 
-def _mount_namespace(tmp_path: Path) -> list[str]:
-    """The command prefix that runs a shell in a mount namespace of its own (root: `unshare -m`;
-    others: a user namespace too, `unshare -rm`), where `mount --bind` and tmpfs work; skipped where
-    the system allows neither (containers without CAP_SYS_ADMIN)."""
-    if shutil.which("unshare") is None:
-        pytest.skip("no unshare (util-linux)")
-    probe = tmp_path / "probe"
-    probe.mkdir()
-    for prefix in (["unshare", "-m"], ["unshare", "-rm"]):
-        done = subprocess.run(
-            [*prefix, "sh", "-c", f"mount -t tmpfs -o size=1m tmpfs {probe} && mount --bind {probe} {probe}"],
-            capture_output=True,
-        )
-        if done.returncode == 0:
-            probe.rmdir()
-            return prefix
-    pytest.skip("mount namespaces are not allowed here (unshare -m / -rm failed)")
-
-
-def _in_namespace(prefix: list[str], script: str) -> subprocess.CompletedProcess[str]:
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(REPO), os.environ.get("PYTHONPATH", "")])}
-    return subprocess.run(
-        [*prefix, "bash", "-c", "set -u\n" + script], capture_output=True, text=True, env=env
-    )
-
-
-def _uros_line(ws: Path, log: Path, *more: str) -> str:
-    """A shell line running `uros build` into ``log``.{out,err,rc}."""
-    args = " ".join(
-        [sys.executable, "-m", "uros_build", "build", "--toolchain", "cortex-m7", "--workspace", str(ws),
-         "--packages-up-to", "fx_core", *more]
-    )  # fmt: skip
-    return f"{args} >{log}.out 2>{log}.err; echo $? >{log}.rc\n"
-
-
-def _result(log: Path) -> tuple[int, str]:
-    err = Path(f"{log}.err").read_text()
-    assert "Traceback" not in err, err
-    return int(Path(f"{log}.rc").read_text()), err
-
-
 def test_output_on_a_mount_point_is_filled_in_place(tmp_path: Path) -> None:
     """Issue 8, item 4: an output folder that is a mount point cannot be renamed (EBUSY), which
     failed with a traceback after the whole build. A bind mount (how docker -v mounts a host
     folder) and a tmpfs (another file system: EXDEV)."""
     need("arm-none-eabi-gcc", "cmake")
-    prefix = _mount_namespace(tmp_path)
+    prefix = mount_namespace(tmp_path)
     ws = make_fixture_workspace(tmp_path / "ws")
     vol, logs = tmp_path / "vol", tmp_path / "logs"
     vol.mkdir()
@@ -188,31 +147,31 @@ def test_output_on_a_mount_point_is_filled_in_place(tmp_path: Path) -> None:
     tmp_out.mkdir()
     script = (
         f"mount --bind {vol} {out}\n"
-        + _uros_line(ws, logs / "first")
+        + uros_build_line(ws, logs / "first")
         + f"echo mine > {out}/notes.txt\n"
-        + _uros_line(ws, logs / "second")
+        + uros_build_line(ws, logs / "second")
         + f"mount -o remount,ro,bind {out}\n"
-        + _uros_line(ws, logs / "readonly")
+        + uros_build_line(ws, logs / "readonly")
         + f"mount -t tmpfs -o size=32m tmpfs {tmp_out}\n"
-        + _uros_line(ws, logs / "tmpfs1", "--output", str(tmp_out))
-        + _uros_line(ws, logs / "tmpfs2", "--output", str(tmp_out))
+        + uros_build_line(ws, logs / "tmpfs1", "--output", str(tmp_out))
+        + uros_build_line(ws, logs / "tmpfs2", "--output", str(tmp_out))
         + f"ls -A {tmp_out} > {logs}/tmpfs.ls\n"
     )
-    done = _in_namespace(prefix, script)
+    done = in_namespace(prefix, script)
     assert done.returncode == 0, done.stderr
     for step in ("first", "second"):
-        code, err = _result(logs / step)
+        code, err = line_result(logs / step)
         assert code == 0, err
     assert (vol / "libmicroros.a").is_file() and (vol / "include" / "fx_core" / "core.h").is_file()
     assert (vol / "notes.txt").read_text() == "mine\n"  # the user's file in the volume is kept
     assert not [p.name for p in vol.iterdir() if p.name.startswith(".uros-") and p.name != ".uros-output"]
     # a read-only volume: refused before building, in one line
-    code, err = _result(logs / "readonly")
+    code, err = line_result(logs / "readonly")
     assert code == 2, err
     assert f"the output folder {out}: cannot write in this folder (it is a mount point" in err
     assert "colcon build" not in err
     for step in ("tmpfs1", "tmpfs2"):
-        code, err = _result(logs / step)
+        code, err = line_result(logs / step)
         assert code == 0, err
     listed = (logs / "tmpfs.ls").read_text().split()
     assert "libmicroros.a" in listed and not [
