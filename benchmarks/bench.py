@@ -21,7 +21,7 @@ HERE = Path(__file__).resolve().parent
 # the helpers the tests share (tests/: the folder pytest's `pythonpath` names in pyproject.toml)
 sys.path.insert(0, str(HERE.parent / "tests"))
 
-from fixture_ws import make_fixture_workspace  # noqa: E402
+from fixture_ws import fixture_build_args, make_fixture_workspace  # noqa: E402
 from uros_helpers import STM32H7_EXAMPLE as EXAMPLE  # noqa: E402
 from uros_helpers import build_firmware_project, humble_mirror_args  # noqa: E402
 
@@ -43,15 +43,7 @@ def size_totals(path: Path) -> str:
 def fixture(rows: list[tuple[str, str]]) -> None:
     with tempfile.TemporaryDirectory() as tmp:
         ws = make_fixture_workspace(Path(tmp) / "ws")
-        build = [
-            "build",
-            "--toolchain",
-            "cortex-m7",
-            "--workspace",
-            str(ws),
-            "--meta",
-            str(ws / "fixture.meta"),
-        ]
+        build = fixture_build_args(ws)
         rows.append(("fixture: cold `uros build` (5 packages)", f"{uros(*build):.1f} s"))
         rows.append(("fixture: same command again, nothing changed", f"{uros(*build):.1f} s"))
         src = ws / "mcu_ws/src/fx_util/src/scale.c"

@@ -81,18 +81,10 @@ if __name__ == "__main__":
     layout()
     if args.fixture:
         sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
-        from fixture_ws import make_fixture_workspace
+        from fixture_ws import fixture_build_args, make_fixture_workspace
 
         ws = make_fixture_workspace(args.fixture)
         args.build = True
-        args.argv = [
-            "build",
-            "--toolchain",
-            "cortex-m7",
-            "--workspace",
-            str(ws),
-            "--meta",
-            str(ws / "fixture.meta"),
-        ]
+        args.argv = fixture_build_args(ws)
     if args.build:
         trip(args.argv)

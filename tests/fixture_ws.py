@@ -209,6 +209,21 @@ def make_fixture_workspace(root: Path) -> Path:
     return root
 
 
+def fixture_build_args(ws: Path, *more: str, meta: Path | None = None) -> list[str]:
+    """`uros build` of the whole fixture workspace for cortex-m7 (its fixture.meta turns every
+    package on), then ``more``."""
+    return [
+        "build",
+        "--toolchain",
+        "cortex-m7",
+        "--workspace",
+        str(ws),
+        "--meta",
+        str(meta or ws / "fixture.meta"),
+        *more,
+    ]
+
+
 # Expected facts of the fixture build
 FIXTURE_SKIPPED_PYTHON = ["fx_host_py"]
 FIXTURE_LIBRARIES = ("libfx_core.a", "libfx_dup.a", "libfx_flat.a", "libfx_time.a", "libfx_util.a")

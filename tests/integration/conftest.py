@@ -5,7 +5,7 @@ import shutil
 from pathlib import Path
 
 import pytest
-from fixture_ws import make_fixture_workspace
+from fixture_ws import fixture_build_args, make_fixture_workspace
 from uros_helpers import need, run_uros
 
 pytestmark = pytest.mark.integration
@@ -16,7 +16,7 @@ def m7_build(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The fixture workspace built once for cortex-m7 through the real CLI; returns the workspace."""
     need("arm-none-eabi-gcc", "cmake")
     ws = make_fixture_workspace(tmp_path_factory.mktemp("m7"))
-    run_uros("build", "--toolchain", "cortex-m7", "--workspace", str(ws), "--meta", str(ws / "fixture.meta"))
+    run_uros(*fixture_build_args(ws))
     return ws
 
 

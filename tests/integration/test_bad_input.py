@@ -15,7 +15,7 @@ from pathlib import Path
 
 import filelock
 import pytest
-from fixture_ws import make_fixture_workspace
+from fixture_ws import fixture_build_args, make_fixture_workspace
 from uros_helpers import env_without, need, run_uros, run_uros_here
 
 pytestmark = pytest.mark.integration
@@ -414,7 +414,7 @@ def test_compile_error_names_the_package_among_parallel_ones(tmp_path: Path) -> 
     need("arm-none-eabi-gcc", "cmake")
     ws = _ws(tmp_path)
     (ws / "mcu_ws/src/fx_dup/src/b/common.c").write_text("int fx_dup_b(void) { return 'b' * ; }\n")
-    args = ["build", "--toolchain", "cortex-m7", "--workspace", str(ws), "--meta", str(ws / "fixture.meta")]
+    args = fixture_build_args(ws)
     proc = run_uros(*args, check=False)
     assert proc.returncode == 4
     line = _one_error(proc)

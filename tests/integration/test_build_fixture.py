@@ -19,6 +19,7 @@ from fixture_ws import (
     FIXTURE_MEMBERS,
     FIXTURE_SKIPPED_PYTHON,
     FIXTURE_SYMBOLS,
+    fixture_build_args,
     make_fixture_workspace,
 )
 from uros_helpers import default_sigint, defined_globals, need, run_uros
@@ -121,7 +122,7 @@ def test_second_build_reuses_trees_and_is_reproducible(m7_build: Path) -> None:
 
 def test_failed_build_leaves_previous_output(m7_build: Path, tmp_path: Path) -> None:
     ws = make_fixture_workspace(tmp_path / "ws")
-    args = ["build", "--toolchain", "cortex-m7", "--workspace", str(ws), "--meta", str(ws / "fixture.meta")]
+    args = fixture_build_args(ws)
     run_uros(*args)
     out = ws / "build" / "cortex-m7"
     good = _sha(out / "libmicroros.a")
@@ -137,7 +138,7 @@ def test_failed_build_leaves_previous_output(m7_build: Path, tmp_path: Path) -> 
 
 def test_interrupted_build_leaves_previous_output(m7_build: Path, tmp_path: Path) -> None:
     ws = make_fixture_workspace(tmp_path / "ws")
-    base = ["build", "--toolchain", "cortex-m7", "--workspace", str(ws), "--meta", str(ws / "fixture.meta")]
+    base = fixture_build_args(ws)
     run_uros(*base)
     out = ws / "build" / "cortex-m7"
     good = _sha(out / "libmicroros.a")

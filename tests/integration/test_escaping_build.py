@@ -13,7 +13,7 @@ from typing import Any
 
 import pytest
 import yaml
-from fixture_ws import add_board_package, add_plain_package, make_fixture_workspace
+from fixture_ws import add_board_package, add_plain_package, fixture_build_args, make_fixture_workspace
 from uros_helpers import REPO, need, run_uros
 
 pytestmark = pytest.mark.integration
@@ -44,7 +44,7 @@ def test_dollar_in_cflags_reaches_the_compiler(tmp_path: Path, generator: str) -
     ws = make_fixture_workspace(tmp_path / "fw 'q' #h (1)")
     add_board_package(ws)
     env = {**os.environ, "CMAKE_GENERATOR": generator}  # CMake's own choice, which uros follows
-    args = ["build", "--toolchain", "cortex-m7", "--workspace", str(ws), "--meta", str(ws / "fixture.meta")]
+    args = fixture_build_args(ws)
     run_uros(*args, "--cflags", f"-DBOARD_NAME={_c_string(BOARD)}", env=env)
     out = ws / "build" / "cortex-m7-custom"
     assert BOARD.encode() + b"\x00" in (out / "libmicroros.a").read_bytes()

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 import yaml
-from fixture_ws import FIXTURE_MEMBERS, make_fixture_workspace
+from fixture_ws import FIXTURE_MEMBERS, fixture_build_args, make_fixture_workspace
 from uros_helpers import REPO, defined_globals, need, run_uros
 
 pytestmark = pytest.mark.integration
@@ -33,16 +33,7 @@ def _headers(out: Path) -> set[str]:
 def _build(
     ws: Path, *more: str, meta: Path | None = None, check: bool = True
 ) -> subprocess.CompletedProcess[str]:
-    args = [
-        "build",
-        "--toolchain",
-        "cortex-m7",
-        "--workspace",
-        str(ws),
-        "--meta",
-        str(meta or ws / "fixture.meta"),
-    ]
-    return run_uros(*args, *more, check=check)
+    return run_uros(*fixture_build_args(ws, *more, meta=meta), check=check)
 
 
 def test_a_package_removed_from_the_workspace_leaves_the_library(tmp_path: Path) -> None:

@@ -4,6 +4,7 @@ from pathlib import Path
 
 import pytest
 import yaml
+from profile_data import minimal_profile
 
 from uros_build.errors import ConfigError
 from uros_build.target.profiles import derive_profile, find_profile, load_profile_file, shipped_profiles
@@ -13,17 +14,6 @@ def _write(tmp_path: Path, data: object) -> Path:
     path = tmp_path / "board.yaml"
     path.write_text(yaml.safe_dump(data), encoding="utf-8")
     return path
-
-
-def _base() -> dict[str, object]:
-    return {
-        "name": "board",
-        "description": "a board",
-        "compiler_prefix": "arm-none-eabi-",
-        "system_processor": "arm",
-        "cpu_flags": ["-mcpu=cortex-m4"],
-        "elf": {"machine": "ARM"},
-    }
 
 
 def test_shipped_profiles_load() -> None:
@@ -36,7 +26,7 @@ def test_shipped_profiles_load() -> None:
 
 
 def test_minimal_profile(tmp_path: Path) -> None:
-    p = load_profile_file(_write(tmp_path, _base()))
+    p = load_profile_file(_write(tmp_path, minimal_profile()))
     assert p.name == "board" and p.transport == "custom" and p.optimization == "-Os"
 
 
@@ -83,11 +73,11 @@ def test_minimal_profile(tmp_path: Path) -> None:
 )
 def test_bad_profiles_name_file_and_key(tmp_path: Path, change: dict[str, object], expected: str) -> None:
     with pytest.raises(ConfigError, match=expected):
-        load_profile_file(_write(tmp_path, {**_base(), **change}))
+        load_profile_file(_write(tmp_path, {**minimal_profile(), **change}))
 
 
 def test_missing_field(tmp_path: Path) -> None:
-    data = _base()
+    data = minimal_profile()
     del data["compiler_prefix"]
     with pytest.raises(ConfigError, match="compiler_prefix: is required but missing"):
         load_profile_file(_write(tmp_path, data))
@@ -95,23 +85,27 @@ def test_missing_field(tmp_path: Path) -> None:
 
 def test_nested_keys_are_named_with_dots(tmp_path: Path) -> None:
     with pytest.raises(ConfigError, match=r"board.yaml: elf.machine: is required but missing") as info:
-        load_profile_file(_write(tmp_path, {**_base(), "elf": {"elf_class": "ELF32"}}))
+        load_profile_file(_write(tmp_path, {**minimal_profile(), "elf": {"elf_class": "ELF32"}}))
     assert info.value.hint is not None and "uros targets show cortex-m7" in info.value.hint
     with pytest.raises(
         ConfigError, match=r"board.yaml: micro_ros.strip_attributes_below_gcc: must be a whole"
     ):
-        load_profile_file(_write(tmp_path, {**_base(), "micro_ros": {"strip_attributes_below_gcc": "6"}}))
+        load_profile_file(
+            _write(tmp_path, {**minimal_profile(), "micro_ros": {"strip_attributes_below_gcc": "6"}})
+        )
     with pytest.raises(ConfigError, match=r"board.yaml: elf: expected a mapping"):
-        load_profile_file(_write(tmp_path, {**_base(), "elf": "ARM"}))
+        load_profile_file(_write(tmp_path, {**minimal_profile(), "elf": "ARM"}))
     with pytest.raises(
         ConfigError, match=r"board.yaml: elf.attributes: must be a mapping of names to strings"
     ):
-        load_profile_file(_write(tmp_path, {**_base(), "elf": {"machine": "ARM", "attributes": ["x"]}}))
+        load_profile_file(
+            _write(tmp_path, {**minimal_profile(), "elf": {"machine": "ARM", "attributes": ["x"]}})
+        )
 
 
 def test_key_without_value(tmp_path: Path) -> None:
     with pytest.raises(ConfigError, match=r"board.yaml: idf_target: has no value"):
-        load_profile_file(_write(tmp_path, {**_base(), "idf_target": None}))
+        load_profile_file(_write(tmp_path, {**minimal_profile(), "idf_target": None}))
 
 
 def test_profile_file_problems_are_one_line(tmp_path: Path) -> None:
@@ -209,6 +203,6 @@ def test_derive_standalone_from_the_prefix() -> None:
 def test_defines_that_are_defines_load(tmp_path: Path) -> None:
     good = ["USE_FOO", "FOO_SIZE=4", 'NAME="a b"', "__attribute__(x)=", "EMPTY=", "F(a, b)=a+b"]
     p = load_profile_file(
-        _write(tmp_path, {**_base(), "defines": good, "c_standard": 17, "optimization": "-O2"})
+        _write(tmp_path, {**minimal_profile(), "defines": good, "c_standard": 17, "optimization": "-O2"})
     )
     assert p.defines == tuple(good) and p.c_standard == 17 and p.optimization == "-O2"

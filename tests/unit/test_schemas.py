@@ -10,6 +10,7 @@ from typing import Any
 import jsonschema
 import pytest
 import yaml
+from profile_data import minimal_profile
 
 from uros_build import resources
 from uros_build.errors import ConfigError
@@ -32,17 +33,6 @@ def _errors(name: str, data: Any) -> list[str]:
 
 def _shipped_profiles() -> list[Path]:
     return sorted(resources.toolchains_dir().glob("*.yaml"))
-
-
-def _minimal_profile() -> dict[str, Any]:
-    return {
-        "name": "board",
-        "description": "a board",
-        "compiler_prefix": "arm-none-eabi-",
-        "system_processor": "arm",
-        "cpu_flags": ["-mcpu=cortex-m4"],
-        "elf": {"machine": "ARM"},
-    }
 
 
 @pytest.mark.parametrize("name", ["profile.schema.json", "uros.schema.json"])
@@ -97,9 +87,9 @@ def test_profile_schema_equals_the_dataclasses(cls: Any, pointer: tuple[str, ...
 
 
 def test_profile_with_an_unknown_key_fails_the_schema() -> None:
-    data = {**_minimal_profile(), "cpu_flag": ["-mthumb"]}
+    data = {**minimal_profile(), "cpu_flag": ["-mthumb"]}
     assert any("'cpu_flag' was unexpected" in e for e in _errors("profile.schema.json", data))
-    nested = {**_minimal_profile(), "elf": {"machine": "ARM", "flags": []}}
+    nested = {**minimal_profile(), "elf": {"machine": "ARM", "flags": []}}
     assert any("'flags' was unexpected" in e for e in _errors("profile.schema.json", nested))
     with pytest.raises(ConfigError, match="cpu_flag: unknown key"):  # the loader agrees
         parse_profile(data, "board.yaml")
@@ -130,7 +120,7 @@ def test_profile_with_an_unknown_key_fails_the_schema() -> None:
     ],
 )
 def test_schema_and_loader_reject_the_same_values(change: dict[str, Any]) -> None:
-    data = {**_minimal_profile(), **change}
+    data = {**minimal_profile(), **change}
     assert _errors("profile.schema.json", data) != []
     with pytest.raises(ConfigError):
         parse_profile(data, "board.yaml")
@@ -144,7 +134,7 @@ def test_profile_schema_allows_what_the_loader_allows() -> None:
     assert props["c_standard"]["enum"] == list(profiles.C_STANDARDS)
     assert props["cxx_standard"]["enum"] == list(profiles.CXX_STANDARDS)
     good = {
-        **_minimal_profile(),
+        **minimal_profile(),
         "defines": ["A", "B=1", "C(x)=x", 'D="a b"'],
         "micro_ros": {"defines": ["E="]},
     }
@@ -153,8 +143,8 @@ def test_profile_schema_allows_what_the_loader_allows() -> None:
 
 
 def test_minimal_profile_passes_both() -> None:
-    assert _errors("profile.schema.json", _minimal_profile()) == []
-    parse_profile(_minimal_profile(), "board.yaml")
+    assert _errors("profile.schema.json", minimal_profile()) == []
+    parse_profile(minimal_profile(), "board.yaml")
 
 
 SAMPLE_UROS_YAML = """\

@@ -261,7 +261,7 @@ class BuildPlan:
     packages_up_to: tuple[str, ...]  # colcon's --packages-up-to as the user gave it (and only that)
     jobs: int | None
     verbose: bool
-    packages: tuple[PackageInfo, ...] = ()  # every package colcon will find in the workspace
+    workspace_packages: tuple[PackageInfo, ...] = ()  # every package colcon will find in the workspace
     warnings: tuple[str, ...] = ()  # inputs that are valid but likely not what the user meant
     idf: IdfProject | None = None  # the ESP-IDF project micro-ROS is compiled against
     rebuild: bool = False
@@ -464,7 +464,7 @@ def plan_build(args: BuildArgs, env: Mapping[str, str] | None = None) -> BuildPl
         packages_up_to=args.packages_up_to,
         jobs=args.jobs,
         verbose=args.verbose,
-        packages=tuple(packages),
+        workspace_packages=tuple(packages),
         warnings=tuple(warnings),
         idf=idf,
         rebuild=args.rebuild,

@@ -63,10 +63,10 @@ def colcon_setup(
     launcher = _ccache(plan, env, runner)
     if launcher:
         env.update(colcon.ccache_env(ws.root, plan.target_dir / CCACHE_STATS))
-    skipped = tuple(packages_mod.host_only(list(plan.packages)))
+    skipped = tuple(packages_mod.host_only(list(plan.workspace_packages)))
     # --packages/--for-firmware/uros.yaml packages: exactly their closure, without the test
     # dependencies colcon's --packages-up-to would add (a user's --packages-up-to stays colcon's)
-    out = packages_mod.left_out(plan.packages, plan.selection.request) if plan.selection else None
+    out = packages_mod.left_out(plan.workspace_packages, plan.selection.request) if plan.selection else None
     colcon_plan = colcon.ColconPlan(
         base_paths=(ws.source_dir,),
         packages_ignore=skipped if out is None else tuple(sorted(out | set(skipped))),
@@ -96,9 +96,11 @@ def building_names(plan: BuildPlan, colcon_plan: colcon.ColconPlan) -> set[str]:
     """The packages colcon builds (or skips) for this target: the workspace's, or the closure of
     --packages-up-to, less what the plan ignores."""
     if colcon_plan.packages_up_to:
-        names = packages_mod.closure(plan.packages, colcon_plan.packages_up_to)
+        names = packages_mod.closure(plan.workspace_packages, colcon_plan.packages_up_to)
     else:  # colcon also builds the CMake packages without a package.xml (Micro-CDR, the XRCE client)
-        names = {p.name for p in plan.packages} | packages_mod.plain_cmake_packages(plan.workspace.source_dir)
+        names = {p.name for p in plan.workspace_packages} | packages_mod.plain_cmake_packages(
+            plan.workspace.source_dir
+        )
     return colcon.kept_by_ignores(colcon_plan, names)
 
 

@@ -273,7 +273,7 @@ def _sources(plan: BuildPlan, built: tuple[str, ...]) -> dict[str, dict[str, str
         return {}
     clone_paths = read_lock(ws.lock_path, "uros.lock").repositories
     wanted = set(built)
-    located = [(p.name, p.path.resolve()) for p in plan.packages if p.name in wanted]
+    located = [(p.name, p.path.resolve()) for p in plan.workspace_packages if p.name in wanted]
     return clones.built_from(located, ws.root, clone_paths)
 
 

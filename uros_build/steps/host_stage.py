@@ -30,11 +30,11 @@ def stage_for(
     """The stage of this target's build: None when switched off or when no package qualifies."""
     if not plan.host_stage:
         return None
-    chosen = hoststage.choose(list(plan.packages), building, hoststage.load_list().packages)
+    chosen = hoststage.choose(list(plan.workspace_packages), building, hoststage.load_list().packages)
     if not chosen:
         return None
     ws = plan.workspace
-    by_name = {p.name: p for p in plan.packages}
+    by_name = {p.name: p for p in plan.workspace_packages}
     sources = {name: hoststage.package_sources(records, ws.source_dir, by_name[name]) for name in chosen}
     dev = ws.dev_built_from()
     tools = (facts.cmake, facts.cmake_version, facts.colcon, str(colcon.generator(env)), colcon.host_python())
@@ -79,7 +79,9 @@ def build(
     written_by = f"uros {__version__} build"
     relocate.reconfigure_moved(stage.build_base, "the host stage")
     stage.meta_path.write_text(hoststage.meta_text(stage, written_by), encoding="utf-8")
-    others = {p.name for p in plan.packages} | packages_mod.plain_cmake_packages(plan.workspace.source_dir)
+    others = {p.name for p in plan.workspace_packages} | packages_mod.plain_cmake_packages(
+        plan.workspace.source_dir
+    )
     colcon_plan = colcon.ColconPlan(
         base_paths=(plan.workspace.source_dir,),
         build_base=stage.build_base,
@@ -116,7 +118,7 @@ def build(
     compiled = tuple(
         p for p in stage.packages if hoststage.compiled_code(stage.build_base, stage.install_base, p)
     )
-    shared = hoststage.choose(list(plan.packages), building, set(stage.packages) - set(compiled))
+    shared = hoststage.choose(list(plan.workspace_packages), building, set(stage.packages) - set(compiled))
     if compiled:
         them = "it" if len(compiled) == 1 else "them"
         console.warn(

@@ -138,7 +138,7 @@ def content_parts(plan: BuildPlan, sources_digest: str) -> dict[str, str]:
     """The inputs known without running a tool or writing a file: :func:`workspace_parts`, the
     merged colcon.meta, the profile, the ESP-IDF project, the packages and the output; a build adds
     the rest (:func:`_input_parts`)."""
-    skipped = packages_mod.host_only(list(plan.packages))
+    skipped = packages_mod.host_only(list(plan.workspace_packages))
     return {
         **workspace_parts(plan.workspace, sources_digest),
         "colcon.meta": fp.digest(meta_text(plan)),

@@ -112,7 +112,7 @@ def drop_removed_packages(plan: BuildPlan) -> None:
     """A package the workspace no longer has must leave the target's trees, or its archive and
     headers would ship in the next library."""
     build_base, install_base = plan.target_dir / "build", plan.target_dir / "install"
-    names = {p.name for p in plan.packages}
+    names = {p.name for p in plan.workspace_packages}
     if installtree.tree_packages(build_base) - names:
         names |= packages_mod.plain_cmake_packages(plan.workspace.source_dir)
     gone = installtree.drop_removed(build_base, install_base, names)
