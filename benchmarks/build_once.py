@@ -13,7 +13,6 @@ folder (CCACHE_DIR, UROS_GEN_CACHE_DIR); the cold rows each start with an empty 
 
 from __future__ import annotations
 
-import argparse
 import os
 import shutil
 import sys
@@ -31,6 +30,7 @@ from side_by_side import (
     colcon_steps,
     humble_mirror_args,
     machine_facts,
+    mirror_parser,
     sample_load,
 )
 
@@ -58,12 +58,7 @@ def fresh_copy(ws: Path, where: Path) -> Path:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument(
-        "--mirror", default=os.environ.get("UROS_MIRROR"), help="folder of <owner>+<repo>/repo"
-    )
-    parser.add_argument("--dir", type=Path, help="work folder (default: a new one under /tmp, kept)")
-    args = parser.parse_args()
+    args = mirror_parser(__doc__).parse_args()
     if not args.mirror:
         sys.exit("needs --mirror or UROS_MIRROR")
     root = (args.dir or Path(tempfile.mkdtemp(prefix="uros-once-"))).resolve()

@@ -418,12 +418,18 @@ def compare_inputs(bench: Bench) -> list[str]:
     return lines
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+def mirror_parser(doc: str) -> argparse.ArgumentParser:
+    """The options every real-Humble benchmark takes: the mirror and the work folder."""
+    parser = argparse.ArgumentParser(description=doc.split("\n\n")[0])
     parser.add_argument(
         "--mirror", default=os.environ.get("UROS_MIRROR"), help="folder of <owner>+<repo>/repo"
     )
     parser.add_argument("--dir", type=Path, help="work folder (default: a new one under /tmp, kept)")
+    return parser
+
+
+def main() -> None:
+    parser = mirror_parser(__doc__)
     parser.add_argument("--setup-git", default=SETUP_GIT, help="micro_ros_setup's git dir (facts only)")
     parser.add_argument(
         "--pruning", choices=("auto", "for-firmware", "packages", "packages-up-to"), default="auto",

@@ -120,12 +120,17 @@ def test_second_build_reuses_trees_and_is_reproducible(m7_build: Path) -> None:
     assert _sha(out / "libmicroros.a") == before
 
 
-def test_failed_build_leaves_previous_output(m7_build: Path, tmp_path: Path) -> None:
+def _built(tmp_path: Path) -> tuple[Path, list[str], Path, str]:
+    """A fixture workspace built once: (workspace, its build command, the output, the library's sha256)."""
     ws = make_fixture_workspace(tmp_path / "ws")
     args = fixture_build_args(ws)
     run_uros(*args)
     out = ws / "build" / "cortex-m7"
-    good = _sha(out / "libmicroros.a")
+    return ws, args, out, _sha(out / "libmicroros.a")
+
+
+def test_failed_build_leaves_previous_output(m7_build: Path, tmp_path: Path) -> None:
+    ws, args, out, good = _built(tmp_path)
     (ws / "mcu_ws/src/fx_util/src/scale.c").write_text("double fx_util_scale(double x) { return x * ; }\n")
     proc = run_uros(*args, check=False)
     assert proc.returncode == 4
@@ -137,11 +142,7 @@ def test_failed_build_leaves_previous_output(m7_build: Path, tmp_path: Path) -> 
 
 
 def test_interrupted_build_leaves_previous_output(m7_build: Path, tmp_path: Path) -> None:
-    ws = make_fixture_workspace(tmp_path / "ws")
-    base = fixture_build_args(ws)
-    run_uros(*base)
-    out = ws / "build" / "cortex-m7"
-    good = _sha(out / "libmicroros.a")
+    ws, base, out, good = _built(tmp_path)
     proc = subprocess.Popen(
         [sys.executable, "-m", "uros_build", *base, "--set", "fx_core.FX_SLOW=ON"],
         stdout=subprocess.PIPE,
