@@ -44,7 +44,7 @@ def run_uros(
 
 
 def run_uros_here(
-    *args: str, check: bool = True, env: dict[str, str | None] | None = None
+    *args: str, cwd: Path | None = None, check: bool = True, env: dict[str, str | None] | None = None
 ) -> subprocess.CompletedProcess[str]:
     """The real `uros` CLI in this process, for a case that starts no process (bad input answered
     before anything runs): ``uros_build.cli.main``, the path a user's command takes, whose one
@@ -60,6 +60,8 @@ def run_uros_here(
     handlers = {s: signal.getsignal(s) for s in (signal.SIGTERM, signal.SIGHUP)}  # main sets its own
     refused = pytest.MonkeyPatch()
     refused.setattr(subprocess, "Popen", _no_process)
+    if cwd is not None:
+        refused.chdir(cwd)
     try:
         with CliRunner().isolation(env=env) as (out, err, _):
             try:

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 import yaml
-from uros_helpers import fake_upstream, git_commit, git_out, need, run_uros, upstream_mirror
+from uros_helpers import fake_upstream, git_commit, git_out, need, run_uros, run_uros_here, upstream_mirror
 
 pytestmark = pytest.mark.integration
 
@@ -103,7 +103,7 @@ def test_missing_branch_names_repo_and_cleans_up(upstream: Path, tmp_path: Path)
 )
 def test_bad_input(tmp_path: Path, args: list[str], expected: str) -> None:
     fw = tmp_path / "fw"
-    proc = run_uros("create-firmware", "--workspace", str(fw), "--no-dev-build", *args, check=False)
+    proc = run_uros_here("create-firmware", "--workspace", str(fw), "--no-dev-build", *args, check=False)
     assert proc.returncode == 2, proc.stderr
     errors = [x for x in proc.stderr.splitlines() if x.startswith("error:")]
     assert len(errors) == 1 and expected in errors[0]

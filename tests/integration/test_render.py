@@ -7,7 +7,7 @@ import subprocess
 from pathlib import Path
 
 import pytest
-from uros_helpers import need, run_uros
+from uros_helpers import need, run_uros, run_uros_here
 
 pytestmark = pytest.mark.integration
 
@@ -64,7 +64,7 @@ def test_firmware_toolchain_keeps_the_users_debug_flags(tmp_path: Path) -> None:
     ],
 )
 def test_typos_get_the_closest_names(tmp_path: Path, args: list[str], expected: str) -> None:
-    proc = run_uros(*args, cwd=tmp_path, check=False)
+    proc = run_uros_here(*args, cwd=tmp_path, check=False)
     assert proc.returncode == 2 and expected in proc.stderr, proc.stderr
 
 

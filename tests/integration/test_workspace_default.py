@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 from fixture_ws import make_fixture_workspace
-from uros_helpers import run_uros
+from uros_helpers import run_uros, run_uros_here
 
 pytestmark = pytest.mark.integration
 
@@ -29,7 +29,7 @@ def _package(folder: Path, name: str) -> Path:
 
 
 def test_build_outside_a_workspace_is_refused_and_writes_nothing(tmp_path: Path) -> None:
-    proc = run_uros("build", "--toolchain", "cortex-m7", cwd=tmp_path, check=False)
+    proc = run_uros_here("build", "--toolchain", "cortex-m7", cwd=tmp_path, check=False)
     assert proc.returncode == 2, proc.stderr
     assert "no uros workspace here" in proc.stderr and "create-firmware" in proc.stderr
     assert list(tmp_path.iterdir()) == []
@@ -40,14 +40,14 @@ def test_a_colcon_workspace_needs_w(tmp_path: Path) -> None:
     every project below it), built when named with -w (see test_build_fixture)."""
     ws = make_fixture_workspace(tmp_path / "ws")
     before = sorted(p.name for p in ws.iterdir())
-    proc = run_uros("build", "--toolchain", "cortex-m7", cwd=ws, check=False)
+    proc = run_uros_here("build", "--toolchain", "cortex-m7", cwd=ws, check=False)
     assert proc.returncode == 2 and "-w DIR" in proc.stderr, proc.stderr
     assert sorted(p.name for p in ws.iterdir()) == before  # no .uros/, no build/
 
 
 def test_a_folder_without_packages_or_uros_yaml_is_refused_with_w(tmp_path: Path) -> None:
     (tmp_path / "notes.txt").write_text("mine\n")
-    proc = run_uros("build", "--toolchain", "cortex-m7", "-w", str(tmp_path), check=False)
+    proc = run_uros_here("build", "--toolchain", "cortex-m7", "-w", str(tmp_path), check=False)
     assert proc.returncode == 2 and "not a uros workspace" in proc.stderr, proc.stderr
     assert sorted(p.name for p in tmp_path.iterdir()) == ["notes.txt"]
 
