@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 import yaml
-from uros_helpers import fake_upstream, git_commit, git_out, run_uros, upstream_mirror
+from uros_helpers import fake_upstream, git_commit, git_out, run_uros, run_uros_here, upstream_mirror
 
 pytestmark = pytest.mark.integration
 
@@ -126,7 +126,7 @@ def test_update_to_another_distro_keeps_the_users_config(upstream: Path, tmp_pat
 
 
 def test_update_outside_a_workspace_is_one_line(tmp_path: Path) -> None:
-    proc = run_uros("update", "-w", str(tmp_path), check=False)
+    proc = run_uros_here("update", "-w", str(tmp_path), check=False)
     assert proc.returncode == 2
     assert f"--workspace {tmp_path}: not a firmware workspace (no uros.yaml)" in proc.stderr
 
@@ -161,9 +161,9 @@ def test_before_a_day_with_no_commits_changes_nothing(upstream: Path, tmp_path: 
     assert proc.returncode == 2, proc.stderr
     assert "has no commit before that day" in proc.stderr and "nothing was changed" in proc.stderr
     assert (fw / "uros.lock").read_text() == before
-    bad = run_uros("update", "-w", str(fw), "--before", "2024-13-01", check=False)
+    bad = run_uros_here("update", "-w", str(fw), "--before", "2024-13-01", check=False)
     assert bad.returncode == 2 and "--before '2024-13-01': not a day" in bad.stderr
-    late = run_uros("update", "-w", str(fw), "--before", "2100-01-01", check=False)
+    late = run_uros_here("update", "-w", str(fw), "--before", "2100-01-01", check=False)
     assert late.returncode == 2 and "outside the years git reads (1970-2099)" in late.stderr
     # a day after every commit is the newest commits
     assert "nothing changed" in run_uros("update", "-w", str(fw), "--before", "2099-12-31").stderr
