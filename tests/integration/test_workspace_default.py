@@ -3,11 +3,12 @@ with a uros.yaml, else ./firmware; `uros build` refuses a folder that is no uros
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import pytest
 from fixture_ws import make_fixture_workspace
-from uros_helpers import run_uros, run_uros_here
+from uros_helpers import REPO, run_uros, run_uros_here
 
 pytestmark = pytest.mark.integration
 
@@ -118,3 +119,45 @@ def test_several_targets_on_the_command_line_each_say_how_they_ended(tmp_path: P
     with_output = run_uros("build", "-w", str(ws), "--toolchain", "cortex-m7", "--toolchain", "cortex-m0plus",
                            "--output", str(tmp_path / "o"), check=False)  # fmt: skip
     assert with_output.returncode == 2 and "--output with 2 targets" in with_output.stderr
+
+
+def test_a_uros_yaml_without_a_distro_builds_and_update_asks_for_one(tmp_path: Path) -> None:
+    """Issue 34, item 2: a plain colcon workspace whose uros.yaml has only `target:` builds (it was
+    refused: "distro: is required but missing"); a distro is needed only to move clones."""
+    ws = make_fixture_workspace(tmp_path / "ws")
+    (ws / "uros.yaml").write_text("target: cortex-m7\n")
+    proc = run_uros("build", "--meta", str(ws / "fixture.meta"), cwd=ws / "mcu_ws")
+    assert "target cortex-m7" in proc.stderr, proc.stderr
+    assert (ws / "build" / "cortex-m7" / "libmicroros.a").is_file()
+    (ws / "uros.lock").write_text('{"repositories": {}}\n')  # as if create-firmware had cloned
+    update = run_uros("update", cwd=ws, check=False)
+    assert update.returncode == 2, update.stderr
+    assert "uros.yaml: distro: is required by `uros update` but missing" in update.stderr
+    assert (ws / "uros.yaml").read_text() == "target: cortex-m7\n"
+
+
+def test_a_profile_file_named_in_uros_yaml_is_a_profile(tmp_path: Path) -> None:
+    """Issue 34, item 3: `target: boards/my_board.yaml` in uros.yaml is a profile, as --profile's
+    (it reached CMake as a toolchain file: "Parse error. Expected a command name"); so is one in a
+    `targets:` list."""
+    ws = make_fixture_workspace(tmp_path / "ws")
+    board = ws / "boards" / "my_board.yaml"
+    board.parent.mkdir()
+    shipped = (REPO / "toolchains" / "cortex-m7.yaml").read_text()
+    board.write_text(shipped.replace("name: cortex-m7", "name: my-board"))
+    (ws / "uros.yaml").write_text(
+        "distro: humble\ntarget: boards/my_board.yaml\nset: [fx_time.FX_TIME_ENABLE=ON]\n"
+    )
+    proc = run_uros("build", cwd=ws / "mcu_ws" / "src")
+    out = ws / "build" / "my-board"
+    assert (out / "libmicroros.a").is_file(), proc.stderr
+    info = json.loads((out / "build-info.json").read_text())
+    assert info["target"] == "my-board", info["target"]
+    assert "all 8 objects show the ELF facts of my-board" in proc.stderr, proc.stderr  # checked as a profile
+    (ws / "uros.yaml").write_text(
+        "distro: humble\ntargets: [boards/my_board.yaml]\nset: [fx_time.FX_TIME_ENABLE=ON]\n"
+    )
+    again = run_uros("build", cwd=ws)  # uros.yaml changed: a build, of the same target
+    assert "target my-board" in again.stderr and "built " in again.stderr, again.stderr
+    missing = run_uros("build", "-w", str(ws), "--toolchain", str(ws / "boards" / "none.yaml"), check=False)
+    assert missing.returncode == 2 and "none.yaml: no such profile file" in missing.stderr, missing.stderr

@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 from fake_idf import make_idf_build
 
-from uros_build import defaults
+from uros_build import defaults, resources
 from uros_build.config.plan import (
     ProfileTarget,
     ToolchainFileTarget,
@@ -45,6 +45,20 @@ def test_a_toolchain_file_is_used_unchanged(tmp_path: Path) -> None:
     target = resolve_target(str(tc), None)
     assert isinstance(target, ToolchainFileTarget)
     assert target.key == "my_board" and target.toolchain_file == tc.resolve()
+
+
+def test_a_yaml_target_is_a_profile_file(tmp_path: Path) -> None:
+    """Issue 34, item 3: never handed to CMake as a toolchain file."""
+    board = tmp_path / "my_board.yaml"
+    board.write_text(
+        (resources.toolchains_dir() / "cortex-m7.yaml")
+        .read_text()
+        .replace("name: cortex-m7", "name: my-board")
+    )
+    target = resolve_target(str(board), None, flag="uros.yaml: target")
+    assert isinstance(target, ProfileTarget) and target.key == "my-board"
+    with pytest.raises(ConfigError, match=r"uros\.yaml: target .*none\.yml: no such profile file"):
+        resolve_target(str(tmp_path / "none.yml"), None, flag="uros.yaml: target")
 
 
 def test_deriving_from_a_target_gets_its_own_key() -> None:

@@ -177,6 +177,9 @@ def test_sample_uros_yaml_validates() -> None:
     # what create-firmware writes validates too
     assert _errors("uros.schema.json", yaml.safe_load(wsfiles.config_text(cfg))) == []
     assert _errors("uros.schema.json", {"distro": "iron"}) == []
+    # a plain colcon workspace's uros.yaml: a build needs no distro
+    assert _errors("uros.schema.json", {"target": "cortex-m7"}) == []
+    assert wsfiles.parse_config({"target": "cortex-m7"}, "uros.yaml").distro == ""
 
 
 def test_uros_schema_equals_the_workspace_config() -> None:
@@ -191,7 +194,7 @@ def test_uros_schema_equals_the_workspace_config() -> None:
 @pytest.mark.parametrize(
     ("data", "expected"),
     [
-        ({"platform": "generate_lib"}, "'distro' is a required property"),
+        ({"distro": ""}, "should be non-empty"),
         ({"distro": "humble", "distros": "iron"}, "'distros' was unexpected"),
         ({"distro": "humble", "platform": "freertos"}, "'freertos' is not one of ['generate_lib']"),
         ({"distro": "humble", "mirror": {"rules": ["https://github.com/x"]}}, "does not match"),

@@ -57,11 +57,14 @@ def test_with_distro_keeps_comments_order_and_other_keys() -> None:
         "# mine\ndistro: iron  # pinned for the H7\nplatform: generate_lib\nset:\n- rmw_microxrcedds.X=1\n"
     )
     assert with_distro("distro: humble\n", "iron", "u") == "distro: iron\n"
+    # a uros.yaml without a distro (a build needs none): `uros update --distro` adds the line
+    assert (
+        with_distro("target: cortex-m7  # mine", "humble", "u")
+        == "target: cortex-m7  # mine\ndistro: humble\n"
+    )
 
 
-@pytest.mark.parametrize(
-    "text", ["distro:\n  humble\n", "platform: generate_lib\n", "distro: a\ndistro: b\n"]
-)
+@pytest.mark.parametrize("text", ["distro:\n  humble\n", "distro: a\ndistro: b\n"])
 def test_with_distro_refuses_what_is_not_one_plain_line(text: str) -> None:
     with pytest.raises(ConfigError, match=r"'distro:' line|could not set"):
         with_distro(text, "iron", "uros.yaml")

@@ -42,7 +42,6 @@ def test_no_config_is_not_a_firmware_workspace(tmp_path: Path) -> None:
     ("data", "message"),
     [
         (["distro: humble"], "expected a mapping"),
-        ({}, "distro: is required but missing"),
         ({"distro": 3}, "distro: must be a non-empty string"),
         ({"distro": "humble", "extra_packages": "abc"}, "extra_packages: must be a list of strings"),
         ({"distro": "humble", "mirror": ["x"]}, "mirror: expected a mapping"),

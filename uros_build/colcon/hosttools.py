@@ -282,7 +282,7 @@ def dev_needs_building(ws: Workspace, mcu: Sequence[PackageInfo]) -> bool:
 def build_dev_workspace(
     ws: Workspace,
     cfg: WorkspaceConfig,
-    distro: Distro,
+    distro: Distro | None,  # None: a uros.yaml without one (no build-time clones to redirect)
     runner: Runner,
     verbose: bool,
     jobs: int | None = None,

@@ -97,7 +97,7 @@ def update(args: UpdateArgs) -> tuple[Move, ...]:
     plan = plan_update(args)
     root, old_lock = plan.root, plan.lock
     runner = Runner(new_run_log(Workspace(root).log_dir, "update"), verbose=args.verbose)
-    switching = plan.distro.name != plan.config.distro
+    switching = bool(plan.config.distro) and plan.distro.name != plan.config.distro
     target = f"micro-ROS {plan.distro.name}" + (f" (from {plan.config.distro})" if switching else "")
     when = f" committed before {args.before}" if args.before else ""
     console.step(f"uros update: {root} to the newest commits{when} of {target}")

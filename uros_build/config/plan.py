@@ -113,9 +113,13 @@ def named_keys(
     return [(name, folder_key(name, chosen.source, base)) for name in chosen.value]
 
 
+PROFILE_SUFFIXES = (".yaml", ".yml")  # a target named by such a file is a profile, as --profile's
+
+
 def names_a_file(name: str) -> bool:
-    """A target named by its file (a CMake toolchain file), not by a shipped target's name."""
-    return name.endswith(".cmake") or "/" in name
+    """A target named by its file (a profile or a CMake toolchain file), not by a shipped target's
+    name."""
+    return name.endswith((".cmake", *PROFILE_SUFFIXES)) or "/" in name
 
 
 def folder_key(name: str, where: str = "--toolchain", base: Path | None = None, profile: bool = False) -> str:
@@ -124,7 +128,7 @@ def folder_key(name: str, where: str = "--toolchain", base: Path | None = None, 
     None: the current one): a shipped target's name as it is; a profile file's ``name:`` (a
     .yaml name, or ``profile``: --profile's file); a toolchain file's stem, made folder-safe.
     :func:`resolve_target` gives every target the key this gives its name."""
-    if profile or name.endswith((".yaml", ".yml")):
+    if profile or name.endswith(PROFILE_SUFFIXES):
         path = base / name if base is not None else Path(name)
         if path.is_file():
             return target_key(load_profile_file(path).name, f"{where} {name}")
@@ -178,6 +182,15 @@ def resolve_target(
             f"pass --toolchain with one of: {', '.join(shipped_profiles())}, "
             f"or name it in the workspace's {CONFIG} (target: NAME)",
         )
+    if toolchain.endswith(PROFILE_SUFFIXES):
+        # a profile file (uros.yaml's target: boards/my_board.yaml), as --profile takes: never a
+        # CMake toolchain file, which CMake would fail to parse (issue 34, item 3)
+        if not Path(toolchain).is_file():
+            raise ConfigError(
+                f"{flag} {toolchain}: no such profile file",
+                "pass a target name, a profile (.yaml) or a CMake toolchain file (.cmake) that exists",
+            )
+        return resolve_target(None, Path(toolchain), compiler_prefix, cflags, flag)
     if names_a_file(toolchain):
         if derive:
             raise ConfigError(
@@ -417,9 +430,12 @@ def plan_build(args: BuildArgs, env: Mapping[str, str] | None = None) -> BuildPl
     cfg = load_config(ws.root)
     toolchain = args.toolchain
     if toolchain and args.toolchain_from != "--toolchain" and names_a_file(toolchain):
-        toolchain = str(ws.root / toolchain)  # a toolchain file named in uros.yaml: from the workspace
+        toolchain = str(ws.root / toolchain)  # a file named in uros.yaml: from the workspace
     target = resolve_target(toolchain, args.profile, args.compiler_prefix, args.cflags, args.toolchain_from)
-    distro = distros_mod.load_distro(cfg.distro, f"{ws.root / CONFIG}: distro") if cfg else None
+    # a distro only chooses the meta preset here: a uros.yaml without one builds with uros's own
+    distro = (
+        distros_mod.load_distro(cfg.distro, f"{ws.root / CONFIG}: distro") if cfg and cfg.distro else None
+    )
     user_metas = list(args.metas)
     if cfg is not None and ws.user_meta.is_file():
         user_metas.insert(0, ws.user_meta)

@@ -106,8 +106,8 @@ WORKSPACE: Setting[Path | None] = Setting(
 )  # fmt: skip
 TARGETS: Setting[tuple[str, ...]] = Setting(
     "toolchains", "--toolchain", "target / targets", None, (), "none: an error",
-    "the target(s): a shipped target name or your own CMake toolchain file; several build one after "
-    "the other, each into build/<target>",
+    "the target(s): a shipped target name, a profile file (.yaml, as --profile) or your own CMake "
+    "toolchain file; several build one after the other, each into build/<target>",
     commands=_TARGETED, unless=("profile", "compiler_prefix", "cflags"), from_config=_targets_of,
 )  # fmt: skip
 PROFILE: Setting[Path | None] = Setting(

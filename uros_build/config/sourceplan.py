@@ -86,9 +86,7 @@ def _mirror_from(args: CreateArgs, existing: WorkspaceConfig | None) -> Mirror:
     if existing is not None:
         parts.append(existing.mirror)
     if args.config is not None:
-        given = parse_config(
-            loader.load_yaml(args.config, "--config"), f"--config {args.config}", partial=True
-        )
+        given = parse_config(loader.load_yaml(args.config, "--config"), f"--config {args.config}")
         parts.append(given.mirror)
     parts.append(
         Mirror(
@@ -215,7 +213,14 @@ def plan_update(args: UpdateArgs) -> UpdatePlan:
             "re-create the workspace with `uros create-firmware --force`",
         )
     lock = read_lock(ws.lock_path, "--workspace")
-    distro = distros_mod.load_distro(args.distro if args.distro is not None else cfg.distro)
+    name = args.distro if args.distro is not None else cfg.distro
+    if not name:  # a build needs no distro; moving the clones does
+        raise ConfigError(
+            f"{ws.root / CONFIG}: distro: is required by `uros update` but missing",
+            "add the line 'distro: humble' (the distro the clones are of; `uros distros` lists them), "
+            "or pass --distro NAME",
+        )
+    distro = distros_mod.load_distro(name)
     sources = plan_sources(distro, cfg.mirror, None)
     _check_sources(sources, f"{ws.root / CONFIG}: mirror")
     kept = tuple(sorted(set(sources) & set(lock.repositories)))

@@ -38,7 +38,9 @@ STATE = ".uros"  # uros's own: colcon's trees per target, logs, caches
 
 @dataclass(frozen=True)
 class WorkspaceConfig:
-    distro: str
+    # "": none. Only create-firmware and update need a distro (to choose and move clones); a build
+    # needs none (a plain colcon workspace with a uros.yaml of `target: cortex-m7` builds).
+    distro: str = ""
     platform: str = "generate_lib"
     mirror: Mirror = field(default_factory=Mirror)
     extra_packages: tuple[str, ...] = ()  # source folders synced into mcu_ws/extra_packages
@@ -59,10 +61,10 @@ class WorkspaceConfig:
 _CONFIG_KEYS = {f.name for f in fields(WorkspaceConfig)}
 
 
-def parse_config(data: Any, source: str, partial: bool = False) -> WorkspaceConfig:
-    """``partial``: a --config file, read for its mirror section, may leave the distro out (its
-    other keys are checked all the same)."""
-    top = loader.mapping(data, source, _CONFIG_KEYS, required=() if partial else ("distro",))
+def parse_config(data: Any, source: str) -> WorkspaceConfig:
+    """uros.yaml, or a --config file read for its mirror section; every key is optional (`uros update`
+    asks for the distro: :func:`require_distro`)."""
+    top = loader.mapping(data, source, _CONFIG_KEYS)
     target = loader.string(top, "target", source) if top.get("target") is not None else None
     targets = loader.string_list(top, "targets", source)
     if target is not None and targets:
@@ -77,7 +79,7 @@ def parse_config(data: Any, source: str, partial: bool = False) -> WorkspaceConf
     for item in sets:
         split_set(item, f"{source}: set:")
     return WorkspaceConfig(
-        distro=loader.string(top, "distro", source) if "distro" in top or not partial else "",
+        distro=loader.string(top, "distro", source) if "distro" in top else "",
         platform=loader.one_of(top, "platform", source, (defaults.PLATFORM,), defaults.PLATFORM),
         mirror=distros_mod.load_mirror_config(
             loader.mapping(top.get("mirror"), f"{source}: mirror"), f"{source}"
@@ -115,13 +117,13 @@ def load_config(root: Path) -> WorkspaceConfig | None:
 
 def config_text(cfg: WorkspaceConfig) -> str:
     data: dict[str, Any] = {
-        "distro": cfg.distro,
         "platform": cfg.platform,
         "mirror": distros_mod.mirror_to_config(cfg.mirror),
         "extra_packages": list(cfg.extra_packages),
     }
     # the keys users add themselves, written back only when set (add-package rewrites the file)
     optional = {
+        "distro": cfg.distro or None,
         "target": cfg.target,
         "transport": cfg.transport,
         "idf_build": cfg.idf_build,
@@ -141,9 +143,12 @@ def save_config(root: Path, cfg: WorkspaceConfig) -> None:
 def with_distro(text: str, distro: str, source: str) -> str:
     """uros.yaml's text with its top-level ``distro:`` line set to ``distro``, everything else (the
     user's comments, order, other keys) as it was (pure). A file whose distro is not on one plain
-    line is refused rather than rewritten."""
+    line is refused rather than rewritten; a file without one (a build needs none) gets one at its end."""
     pattern = re.compile(r"^distro:[ \t]*([^#\n]*?)[ \t]*(#.*)?$", re.MULTILINE)
     found = list(pattern.finditer(text))
+    if not found and not parse_config(yaml.safe_load(text) or {}, source).distro:
+        sep = "" if not text or text.endswith("\n") else "\n"
+        return _checked_distro(f"{text}{sep}distro: {distro}\n", distro, source)
     if len(found) != 1:
         raise ConfigError(
             f"{source}: no single top-level 'distro:' line to change",
@@ -152,6 +157,10 @@ def with_distro(text: str, distro: str, source: str) -> str:
     match = found[0]
     comment = f"  {match.group(2)}" if match.group(2) else ""
     edited = text[: match.start()] + f"distro: {distro}{comment}" + text[match.end() :]
+    return _checked_distro(edited, distro, source)
+
+
+def _checked_distro(edited: str, distro: str, source: str) -> str:
     if parse_config(yaml.safe_load(edited), source).distro != distro:
         raise ConfigError(f"{source}: could not set 'distro: {distro}'", "set it in the file yourself")
     return edited
@@ -163,7 +172,7 @@ def with_extra_package(text: str, entry: str, source: str) -> str:
     string, which YAML reads as the same string whatever it holds. A list uros cannot extend by a
     line edit is refused rather than the file rewritten."""
     value = json.dumps(entry)
-    before = parse_config(yaml.safe_load(text) or {}, source, partial=True).extra_packages
+    before = parse_config(yaml.safe_load(text) or {}, source).extra_packages
     lines = text.splitlines(keepends=True)
     key = next((i for i, line in enumerate(lines) if line.startswith("extra_packages:")), None)
     if key is None:
@@ -185,7 +194,7 @@ def with_extra_package(text: str, entry: str, source: str) -> str:
             lines = []
         edited = "".join(lines)
     try:
-        after = parse_config(yaml.safe_load(edited), source, partial=True).extra_packages
+        after = parse_config(yaml.safe_load(edited), source).extra_packages
     except (ConfigError, yaml.YAMLError):
         after = ()
     if after != (*before, entry):

@@ -48,7 +48,6 @@ def host_facts(plan: BuildPlan, runner: Runner) -> HostFacts:
         ws.sync_extra_packages(plan.config)
         # a workspace with a hand-written uros.yaml may have no dev_ws: nothing to build then
         if ws.dev_dir.is_dir() and hosttools.dev_needs_building(ws, plan.workspace_packages):
-            assert plan.distro is not None  # loaded with the config
             hosttools.build_dev_workspace(ws, plan.config, plan.distro, runner, plan.verbose, plan.jobs)
     return facts
 
