@@ -7,6 +7,8 @@ import shutil
 import signal
 import subprocess
 import sys
+import threading
+import time
 from collections import Counter
 from pathlib import Path
 
@@ -87,6 +89,34 @@ def run_uros_here(
 
 def _no_process(*args: object, **kwargs: object) -> None:
     raise AssertionError(f"run_uros_here: this case starts a process ({args[0]!r}); use run_uros")
+
+
+class Background:
+    """`uros ARGS` started in the background, its stderr lines collected as they come."""
+
+    def __init__(self, *args: str) -> None:
+        self.proc = subprocess.Popen(
+            [sys.executable, "-m", "uros_build", *args],
+            stderr=subprocess.PIPE,
+            stdout=subprocess.DEVNULL,
+            text=True,
+        )
+        self.lines: list[str] = []
+        assert self.proc.stderr is not None
+        self.reader = threading.Thread(target=lambda: self.lines.extend(self.proc.stderr))  # type: ignore[arg-type]
+        self.reader.start()
+
+    def wait_for(self, text: str, seconds: float = 60) -> None:
+        """Until a line holds ``text``; fails if uros ends or ``seconds`` pass first."""
+        deadline = time.monotonic() + seconds
+        while not any(text in line for line in self.lines):
+            assert self.proc.poll() is None and time.monotonic() < deadline, "".join(self.lines)
+            time.sleep(0.2)
+
+    def end(self, seconds: float = 120) -> int:
+        code = self.proc.wait(timeout=seconds)
+        self.reader.join()
+        return code
 
 
 def build_firmware_project(source: Path, package: Path, build: Path, *cmake_args: str) -> Path:

@@ -159,7 +159,7 @@ def lock_holder(text: str) -> int | None:
 
 
 @contextlib.contextmanager
-def locked(folder: StrPath, what: str) -> Iterator[None]:
+def locked(folder: StrPath, what: str, command: str = "uros build") -> Iterator[None]:
     """One uros run at a time holds ``folder``'s lock (a target's trees, the host stage, an output's
     writers); a second waits. filelock takes an OS lock on ``<folder>/.lock`` (flock on POSIX, msvcrt
     on Windows), which the OS releases when the process ends, however it ends. The holder writes its
@@ -190,7 +190,7 @@ def locked(folder: StrPath, what: str) -> Iterator[None]:
         except OSError:
             holder = None
         who = f" (pid {holder})" if holder else ""
-        console.info(f"waiting for another uros build of {what}{who} to finish (lock: {lock_path})")
+        console.info(f"waiting for another {command} of {what}{who} to finish (lock: {lock_path})")
         lock.acquire()
     try:
         owner.write_text(f"{os.getpid()}\n", encoding="utf-8")

@@ -7,16 +7,13 @@ from __future__ import annotations
 import json
 import shutil
 import subprocess
-import sys
-import threading
-import time
 from collections.abc import Callable
 from pathlib import Path
 
 import filelock
 import pytest
 from fixture_ws import fixture_build_args, make_fixture_workspace
-from uros_helpers import env_without, need, run_uros, run_uros_here
+from uros_helpers import Background, env_without, need, run_uros, run_uros_here
 
 pytestmark = pytest.mark.integration
 
@@ -467,23 +464,14 @@ def test_a_build_waiting_for_the_lock_says_so(tmp_path: Path) -> None:
     ws = _ws(tmp_path)
     lock = ws / ".uros" / "targets" / "cortex-m7" / ".lock"
     lock.parent.mkdir(parents=True)
-    lines: list[str] = []
     with filelock.FileLock(str(lock)):  # another build of this target, as far as uros can tell
-        proc = subprocess.Popen(
-            [sys.executable, "-m", "uros_build", "build", "--toolchain", "cortex-m7", "--workspace", str(ws),
-             "--packages-up-to", "fx_core"],
-            stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True,
-        )  # fmt: skip
-        assert proc.stderr is not None
-        reader = threading.Thread(target=lambda: lines.extend(proc.stderr))  # type: ignore[arg-type]
-        reader.start()
-        deadline = time.monotonic() + 60
-        while not any("waiting for another uros build" in line for line in lines):
-            assert proc.poll() is None and time.monotonic() < deadline, "".join(lines)
-            time.sleep(0.2)
-        assert not any("colcon build" in line for line in lines)  # it waits before building
-    assert proc.wait(timeout=120) == 0, "".join(lines)
-    reader.join()
+        run = Background(
+            "build", "--toolchain", "cortex-m7", "--workspace", str(ws), "--packages-up-to", "fx_core"
+        )
+        run.wait_for("waiting for another uros build")
+        assert not any("colcon build" in line for line in run.lines)  # it waits before building
+    assert run.end() == 0, "".join(run.lines)
+    lines = run.lines
     assert any(f"to finish (lock: {lock})" in line for line in lines)
 
 

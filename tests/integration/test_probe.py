@@ -8,10 +8,12 @@ from __future__ import annotations
 import json
 import os
 import shutil
+import subprocess
 from pathlib import Path
 
+import filelock
 import pytest
-from uros_helpers import humble_mirror_args, run_uros
+from uros_helpers import Background, humble_mirror_args, run_uros
 
 pytestmark = pytest.mark.integration
 
@@ -104,3 +106,46 @@ def test_without_an_agent_or_qemu_the_probe_says_what_to_install(m7_build: Path)
     errors = [x for x in proc.stderr.splitlines() if x.startswith("error:")]
     assert len(errors) == 1 and ("qemu-system-arm" in errors[0] or "no Micro XRCE-DDS Agent" in errors[0])
     assert "Traceback" not in proc.stderr
+
+
+def _one_error(proc: subprocess.CompletedProcess[str]) -> str:
+    assert "Traceback" not in proc.stderr, proc.stderr
+    errors = [x for x in proc.stderr.splitlines() if x.startswith("error:")]
+    assert len(errors) == 1, proc.stderr
+    return errors[0]
+
+
+@pytest.mark.parametrize("timeout", ["0", "-1", "nan"])
+def test_a_timeout_that_is_no_time_is_refused(m7_build: Path, timeout: str) -> None:
+    """Issue 34, item 7: `--timeout 0`/`-1` ran the firmware and then gave a false "the firmware
+    did not finish" verdict about a good library."""
+    proc = run_uros("probe", str(m7_build / "build" / "cortex-m7"), "--timeout", timeout, check=False)
+    assert proc.returncode == 2, proc.stderr
+    assert f"--timeout {timeout}: must be a number of seconds more than 0" in _one_error(proc)
+
+
+def test_an_output_and_a_toolchain_that_names_another_target_are_refused(m7_build: Path) -> None:
+    """Issue 34, item 7: `uros probe OUTPUT --toolchain other` probed OUTPUT and ignored --toolchain."""
+    out = m7_build / "build" / "cortex-m7"
+    proc = run_uros("probe", str(out), "--toolchain", "cortex-m4", check=False)
+    assert proc.returncode == 2, proc.stderr
+    assert f"--toolchain cortex-m4: OUTPUT {out} is the output of cortex-m7, not cortex-m4" in _one_error(
+        proc
+    )
+
+
+def test_a_second_probe_of_a_target_waits_for_the_first(m7_build: Path) -> None:
+    """Issue 34, item 7: two probes at once shared one work folder (one removed the other's
+    firmware and console log) and blamed a good library. A probe holds a lock per target; the
+    second waits and says for whom (here the first is this test, holding the lock; after it the
+    second goes on, and stops at the agent it was given, which does not exist)."""
+    lock = m7_build / ".uros" / "probe" / "locks" / "cortex-m7" / ".lock"
+    lock.parent.mkdir(parents=True, exist_ok=True)
+    with filelock.FileLock(str(lock)):
+        (lock.parent / ".lock.owner").write_text(f"{os.getpid()}\n")
+        run = Background("probe", str(m7_build / "build" / "cortex-m7"), "--agent", "/no/such/agent")
+        run.wait_for("waiting for another uros probe of cortex-m7")
+        assert any(f"(pid {os.getpid()})" in line for line in run.lines)
+        assert not any(line.startswith("error:") for line in run.lines)  # waiting, not failing
+    assert run.end(60) == 3, "".join(run.lines)
+    assert any(x.startswith("error:") and ("/no/such/agent" in x or "qemu" in x) for x in run.lines)

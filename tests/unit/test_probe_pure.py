@@ -8,6 +8,7 @@ from pathlib import Path
 import pytest
 
 from uros_build.commands import doctor
+from uros_build.commands import probe as probe_cmd
 from uros_build.errors import ConfigError
 from uros_build.target import machines as probe
 
@@ -103,3 +104,19 @@ def test_limits_from_the_console() -> None:
     line = probe.describe_limits(limits)
     assert line.startswith("limits held: nodes 2, publishers 3, subscriptions 40 (more not tried)")
     assert probe.describe_limits({}) == ""
+
+
+@pytest.mark.parametrize("timeout", [0.0, -1.0, float("nan"), float("inf")])
+def test_a_timeout_is_some_seconds(timeout: float) -> None:
+    """`--timeout 0`/`-1` gave a false "did not finish" verdict (issue 34, item 7)."""
+    with pytest.raises(ConfigError, match="must be a number of seconds more than 0"):
+        probe_cmd.check_timeout(timeout)
+    probe_cmd.check_timeout(0.5)
+
+
+def test_a_toolchain_beside_an_output_must_name_its_target() -> None:
+    """`uros probe OUTPUT --toolchain other` ignored --toolchain (issue 34, item 7)."""
+    out = Path("/ws/build/cortex-m7")
+    probe_cmd.check_toolchain_matches("cortex-m7", "cortex-m7", out, "cortex-m7")
+    with pytest.raises(ConfigError, match=r"--toolchain cortex-m4: OUTPUT /ws/build/cortex-m7 is the output"):
+        probe_cmd.check_toolchain_matches("cortex-m4", "cortex-m4", out, "cortex-m7")

@@ -10,6 +10,7 @@ agent on that terminal → QEMU's exit status (the firmware's main()) → one li
 from __future__ import annotations
 
 import json
+import math
 import os
 import shutil
 import sys
@@ -19,10 +20,11 @@ from pathlib import Path
 
 from uros_build import console
 from uros_build.colcon.fingerprint import digest
-from uros_build.config.plan import resolve_output
+from uros_build.config.plan import folder_key, resolve_output
 from uros_build.config.settings import AGENT, resolve_outside
-from uros_build.errors import MissingToolError, StepFailed, VerifyError
-from uros_build.output.buildinfo import read_build_info
+from uros_build.errors import ConfigError, MissingToolError, StepFailed, VerifyError
+from uros_build.files import locked
+from uros_build.output.buildinfo import BuildInfo, read_build_info
 from uros_build.proc import Background, Runner, new_run_log, user_log_dir
 from uros_build.sources.workspace import workspace_of_output
 from uros_build.target import machines as probe_mod
@@ -80,11 +82,50 @@ def probe(
     as_json: bool,
     verbose: bool = False,
 ) -> ProbeReport:
+    check_timeout(timeout)
     out = resolve_output(output, workspace, toolchain).resolve()
     info = read_build_info(out, "OUTPUT")
+    if output is not None and toolchain is not None:
+        check_toolchain_matches(toolchain, folder_key(toolchain), out, info.target)
     machine = probe_mod.machine_for(info.target, probe_mod.load_machines())
     ws = workspace_of_output(out, info.target)
     base = ws.state_dir if ws is not None else user_log_dir().parent
+    # One probe of a target at a time: two at once shared the work folder (one deleted the other's
+    # firmware and console log) and blamed a good library ("no agent answered", "an entity could not
+    # be created"); the second waits, and says for whom.
+    with locked(base / "probe" / "locks" / info.target, info.target, command="uros probe"):
+        return _probe(out, info, machine, base, agent, timeout, as_json, verbose)
+
+
+def check_timeout(timeout: float) -> None:
+    """--timeout is a number of seconds more than 0 (0 or less gave "the firmware did not finish")."""
+    if not (math.isfinite(timeout) and timeout > 0):
+        raise ConfigError(
+            f"--timeout {timeout:g}: must be a number of seconds more than 0",
+            "e.g. --timeout 60",
+        )
+
+
+def check_toolchain_matches(toolchain: str, key: str, out: Path, target: str) -> None:
+    """OUTPUT names the output to probe; a --toolchain beside it that names another target
+    contradicts it (it was ignored without a word)."""
+    if key != target:
+        raise ConfigError(
+            f"--toolchain {toolchain}: OUTPUT {out} is the output of {target}, not {key}",
+            "pass OUTPUT or --toolchain, not both",
+        )
+
+
+def _probe(
+    out: Path,
+    info: BuildInfo,
+    machine: probe_mod.Machine,
+    base: Path,
+    agent: str | None,
+    timeout: float,
+    as_json: bool,
+    verbose: bool,
+) -> ProbeReport:
     work = base / "probe" / f"{info.target}-{digest(str(out))[:10]}"
     work.mkdir(parents=True, exist_ok=True)
     runner = Runner(new_run_log(work / "log", "probe", info.target), verbose=verbose)
