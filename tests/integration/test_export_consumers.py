@@ -355,3 +355,104 @@ def test_export_folders_with_special_characters_work_or_are_refused(
         else:
             assert proc.returncode == 0, (kind, proc.stderr)
             _consume(kind, folder, tmp_path / f"{kind}-app")
+
+
+# Zephyr's link rules, as its cmake/modules/extensions.cmake and top-level CMakeLists.txt define
+# them (written here from those rules, not copied): libraries on the global ZEPHYR_LIBS list
+# (zephyr_library_named, zephyr_library_import) are linked --whole-archive; zephyr_link_libraries,
+# zephyr_include_directories and zephyr_ld_options go on the zephyr_interface INTERFACE library.
+_ZEPHYR_LIKE = """cmake_minimum_required(VERSION 3.16)
+project(zephyr_like C)
+add_library(zephyr_interface INTERFACE)
+function(zephyr_include_directories)
+  target_include_directories(zephyr_interface INTERFACE ${ARGV})
+endfunction()
+function(zephyr_link_libraries)
+  target_link_libraries(zephyr_interface INTERFACE ${ARGV})
+endfunction()
+function(zephyr_ld_options)
+  target_link_options(zephyr_interface INTERFACE ${ARGV})
+endfunction()
+function(zephyr_library_import name path)
+  add_library(${name} STATIC IMPORTED GLOBAL)
+  set_target_properties(${name} PROPERTIES IMPORTED_LOCATION ${path})
+  set_property(GLOBAL APPEND PROPERTY ZEPHYR_LIBS ${name})
+endfunction()
+macro(zephyr_library_named name)
+  add_library(${name} STATIC "")
+  target_link_libraries(${name} PUBLIC zephyr_interface)
+  set_property(GLOBAL APPEND PROPERTY ZEPHYR_LIBS ${name})
+  set(ZEPHYR_CURRENT_LIBRARY ${name})
+endmacro()
+function(zephyr_library_sources)
+  target_sources(${ZEPHYR_CURRENT_LIBRARY} PRIVATE ${ARGV})
+endfunction()
+include_directories(${CMAKE_CURRENT_SOURCE_DIR}/kernel_include)
+set(CONFIG_MICRO_ROS_UROS y)
+add_subdirectory(${MODULE} module)
+zephyr_library_named(app)
+zephyr_library_sources(${CMAKE_CURRENT_SOURCE_DIR}/main.c)
+get_property(zephyr_libs GLOBAL PROPERTY ZEPHYR_LIBS)
+add_executable(zephyr.elf ${CMAKE_CURRENT_SOURCE_DIR}/kernel.c)
+target_link_libraries(zephyr.elf PRIVATE -Wl,--whole-archive ${zephyr_libs} -Wl,--no-whole-archive zephyr_interface)
+"""
+_ZEPHYR_KERNEL = """#include <errno.h>
+#include <time.h>
+#include <zephyr/kernel.h>
+int64_t k_uptime_ticks(void) { return 12345; }
+uint64_t k_ticks_to_ns_floor64(uint64_t t) { return t * 100000U; }
+/* Zephyr's POSIX clock: CLOCK_MONOTONIC is 4, clock 0 is EINVAL */
+int clock_gettime(clockid_t id, struct timespec *tp) {
+  if (id != 4) { errno = EINVAL; return -1; }
+  tp->tv_sec = 0; tp->tv_nsec = 0; return 0;
+}
+"""
+
+
+def test_the_zephyr_module_links_only_what_the_firmware_uses(m7_build: Path, tmp_path: Path) -> None:
+    """Issue 34, item 4: by Zephyr's link rules (above), the module's library is an ordinary archive
+    (zephyr_library_import made it whole-archive: every member in every firmware), and micro-ROS's
+    clock_gettime(0, ...) reaches the module's clock shim, not Zephyr's clock (EINVAL for 0)."""
+    need("cmake", "ninja", "arm-none-eabi-gcc")
+    module = tmp_path / "zephyr-module"
+    run_uros("export", "zephyr", "--from", str(m7_build / "build" / "cortex-m7"), "--output", str(module))
+    app = tmp_path / "app"
+    (app / "kernel_include/zephyr").mkdir(parents=True)
+    (app / "kernel_include/zephyr/kernel.h").write_text(
+        "#include <stdint.h>\nint64_t k_uptime_ticks(void);\nuint64_t k_ticks_to_ns_floor64(uint64_t t);\n"
+    )
+    (app / "kernel.c").write_text(_ZEPHYR_KERNEL)
+    (app / "main.c").write_text(
+        '#include "fx_time/time_now.h"\n#include "fx_core/core.h"\n'
+        "int main(void) { return fx_core_add(1, 2) + (int)fx_time_now_ns(); }\n"
+    )
+    (app / "CMakeLists.txt").write_text(_ZEPHYR_LIKE)
+    (app / "tc.cmake").write_text(
+        _FIRMWARE_TOOLCHAIN.format(flags=" ".join(_M7)).replace(
+            "--specs=nosys.specs", "--specs=nosys.specs -Wl,--gc-sections -Wl,-Map=zephyr.map"
+        )
+    )
+    build = tmp_path / "b"
+    subprocess.run(
+        ["cmake", "-S", str(app), "-B", str(build), "-G", "Ninja", f"-DMODULE={module}",
+         f"-DCMAKE_TOOLCHAIN_FILE={app / 'tc.cmake'}"],
+        check=True, capture_output=True,
+    )  # fmt: skip
+    done = subprocess.run(["cmake", "--build", str(build)], capture_output=True, text=True)
+    assert done.returncode == 0, done.stdout + done.stderr
+    elf = build / "zephyr.elf"
+    nm = subprocess.run(["arm-none-eabi-nm", str(elf)], capture_output=True, text=True, check=True).stdout
+    assert " T fx_core_add" in nm and " T fx_time_now_ns" in nm
+    # members the firmware does not use are not even loaded (whole-archive loaded every one: what
+    # --gc-sections cannot drop of them, constructors and what they reach, stayed in the firmware)
+    linked = (build / "zephyr.map").read_text()
+    assert "libfx_core__core.c.obj" in linked
+    for unused in ("libfx_flat__flat.c.obj", "common.c.obj", "libfx_util__scale.c.obj"):
+        assert unused not in linked, unused
+    # the library's clock_gettime(0, ...) goes to the module's shim
+    dump = subprocess.run(
+        ["arm-none-eabi-objdump", "-d", str(elf)], capture_output=True, text=True, check=True
+    ).stdout
+    body = dump.split("<fx_time_now_ns>:", 1)[1].split("\n\n", 1)[0]
+    assert "<__wrap_clock_gettime>" in body, body
+    assert " T __wrap_clock_gettime" in nm

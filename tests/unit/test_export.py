@@ -131,16 +131,74 @@ def test_the_zephyr_module_follows_zephyrs_module_file_rules() -> None:
 
     from uros_build.output import export as ex
 
-    files = ex.zephyr_module_files("cortex-m7")
+    files = ex.zephyr_module_files("cortex-m7", _M7)
     module = yaml.safe_load(files["zephyr/module.yml"])
     # zephyr/module.yml's schema (scripts/zephyr_module.py): name, and build: cmake / kconfig relative
     # to the module's root (https://docs.zephyrproject.org/latest/develop/modules.html)
     assert module == {"name": "micro_ros_uros", "build": {"cmake": ".", "kconfig": "Kconfig"}}
-    assert (
-        "zephyr_library_import(microros ${CMAKE_CURRENT_LIST_DIR}/libmicroros.a)" in files["CMakeLists.txt"]
-    )
     assert "if(CONFIG_MICRO_ROS_UROS)" in files["CMakeLists.txt"]
     assert files["Kconfig"].splitlines()[1] == "config MICRO_ROS_UROS"
+
+
+_M7 = ("-mcpu=cortex-m7", "-mthumb", "-mfpu=fpv5-d16", "-mfloat-abi=hard")
+
+
+def test_the_zephyr_module_links_only_what_the_firmware_uses() -> None:
+    """Issue 34, item 4: zephyr_library_import() puts the archive on ZEPHYR_LIBS, which Zephyr links
+    --whole-archive (all of micro-ROS in every firmware); an imported target on zephyr_interface's
+    link (zephyr_link_libraries) is an ordinary archive."""
+    from uros_build.output import export as ex
+
+    text = ex.zephyr_module_files("cortex-m7", _M7)["CMakeLists.txt"]
+    code = [line.strip() for line in text.splitlines() if not line.lstrip().startswith("#")]
+    assert not any(line.startswith("zephyr_library_import(") for line in code)
+    assert "add_library(micro_ros_uros_prebuilt STATIC IMPORTED GLOBAL)" in code
+    assert 'IMPORTED_LOCATION "${CMAKE_CURRENT_LIST_DIR}/libmicroros.a"' in code
+    assert "zephyr_link_libraries(micro_ros_uros_prebuilt)" in code
+    # the steady clock: every clock_gettime call through the module's shim
+    assert "zephyr_ld_options(-Wl,--wrap=clock_gettime)" in code
+    assert 'zephyr_library_sources("${CMAKE_CURRENT_LIST_DIR}/zephyr/uros_clock.c")' in code
+
+
+@pytest.mark.parametrize(
+    ("flags", "depends"),
+    [
+        (_M7, "ARM && CPU_CORTEX_M7 && FPU && FP_HARDABI && CPU_HAS_FPU_DOUBLE_PRECISION"),
+        (
+            ("-mcpu=cortex-m7", "-mthumb", "-mfpu=fpv5-sp-d16", "-mfloat-abi=hard"),
+            "ARM && CPU_CORTEX_M7 && FPU && FP_HARDABI && !CPU_HAS_FPU_DOUBLE_PRECISION",
+        ),
+        (
+            ("-mcpu=cortex-m4", "-mthumb", "-mfpu=fpv4-sp-d16", "-mfloat-abi=hard"),
+            "ARM && CPU_CORTEX_M4 && FPU && FP_HARDABI && !CPU_HAS_FPU_DOUBLE_PRECISION",
+        ),
+        (("-mcpu=cortex-m0plus", "-mthumb", "-mfloat-abi=soft"), "ARM && CPU_CORTEX_M0PLUS && !FP_HARDABI"),
+        (("-march=rv32imc", "-mabi=ilp32"), "RISCV"),
+    ],
+)
+def test_the_zephyr_option_depends_on_newlib_and_the_librarys_cpu(
+    flags: tuple[str, ...], depends: str
+) -> None:
+    """Issue 34, item 4: the option needs newlib (with picolibc, Zephyr's default, __errno and
+    _impure_ptr are undefined) and the CPU/float ABI Zephyr compiles with the library's flags
+    (cmake/gcc-m-fpu.cmake: fpv5-d16 with CPU_HAS_FPU_DOUBLE_PRECISION, else fpv5-sp-d16; FP_HARDABI:
+    -mfloat-abi=hard); never a board. Zephyr aborts on CONFIG_MICRO_ROS_UROS=y that these refuse."""
+    from uros_build.output import export as ex
+
+    kconfig = ex.zephyr_module_files("t", flags)["Kconfig"]
+    assert [line for line in kconfig.splitlines() if line.startswith("\tdepends on ")] == [
+        "\tdepends on NEWLIB_LIBC",
+        f"\tdepends on {depends}",
+    ]
+    assert "BOARD" not in kconfig
+
+
+def test_the_zephyr_module_refuses_a_cpu_zephyr_has_no_symbol_for() -> None:
+    from uros_build.errors import ConfigError
+    from uros_build.output import export as ex
+
+    with pytest.raises(ConfigError, match="uros knows no Zephyr CPU"):
+        ex.zephyr_depends(("-mcpu=cortex-a53",))
 
 
 def test_the_cmake_package_names_the_librarys_abi_flags() -> None:

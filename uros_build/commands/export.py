@@ -121,6 +121,10 @@ def export_platformio(source: Path | None, output: Path) -> Path:
 
 
 def export_zephyr(source: Path | None, output: Path) -> Path:
+    src = (source or output).resolve()
+    export.zephyr_depends(
+        read_build_info(src, "--from" if source else "--output").flags.cpu
+    )  # before writing
     info, out = _prepare(source, output, "zephyr")
     written = export.write_zephyr_module(out, info)
     _record(out, ["zephyr", *(p.name for p in written if p.parent == out)])
