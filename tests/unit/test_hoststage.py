@@ -73,6 +73,10 @@ def test_the_stage_folder_is_named_by_what_builds_it_and_the_key_adds_the_source
     assert other_meta.folder != one.folder
     assert unrelated_meta.folder == one.folder and unrelated_meta.key == one.key
     assert one.folder.parent == tmp_path / ".uros" / "shared"
+    # the workspace moved or copied: the same folder name, another key (what the stage installed
+    # names its folder, so it is built again where it is now: issue 34, item 1)
+    moved = _stage(tmp_path / "moved", {}, {"a": "1", "b": "2"})
+    assert moved.folder.name == one.folder.name and moved.key != one.key
 
 
 def _installed(stage: hoststage.Stage, package: str, files: dict[str, bytes]) -> None:
