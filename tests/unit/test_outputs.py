@@ -12,6 +12,7 @@ from pathlib import Path
 
 import pytest
 
+from uros_build import files
 from uros_build.colcon.damage import archive_damage, configure_damage
 from uros_build.errors import (
     ConfigError,
@@ -496,3 +497,16 @@ def test_recover_leaves_a_file_and_a_missing_folder_alone(tmp_path: Path) -> Non
     notes.write_text("mine")
     assert swap.recover(notes) == [] and notes.read_text() == "mine"
     assert swap.recover(tmp_path / "none" / "out") == []
+
+
+def test_recover_removes_a_journal_a_killed_run_was_writing(tmp_path: Path) -> None:
+    """A run killed while writing its journal (before the rename, files.write_atomic) left only the
+    temporary file: nothing to undo, the file is removed; a live writer's stays."""
+    out = _output(tmp_path / "cortex-m7")
+    journal = tmp_path / ".cortex-m7.swap"
+    killed = Path(files.temp_path(journal, pid=DEAD))
+    writing = Path(files.temp_path(journal))
+    killed.write_text("{")
+    writing.write_text("{")
+    assert swap.recover(out) == []
+    assert not killed.exists() and writing.exists()
