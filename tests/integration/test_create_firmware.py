@@ -92,6 +92,25 @@ def test_missing_branch_names_repo_and_cleans_up(upstream: Path, tmp_path: Path)
     assert proc.returncode == 4 and fw.is_dir()
 
 
+def test_a_source_git_cannot_read_says_so_not_a_missing_branch(upstream: Path, tmp_path: Path) -> None:
+    """git's failure is classified once (sources/clones.py): a folder that is no repository is a
+    source that cannot be reached, so the hint does not send the user looking for a branch."""
+    empty = tmp_path / "not-a-repo"
+    empty.mkdir()
+    fw = tmp_path / "fw"
+    args = ["create-firmware", "--workspace", str(fw), "--no-dev-build", *upstream_mirror(upstream)]
+    proc = run_uros(*args, "--mirror-override", f"uros/rclc={empty}@humble", check=False)
+    assert proc.returncode == 4, proc.stderr
+    line = next(x for x in proc.stderr.splitlines() if x.startswith("error:"))
+    assert f"cloning mcu_ws/uros/rclc from {empty} at 'humble' failed: " in line, line
+    assert f"fatal: repository '{empty}' does not exist" in line, line
+    assert (
+        f"hint: check that {empty} can be reached, or override it: --mirror-override uros/rclc="
+        in proc.stderr
+    )
+    assert "check that the source has" not in proc.stderr and not fw.exists()
+
+
 @pytest.mark.parametrize(
     ("args", "expected"),
     [

@@ -80,6 +80,7 @@ def test_with_distro_refuses_what_is_not_one_plain_line(text: str) -> None:
         ("fatal: couldn't find remote ref refs/heads/gone", "version"),
         ("fatal: unable to access 'https://x/': Could not resolve host: x", "unreachable"),
         ("fatal: '/m/none' does not appear to be a git repository", "unreachable"),
+        ("fatal: repository '/m/empty' does not exist", "unreachable"),
         ("fatal: index file corrupt", "other"),
     ],
 )

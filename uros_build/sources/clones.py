@@ -29,8 +29,9 @@ _NO_VERSION = re.compile(
     r"|reference is not a tree|not our ref|Needed a single revision"
 )
 _UNREACHABLE = re.compile(
-    r"Could not resolve host|Repository not found|does not appear to be a git repository"
-    r"|unable to access|Connection refused|Could not read from remote repository"
+    r"Could not resolve host|Repository not found|repository '.*' does not exist"
+    r"|does not appear to be a git repository|unable to access|Connection refused"
+    r"|Could not read from remote repository"
 )
 
 
