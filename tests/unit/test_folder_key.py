@@ -47,6 +47,8 @@ def test_a_profile_file_is_its_name_not_its_file_name(tmp_path: Path) -> None:
     (tmp_path / "board.profile").write_text(PROFILE, encoding="utf-8")
     assert folder_key(str(tmp_path / "board.profile"), "--profile", profile=True) == "my-board"
     assert resolve_target(None, tmp_path / "board.profile").key == "my-board"
+    # a .yaml target (--toolchain, uros.yaml's target:) is a profile file: the plan agrees
+    assert resolve_target(str(tmp_path / "board.yaml"), None).key == "my-board"
 
 
 def test_a_name_that_cannot_be_a_folder_is_refused() -> None:
@@ -110,3 +112,15 @@ def test_clean_chooses_by_the_same_rule(tmp_path: Path) -> None:
         _chosen(workspace, "cortex-m7", False, tmp_path / "board.yaml")
     with pytest.raises(ConfigError, match=r"--toolchain x/cortex-m4\.cmake: nothing of it .*did you mean"):
         _chosen(workspace, "x/cortex-m4.cmake", False)
+
+
+def test_clean_finds_a_profile_named_in_uros_yaml(tmp_path: Path) -> None:
+    from uros_build.commands.clean import _chosen
+
+    ws = _ws(tmp_path, "targets: [boards/board.yaml]\n")
+    (ws / "boards").mkdir()
+    (ws / "boards" / "board.yaml").write_text(PROFILE, encoding="utf-8")
+    (ws / ".uros" / "targets" / "my-board").mkdir(parents=True)
+    assert _chosen(Workspace(ws), None, False) == ["my-board"]
+    args = BuildArgs(workspace=ws, toolchain="boards/board.yaml", toolchain_from=f"{ws}/uros.yaml: targets")
+    assert plan_build(args, {}).target.key == "my-board"

@@ -436,25 +436,28 @@ def plan_build(args: BuildArgs, env: Mapping[str, str] | None = None) -> BuildPl
     distro = (
         distros_mod.load_distro(cfg.distro, f"{ws.root / CONFIG}: distro") if cfg and cfg.distro else None
     )
-    user_metas = list(args.metas)
+    settings = build_settings(args, cfg, ws.root, os.environ if env is None else env)
+    get = settings.value  # every setting below as the precedence chose it (settings.py)
+    metas: tuple[Path, ...] = get(rows.METAS)
+    user_metas = list(metas)
     if cfg is not None and ws.user_meta.is_file():
         user_metas.insert(0, ws.user_meta)
-    settings = build_settings(args, cfg, ws.root, os.environ if env is None else env)
-    transport, sets = settings.value(rows.TRANSPORT), settings.value(rows.SETS)
+    transport, sets = get(rows.TRANSPORT), get(rows.SETS)
+    jobs, up_to = get(rows.JOBS), get(rows.PACKAGES_UP_TO)
     idf = idf_project(settings[rows.IDF_BUILD], target)
     target = idf_platform(target, idf)
-    preset = settings.value(rows.PRESET)
-    meta = meta_for(preset, target, transport, user_metas, list(sets), distro.preset if distro else None)
-    if args.jobs is not None and args.jobs < 1:
-        raise ConfigError(f"-j/--jobs {args.jobs}: must be 1 or more", "omit it to let colcon choose")
+    distro_preset = distro.preset if distro else None
+    meta = meta_for(get(rows.PRESET), target, transport, user_metas, list(sets), distro_preset)
+    if jobs is not None and jobs < 1:
+        raise ConfigError(f"-j/--jobs {jobs}: must be 1 or more", "omit it to let colcon choose")
     packages = packages_mod.discover(ws.source_dir)
     names = {p.name for p in packages}
-    named = {*args.packages_up_to, *(meta_mod.split_set(s).package for s in sets)}
-    given_metas = [meta_mod.load_meta_file(p) for p in args.metas]
+    named = {*up_to, *(meta_mod.split_set(s).package for s in sets)}
+    given_metas = [meta_mod.load_meta_file(p) for p in metas]
     named |= {pkg for m in given_metas for pkg in m.names}
     if named - names:  # colcon also builds CMake packages that have no package.xml
         names |= packages_mod.plain_cmake_packages(ws.source_dir)
-    for pkg in args.packages_up_to:
+    for pkg in up_to:
         if pkg not in names:
             raise ConfigError(
                 f"--packages-up-to {pkg}: no package {pkg} in {ws.source_dir}{_closest(pkg, names)}",
@@ -464,11 +467,12 @@ def plan_build(args: BuildArgs, env: Mapping[str, str] | None = None) -> BuildPl
     warnings = unknown_packages(given_metas, sets, names, origins)
     warnings += options_mod.check_sets(sets, options_mod.by_package(options_mod.known_options()), origins)
     selection = _select(args, settings[rows.PACKAGES], ws, packages, names)
-    out = (args.output or ws.default_output(target.key)).resolve()
-    flag = "--output" if args.output else "the output folder"
+    given_output, force = get(rows.OUTPUT), get(rows.FORCE)
+    out = (given_output or ws.default_output(target.key)).resolve()
+    flag = "--output" if given_output else "the output folder"
     check_folder_target(out, flag)
-    check_output_dir(out, args.force, flag, ws.root)
-    check_output_owner(out, target.key, args.force, flag)
+    check_output_dir(out, force, flag, ws.root)
+    check_output_owner(out, target.key, force, flag)
     return BuildPlan(
         workspace=ws,
         config=cfg,
@@ -477,25 +481,25 @@ def plan_build(args: BuildArgs, env: Mapping[str, str] | None = None) -> BuildPl
         meta=meta,
         output=out,
         target_dir=ws.target_dir(target.key),
-        packages_up_to=args.packages_up_to,
-        jobs=args.jobs,
-        verbose=args.verbose,
+        packages_up_to=up_to,
+        jobs=jobs,
+        verbose=get(rows.VERBOSE),
         workspace_packages=tuple(packages),
         warnings=tuple(warnings),
         idf=idf,
-        rebuild=args.rebuild,
+        rebuild=get(rows.REBUILD),
         selection=selection,
-        force=args.force,
+        force=force,
         output_flag=flag,
         cache=_cache_settings(
-            settings[rows.CACHE], args.cache_upload, ws.root / CONFIG, settings.value(rows.CACHE_TIMEOUT)
+            settings[rows.CACHE], get(rows.CACHE_UPLOAD), ws.root / CONFIG, get(rows.CACHE_TIMEOUT)
         ),
-        ccache=args.ccache,
+        ccache=get(rows.CCACHE),
         settings=Resolved({**settings.chosen, rows.OUTPUT.name: Chosen(out, settings[rows.OUTPUT].source)}),
-        host_stage=settings.value(rows.HOST_STAGE),
-        compiler_seed=settings.value(rows.COMPILER_SEED),
-        gen_cache=settings.value(rows.GEN_CACHE),
-        gen_cache_dir=settings.value(rows.GEN_CACHE_DIR),
+        host_stage=get(rows.HOST_STAGE),
+        compiler_seed=get(rows.COMPILER_SEED),
+        gen_cache=get(rows.GEN_CACHE),
+        gen_cache_dir=get(rows.GEN_CACHE_DIR),
     )
 
 
