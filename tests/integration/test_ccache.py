@@ -188,6 +188,9 @@ def test_ccache_trouble_falls_back_to_compiling_without_it(tmp_path: Path) -> No
     (warning,) = _ccache_warnings(done.stderr)
     assert str(not_a_folder) in warning and "compiling without it" in warning, warning
     assert lib.read_bytes() == built
+    shown = run_uros("doctor", "-w", str(ws), env={**env, "CCACHE_DIR": str(not_a_folder)}).stdout
+    line = next(x for x in shown.splitlines() if x[6:].startswith("ccache"))
+    assert line.startswith("warn") and f"{not_a_folder} is not a folder" in line, line
 
     # a read-only mount (root: a folder's mode does not stop root), in a mount namespace
     read_only = tmp_path / "ccache-ro"

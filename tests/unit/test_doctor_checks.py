@@ -108,3 +108,10 @@ def test_doctor_sees_extra_packages_as_the_next_build_copies_them() -> None:
         "extra_packages/fx_extra_two/x.c": rec("x"),
     }
     assert d.as_synced(sources, {}) == sources
+
+
+def test_a_ccache_that_cannot_be_used_is_a_warning() -> None:
+    """The build compiles without it then (issue 34, item 7): doctor says so, and why."""
+    check = d.eval_ccache("/usr/bin/ccache", "4.7.5", "its cache_dir /c: /c is not a folder")
+    assert check.status == d.WARN and "cannot be used (its cache_dir /c: /c is not a folder)" in check.detail
+    assert d.eval_ccache("/usr/bin/ccache", "4.7.5").status == d.OK

@@ -19,7 +19,7 @@ from pathlib import Path
 from uros_build import console
 from uros_build.colcon import command as colcon
 from uros_build.colcon import fingerprint, relocate
-from uros_build.errors import MissingToolError, StepFailed, UrosError
+from uros_build.errors import DiskFull, MissingToolError, StepFailed, UrosError
 from uros_build.files import write_atomic
 from uros_build.proc import Runner
 from uros_build.sources import distros as distros_mod
@@ -417,3 +417,15 @@ def cmake_compiler_facts(
         plugin = ""
     shutil.rmtree(scratch, ignore_errors=True)
     return CompilerFacts(found, fmt[1] if fmt else "", plugin)
+
+
+def ccache_unusable(runner: Runner, ccache: str, env: Mapping[str, str]) -> str | None:
+    """Why this ccache cannot compile here (a cache or temporary folder that is a file or that it
+    cannot write in; a ccache that cannot say its settings: a broken ccache.conf), or None. ccache
+    then fails every compile: the build compiles without it instead (a cache is never why a build
+    fails), and `uros doctor` says so."""
+    try:
+        shown = runner.query([ccache, "--show-config"], step="ccache --show-config", env=env)
+    except (StepFailed, DiskFull) as exc:
+        return exc.message
+    return colcon.ccache_trouble(colcon.ccache_settings(shown))

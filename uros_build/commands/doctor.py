@@ -78,11 +78,15 @@ def eval_ninja(path: str | None) -> Check:
     return Check("ninja", OK, path)
 
 
-def eval_ccache(path: str | None, version: str | None) -> Check:
-    """ccache is optional: without it every compile that misses uros's caches runs."""
+def eval_ccache(path: str | None, version: str | None, trouble: str | None = None) -> Check:
+    """ccache is optional: without it every compile that misses uros's caches runs; one that cannot
+    be used (``trouble``) is left out by the build, with a warning."""
     if path is None:
         why = "not found: compiles are not cached across builds and checkouts"
         return Check("ccache", SKIP, why, "apt-get install ccache")
+    if trouble:
+        why = f"{path} cannot be used ({trouble}): uros build compiles without it"
+        return Check("ccache", WARN, why, "point CCACHE_DIR at a folder you can write in")
     return Check("ccache", OK, f"{path} {version or ''}".rstrip() + " (uros build compiles through it)")
 
 
@@ -419,7 +423,9 @@ def doctor(workspace: Path | None, toolchain: str | None, as_json: bool) -> list
         eval_empy(_empy_version(), colcon.host_python()),
         eval_ros_env(os.environ),
     ]
-    checks.append(eval_ccache(_which(runner, "ccache", build_path), _version(runner, "ccache")))
+    ccache = _which(runner, "ccache", build_path)
+    trouble = hosttools.ccache_unusable(runner, ccache, os.environ) if ccache else None
+    checks.append(eval_ccache(ccache, _version(runner, "ccache"), trouble))
     agent = resolve_outside(AGENT).value
     checks += eval_probe_tools(
         _which(runner, "qemu-system-arm"), _which(runner, agent) if agent else None, bool(agent)

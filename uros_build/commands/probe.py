@@ -20,7 +20,7 @@ from pathlib import Path
 
 from uros_build import console
 from uros_build.colcon.fingerprint import digest
-from uros_build.config.plan import folder_key, resolve_output
+from uros_build.config.plan import finish_killed_swaps, folder_key, resolve_output
 from uros_build.config.settings import AGENT, resolve_outside
 from uros_build.errors import ConfigError, MissingToolError, StepFailed, VerifyError
 from uros_build.files import locked
@@ -83,6 +83,7 @@ def probe(
     verbose: bool = False,
 ) -> ProbeReport:
     check_timeout(timeout)
+    finish_killed_swaps(output, workspace)
     out = resolve_output(output, workspace, toolchain).resolve()
     info = read_build_info(out, "OUTPUT")
     if output is not None and toolchain is not None:

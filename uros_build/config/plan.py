@@ -54,10 +54,10 @@ from uros_build.target.profiles import (
 
 
 def finish_killed_swaps(output: Path | None, workspace: Path | None) -> None:
-    """Before an output is read (`uros info`, `uros size`): a swap into it that a killed build left
-    half-way is finished or undone as the next build would (swap.finish_swaps), so the reader sees
-    a whole output, the previous or the new. ``output``: the folder (or its libmicroros.a) named,
-    else every target's output in the workspace."""
+    """Before an output is read (`uros info`, `uros size`, `uros probe`): a swap into it that a
+    killed build left half-way is finished or undone as the next build would (swap.finish_swaps),
+    so the reader sees a whole output, the previous or the new. ``output``: the folder (or its
+    libmicroros.a) named, else every target's output in the workspace."""
     if output is not None:
         folders = [output.parent if output.suffix == ".a" else output]
     else:

@@ -18,7 +18,6 @@ from uros_build.colcon import fingerprint as fp
 from uros_build.colcon import hoststage, hosttools
 from uros_build.colcon.hosttools import HostFacts
 from uros_build.config.plan import BuildPlan, ProfileTarget
-from uros_build.errors import DiskFull, StepFailed
 from uros_build.files import write_if_changed
 from uros_build.proc import Runner
 from uros_build.shim import gencache, pyshim
@@ -120,14 +119,7 @@ def _ccache(plan: BuildPlan, env: Mapping[str, str], runner: Runner) -> str | No
     )
     if found is None:
         return None
-    try:  # ccache that cannot compile fails every compile: a cache is never why a build fails
-        trouble = colcon.ccache_trouble(
-            colcon.ccache_settings(
-                runner.query([found, "--show-config"], step="ccache --show-config", env=env)
-            )
-        )
-    except (StepFailed, DiskFull) as exc:
-        trouble = exc.message
+    trouble = hosttools.ccache_unusable(runner, found, env)
     if trouble:
         console.warn(f"ccache cannot be used ({trouble}): compiling without it (the library is the same)")
         return None
