@@ -118,10 +118,24 @@ def make_flags(flags: Iterable[str]) -> str:
     return shell_words(flags).replace("$", "$$").replace("#", "\\#")
 
 
+# What pkg-config cannot pass on: pkgconf splits a field like a shell, then prints the words for a
+# shell to read with only some characters escaped (measured with pkgconf 1.8.1: '$', '(' and ')'
+# come out bare, quotes and '\\' garbled, '#' starts a comment in a variable's line; '$$' stays two).
+_PC_UNUSABLE = "$()#'\"\\`"
+
+
 def pc_flags(flags: Iterable[str]) -> str:
-    """Flags for a pkg-config field: pkg-config splits them like a shell and expands ``${var}``, so
-    shell words with ``$`` doubled (pkgconf's and pkg-config's escape for a literal ``$``)."""
-    return shell_words(flags).replace("$", "$$")
+    """Flags for a pkg-config field: shell words (pkg-config splits them like a shell); a flag
+    holding a character pkg-config cannot pass on to the compiler is refused."""
+    for flag in flags:
+        bad = next((c for c in flag if c in _PC_UNUSABLE), None)
+        if bad is not None:
+            raise ConfigError(
+                f"flag {flag!r}: holds {bad!r}, which pkg-config cannot pass on (pkgconf prints it "
+                "unescaped or garbled into the compile line a shell reads)",
+                "use `uros export cmake` or `uros export make` for this output",
+            )
+    return shell_words(flags)
 
 
 def meson_string(text: str) -> str:

@@ -456,3 +456,20 @@ def test_the_zephyr_module_links_only_what_the_firmware_uses(m7_build: Path, tmp
     body = dump.split("<fx_time_now_ns>:", 1)[1].split("\n\n", 1)[0]
     assert "<__wrap_clock_gettime>" in body, body
     assert " T __wrap_clock_gettime" in nm
+
+
+@pytest.mark.parametrize("flag", ["-DBOARD=$HOME", "-DNOTE=a#b", "-DF=(x)"])
+def test_pkg_config_refuses_flags_it_cannot_pass_on(m7_build: Path, tmp_path: Path, flag: str) -> None:
+    """Issue 34, item 7: pkgconf prints '$' and '(' bare into the compile line a shell reads, and
+    '#' in a variable's line is a comment (measured: --cflags printed nothing); the '$$' escape
+    uros wrote stayed two. A CPU flag pkg-config cannot carry is refused, one line naming it."""
+    need("pkg-config")
+    src = tmp_path / "out"
+    shutil.copytree(m7_build / "build" / "cortex-m7", src)
+    info = json.loads((src / "build-info.json").read_text())
+    info["flags"]["cpu"].append(flag)
+    (src / "build-info.json").write_text(json.dumps(info))
+    proc = run_uros("export", "pkg-config", "--from", str(src), "--output", str(tmp_path / "pc"), check=False)
+    assert proc.returncode == 2, proc.stderr
+    assert proc.stderr.splitlines()[0].startswith(f"error: flag {flag!r}: holds "), proc.stderr
+    assert "which pkg-config cannot pass on" in proc.stderr
