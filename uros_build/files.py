@@ -12,19 +12,19 @@ is still there (issue 30, item 5).
 - One run at a time holds a folder's lock (:func:`locked`), and says whom a waiting run waits for.
 
 The Python shim imports this module on every generator run (shim/gencache.py), where each import
-costs time: at the top only what Python's start has already imported (contextlib, os, sys), the rest
-inside the functions that need it.
+costs time: at the top only os and sys (Python's start imports them; contextlib it does not, in a
+virtual environment: it brings collections and functools), the rest inside the functions that need it.
 """
 
 from __future__ import annotations
 
-import contextlib
 import os
 import sys
 
 TYPE_CHECKING = False
 if TYPE_CHECKING:
     from collections.abc import Callable, Iterator
+    from contextlib import AbstractContextManager
     from typing import Any, TypeAlias
 
     StrPath: TypeAlias = "str | os.PathLike[str]"
@@ -81,8 +81,10 @@ def write_atomic(path: StrPath, data: str | bytes, *, sync: bool = False) -> Non
                 os.fsync(handle.fileno())
         os.replace(tmp, target)
     except BaseException:
-        with contextlib.suppress(OSError):
+        try:  # noqa: SIM105 (contextlib would cost the shim an import)
             os.unlink(tmp)
+        except OSError:
+            pass
         raise
 
 
@@ -107,8 +109,10 @@ def link_atomic(path: StrPath, target: str) -> None:
     """Make ``path`` a symbolic link to ``target``, replacing what was there in one rename.
     OSError where the folder holds no links (some mounts)."""
     tmp = temp_path(path)
-    with contextlib.suppress(FileNotFoundError):
+    try:  # noqa: SIM105 (contextlib would cost the shim an import)
         os.unlink(tmp)
+    except FileNotFoundError:
+        pass
     os.symlink(target, tmp)
     os.replace(tmp, path)
 
@@ -116,6 +120,7 @@ def link_atomic(path: StrPath, target: str) -> None:
 def remove_tree(path: StrPath) -> str | None:
     """Remove a file or folder uros wrote, making read-only folders in it writable first (an
     output copied from a read-only store); the reason when some of it could not be removed."""
+    import contextlib
     import shutil
     import stat
 
@@ -158,13 +163,18 @@ def lock_holder(text: str) -> int | None:
     return int(first) if first.isdigit() else None
 
 
-@contextlib.contextmanager
-def locked(folder: StrPath, what: str, command: str = "uros build") -> Iterator[None]:
+def locked(folder: StrPath, what: str, command: str = "uros build") -> AbstractContextManager[None]:
     """One uros run at a time holds ``folder``'s lock (a target's trees, the host stage, an output's
     writers); a second waits. filelock takes an OS lock on ``<folder>/.lock`` (flock on POSIX, msvcrt
     on Windows), which the OS releases when the process ends, however it ends. The holder writes its
     process id beside it (filelock truncates the lock file itself), so that a waiting run can say
     whom it waits for. The folder is made when there is none."""
+    import contextlib
+
+    return contextlib.contextmanager(_held)(folder, what, command)
+
+
+def _held(folder: StrPath, what: str, command: str) -> Iterator[None]:
     from pathlib import Path
 
     import filelock
