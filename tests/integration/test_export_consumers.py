@@ -473,3 +473,4 @@ def test_pkg_config_refuses_flags_it_cannot_pass_on(m7_build: Path, tmp_path: Pa
     assert proc.returncode == 2, proc.stderr
     assert proc.stderr.splitlines()[0].startswith(f"error: flag {flag!r}: holds "), proc.stderr
     assert "which pkg-config cannot pass on" in proc.stderr
+    assert not (tmp_path / "pc").exists()  # refused before the output was copied

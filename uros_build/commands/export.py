@@ -40,8 +40,11 @@ def _check_folder(out: Path, kind: str) -> None:
         )
 
 
-def _prepare(source: Path | None, output: Path, kind: str) -> tuple[BuildInfo, Path]:
-    """Read the build-info of the output to export and copy that output to ``output``."""
+def _prepare(
+    source: Path | None, output: Path, kind: str, check: Callable[[BuildInfo], object] | None = None
+) -> tuple[BuildInfo, Path]:
+    """Read the build-info of the output to export, ``check`` that the export can be written (it
+    raises: refused before anything is copied), and copy that output to ``output``."""
     src = (source or output).resolve()
     out = output.resolve()
     _check_folder(out, kind)
@@ -50,6 +53,8 @@ def _prepare(source: Path | None, output: Path, kind: str) -> tuple[BuildInfo, P
             console.info(line)
     info = read_build_info(src, "--from" if source else "--output")
     _check_complete(src, info, "--from" if source else "--output")
+    if check is not None:
+        check(info)
     if src != out:
         check_folder_target(out, "--output")
         outputs.check_output_dir(out, force=False, offers_force=False)
@@ -90,9 +95,14 @@ def export_esp_idf(source: Path | None, output: Path) -> Path:
 
 
 def _simple(
-    kind: str, source: Path | None, output: Path, write: Callable[[Path, BuildInfo], list[Path]], use: str
+    kind: str,
+    source: Path | None,
+    output: Path,
+    write: Callable[[Path, BuildInfo], list[Path]],
+    use: str,
+    check: Callable[[BuildInfo], object] | None = None,
 ) -> Path:
-    info, out = _prepare(source, output, kind)
+    info, out = _prepare(source, output, kind, check)
     written = write(out, info)
     _record(out, written)
     console.step(f"wrote {', '.join(p.name for p in written)} in {out}: {use}")
@@ -105,6 +115,10 @@ def export_make(source: Path | None, output: Path) -> Path:
     )
 
 
+def _pkg_config_text(info: BuildInfo) -> object:
+    return export.pkg_config_file(info.target, info.flags.cpu)  # refuses flags pkg-config cannot pass on
+
+
 def export_pkg_config(source: Path | None, output: Path) -> Path:
     return _simple(
         "pkg-config",
@@ -112,6 +126,7 @@ def export_pkg_config(source: Path | None, output: Path) -> Path:
         output,
         export.write_pkg_config,
         "PKG_CONFIG_PATH=<that folder> pkg-config --cflags --libs microros",
+        _pkg_config_text,
     )
 
 
@@ -121,11 +136,7 @@ def export_platformio(source: Path | None, output: Path) -> Path:
 
 
 def export_zephyr(source: Path | None, output: Path) -> Path:
-    src = (source or output).resolve()
-    export.zephyr_depends(
-        read_build_info(src, "--from" if source else "--output").flags.cpu
-    )  # before writing
-    info, out = _prepare(source, output, "zephyr")
+    info, out = _prepare(source, output, "zephyr", lambda i: export.zephyr_depends(i.flags.cpu))
     written = export.write_zephyr_module(out, info)
     _record(out, ["zephyr", *(p.name for p in written if p.parent == out)])
     console.step(
@@ -141,9 +152,8 @@ def export_meson(source: Path | None, output: Path) -> Path:
             f"{src}: built with your own toolchain file, so uros does not know the compiler to name",
             "use `uros export pkg-config` with your own Meson cross file",
         )
-    return _simple(
-        "meson", source, output, export.write_meson_cross, "meson setup build --cross-file <that file>"
-    )
+    use = "meson setup build --cross-file <that file>"
+    return _simple("meson", source, output, export.write_meson_cross, use, _pkg_config_text)
 
 
 def _tree_digest(folder: Path) -> dict[str, str]:
