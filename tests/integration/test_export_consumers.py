@@ -100,6 +100,7 @@ def test_uros_check_catches_a_firmware_for_another_core(exported: Path, tmp_path
     proc = run_uros("check", str(elf), "--toolchain", "cortex-m4f", check=False)
     assert proc.returncode == 5, proc.stderr
     assert "Tag_FP_arch is FPv5/FP-D16 for ARMv8, cortex-m4f expects VFPv4-D16" in proc.stderr
+    assert "hint: it holds code built for another core than cortex-m4f" in proc.stderr  # not "the library"
 
 
 _FIRMWARE_TOOLCHAIN = """set(CMAKE_SYSTEM_NAME Generic)

@@ -29,6 +29,12 @@ def check_library(
     try:
         summary = abi.check_library(runner, library.resolve(), profile)
     except VerifyError as exc:
+        if not _is_archive(library):  # a linked firmware (app.elf) or one object, not the library
+            exc.hint = (
+                f"it holds code built for another core than {profile.name}: build micro-ROS and the "
+                f"firmware with {profile.name}'s flags (uros build --toolchain {profile.name}), or check "
+                "it against the core it runs on (uros check --toolchain NAME)"
+            )
         if as_json:  # the verdict on stdout for scripts; the message and exit 5 as always
             failed = {"library": str(library), "target": profile.name, "result": "fail", "error": exc.message}
             sys.stdout.write(json.dumps(failed, indent=2, sort_keys=True) + "\n")
@@ -39,3 +45,8 @@ def check_library(
         console.step(f"{library}: {abi.describe(summary)}")
     for warning in summary.get("warnings", ()):
         console.warn(warning)
+
+
+def _is_archive(path: Path) -> bool:
+    with path.open("rb") as f:
+        return f.read(8) == b"!<arch>\n"
