@@ -34,5 +34,16 @@ class FakeRunner:
             raise StepFailed(f"{step}: {name} failed (the fake runner has no answer for it)")
         return self.answers[name](argv)
 
-    def run(self, argv: Sequence[str], *, step: str, **kwargs: object) -> list[str]:
-        return self.query(argv, step=step).splitlines()
+    def run(
+        self,
+        argv: Sequence[str],
+        *,
+        step: str,
+        on_line: Callable[[str], None] | None = None,
+        **kwargs: object,
+    ) -> list[str]:
+        lines = self.query(argv, step=step).splitlines()
+        for line in lines:  # as the real runner does, each line as it arrives
+            if on_line is not None:
+                on_line(line)
+        return lines

@@ -116,8 +116,12 @@ def _plan(tmp_path: Path, rebuild: bool = False) -> Any:
     return SimpleNamespace(rebuild=rebuild, output=tmp_path / "out", cache=None)
 
 
+def _ctx(plan: Any, runner: Any = None) -> Any:
+    return SimpleNamespace(plan=plan, runner=runner, facts=None)
+
+
 def _inputs(previous: fp.BuildState | None, parts: dict[str, str]) -> inputs.Inputs:
-    return inputs.Inputs(Path("t.cmake"), None, parts, previous, Path("state.json"), "k" * 64)  # type: ignore[arg-type]
+    return inputs.Inputs(Path("t.cmake"), parts, previous, Path("state.json"), "k" * 64)
 
 
 def _state(parts: dict[str, str], out: Path, library_sha: str) -> fp.BuildState:
@@ -141,21 +145,23 @@ def test_up_to_date_needs_the_same_inputs_and_the_output_as_written(tmp_path: Pa
     parts = {"sources": "a", "colcon.meta": "b"}
     state = _state(parts, out, sha)
     plan = _plan(tmp_path)
-    assert inputs.up_to_date(plan, _inputs(state, dict(parts)), repaired=False)
-    assert not inputs.up_to_date(plan, _inputs(state, dict(parts)), repaired=True)  # a repair: build
-    assert not inputs.up_to_date(plan, _inputs(None, dict(parts)), repaired=False)  # never built
-    assert not inputs.up_to_date(plan, _inputs(state, {**parts, "sources": "c"}), repaired=False)
-    assert not inputs.up_to_date(_plan(tmp_path, rebuild=True), _inputs(state, dict(parts)), repaired=False)
+    assert inputs.up_to_date(_ctx(plan), _inputs(state, dict(parts)), repaired=False)
+    assert not inputs.up_to_date(_ctx(plan), _inputs(state, dict(parts)), repaired=True)  # a repair: build
+    assert not inputs.up_to_date(_ctx(plan), _inputs(None, dict(parts)), repaired=False)  # never built
+    assert not inputs.up_to_date(_ctx(plan), _inputs(state, {**parts, "sources": "c"}), repaired=False)
+    assert not inputs.up_to_date(
+        _ctx(_plan(tmp_path, rebuild=True)), _inputs(state, dict(parts)), repaired=False
+    )
     (out / "libmicroros.a").write_bytes(b"!<arch>\nchanged")  # the output is not as written
-    assert not inputs.up_to_date(plan, _inputs(state, dict(parts)), repaired=False)
+    assert not inputs.up_to_date(_ctx(plan), _inputs(state, dict(parts)), repaired=False)
 
 
 def test_no_cache_or_a_rebuild_never_asks_one(tmp_path: Path) -> None:
     runner = FakeRunner(tmp_path / "log")
-    assert team_cache.take(runner, _plan(tmp_path), "k" * 64) is None  # type: ignore[arg-type]
+    assert team_cache.take(_ctx(_plan(tmp_path), runner), "k" * 64) is None
     settings = SimpleNamespace(url=SimpleNamespace(shown="file:///nowhere"))
     plan = SimpleNamespace(rebuild=True, output=tmp_path / "out", cache=settings)
-    assert team_cache.take(runner, plan, "k" * 64) is None  # type: ignore[arg-type]
+    assert team_cache.take(_ctx(plan, runner), "k" * 64) is None
     assert runner.calls == []
 
 

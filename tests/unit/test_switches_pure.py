@@ -10,7 +10,7 @@ from typing import Any
 from fake_runner import FakeRunner
 
 from uros_build.colcon import command as colcon
-from uros_build.steps import colcon_setup, host_stage, toolchain_file
+from uros_build.steps import colcon_setup, toolchain_file
 
 
 def _plan(tmp_path: Path, **switches: Any) -> Any:
@@ -24,7 +24,8 @@ def test_compiler_seed_off_gives_the_toolchain_file_itself(tmp_path: Path) -> No
     toolchain.write_text("set(CMAKE_SYSTEM_NAME Generic)\n")
     facts: Any = SimpleNamespace(gcc="", cmake="cmake", cmake_version="3.25")
     off = _plan(tmp_path, compiler_seed=False)
-    assert toolchain_file.seeded_toolchain(off, facts, toolchain, runner, {}) == toolchain  # type: ignore[arg-type]
+    ctx: Any = SimpleNamespace(plan=off, facts=facts, runner=runner)
+    assert toolchain_file.seeded_toolchain(ctx, toolchain, {}) == toolchain
     plain = toolchain_file.host_toolchain(off, tmp_path, facts, runner, {"PATH": ""})  # type: ignore[arg-type]
     assert plain == tmp_path / "host-toolchain.cmake" and plain.is_file()
     assert runner.calls == [] and not (tmp_path / "toolchain-seeded.cmake").exists()
@@ -38,5 +39,5 @@ def test_gen_cache_off_gives_the_real_python(tmp_path: Path) -> None:
 
 
 def test_host_stage_off_gives_no_stage(tmp_path: Path) -> None:
-    plan = _plan(tmp_path, host_stage=False)
-    assert host_stage.stage_for(plan, None, set(), {}, {}) is None  # type: ignore[arg-type]
+    ctx: Any = SimpleNamespace(plan=_plan(tmp_path, host_stage=False), facts=None, runner=None)
+    assert colcon_setup._stage_for(ctx, frozenset(), {}, {}) is None

@@ -1,8 +1,11 @@
 """`uros build`: each target's libmicroros.a, include tree, CMake package and build-info.json.
 
-A target's build is the sequence of steps in uros_build/steps/ (one module each): the run opened,
-host facts, then under the target's lock the trees prepared, the inputs resolved (up to date: done),
-the team cache asked, colcon, merge and verify, the swap, the upload.
+A target's build is the sequence of steps in uros_build/steps/, each over one frozen context: the
+run opened, host facts, extra packages and dev_ws; then under the target's lock the trees prepared,
+the toolchain file, the sources scanned, colcon's environment, the seeded toolchain, colcon's
+command, readers of changed headers dropped, the inputs (up to date: done), the team cache asked,
+packages the workspace lost dropped, the host stage readied, colcon, merge and verify, the swap,
+the upload.
 """
 
 from __future__ import annotations
@@ -20,7 +23,18 @@ from uros_build.errors import (
     UrosError,
 )
 from uros_build.files import locked
-from uros_build.steps import colcon_run, deliver, inputs, prepare, start, team_cache
+from uros_build.steps import (
+    colcon_run,
+    colcon_setup,
+    deliver,
+    host_stage,
+    inputs,
+    prepare,
+    start,
+    team_cache,
+    toolchain_file,
+)
+from uros_build.steps.context import Context
 
 
 @dataclass(frozen=True)
@@ -65,31 +79,42 @@ def build_all(args: BuildArgs) -> list[Outcome]:
 
 
 def build(plan: BuildPlan) -> Outcome:
-    """One planned target: resolve → prepare the trees → the team cache → colcon → merge and
-    verify → swap in → upload (model: colcon-core's BuildVerb.main, a sequence of named steps)."""
+    """One planned target, every action in the order it is taken (model: colcon-core's
+    BuildVerb.main): each step takes the frozen context and what earlier steps returned."""
     runner = start.open_run(plan)
-    facts = start.host_facts(plan, runner)
+    ctx = Context(plan, runner, start.host_facts(plan, runner))
+    start.sync_extra_packages(ctx)
+    start.build_dev_workspace(ctx)
     with locked(plan.target_dir, plan.target.key):
         started = time.monotonic()
-        repaired = prepare.prepare_trees(plan, facts)
-        found = inputs.resolve(plan, facts, runner)
-        if inputs.up_to_date(plan, found, repaired):
-            team_cache.upload_if_asked(plan, found.key, deliver.entries_of(plan.output))
+        repaired = prepare.prepare_trees(ctx)
+        toolchain = toolchain_file.write_toolchain(ctx)
+        sources = inputs.scan(ctx)
+        env = colcon_setup.environment(ctx)
+        seeded = toolchain_file.seeded_toolchain(ctx, toolchain, env.env)
+        setup = colcon_setup.colcon_setup(ctx, env, seeded, sources)
+        outside = prepare.drop_readers_of_changed_headers(ctx)
+        found = inputs.resolve(ctx, toolchain, setup, sources, outside)
+        if inputs.up_to_date(ctx, found, repaired):
+            team_cache.upload_if_asked(ctx, found.key, deliver.entries_of(plan.output))
             return Outcome(plan.target.key, plan.output, "up to date")
         # From here the trees change: until this build succeeds, no state vouches for the output.
         fp.forget_state(found.state_path)
-        hit = team_cache.take(runner, plan, found.key)
+        hit = team_cache.take(ctx, found.key)
         if hit is not None:
-            left = deliver.swap_in(plan, found, hit, merge_key="")
+            left = deliver.swap_in(ctx, found, hit)
             assert plan.cache is not None
-            deliver.say_done(
-                plan, hit, left, started, f"from the cache {plan.cache.url.shown} (entry {found.key[:16]})"
-            )
+            origin = f"from the cache {plan.cache.url.shown} (entry {found.key[:16]})"
+            deliver.say_done(ctx, hit, left, started, origin)
             return Outcome(plan.target.key, plan.output, "from the cache")
-        compiled = colcon_run.compile_packages(plan, facts, runner, found)
-        assembled, merge_key = deliver.merge_and_verify(runner, plan, facts, found, compiled)
+        prepare.drop_removed_packages(ctx)
+        setup = colcon_setup.sharing(ctx, setup, host_stage.ready(ctx, setup))
+        found = inputs.with_colcon(ctx, found, setup)
+        compiled = colcon_run.compile_packages(ctx, setup, found)
+        found = inputs.with_outside_headers(found, compiled.outside_headers)
+        assembled = deliver.assemble(ctx, found, setup, compiled)
         entries = deliver.entries_of(assembled.folder)
-        left = deliver.swap_in(plan, found, assembled, merge_key)
-    deliver.say_done(plan, assembled, left, started, "")
-    team_cache.upload_if_asked(plan, found.key, entries)
+        left = deliver.swap_in(ctx, found, assembled)
+    deliver.say_done(ctx, assembled, left, started, "")
+    team_cache.upload_if_asked(ctx, found.key, entries)
     return Outcome(plan.target.key, plan.output, "built")

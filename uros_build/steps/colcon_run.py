@@ -26,9 +26,10 @@ from uros_build.errors import (
 from uros_build.files import write_if_changed
 from uros_build.proc import Runner, disk_full_line, disk_full_path, first_error
 from uros_build.shim import pyshim
-from uros_build.steps.colcon_setup import CCACHE_STATS, ColconSetup, building_names
-from uros_build.steps.inputs import Inputs, flags_fingerprint, ready_host_stage
-from uros_build.steps.prepare import DISK_FULL_MARK, drop_removed_packages
+from uros_build.steps.colcon_setup import CCACHE_STATS, ColconSetup
+from uros_build.steps.context import Context
+from uros_build.steps.inputs import Inputs, flags_fingerprint
+from uros_build.steps.prepare import DISK_FULL_MARK
 
 
 def _record_outside_headers(plan: BuildPlan, runner: Runner, setup: ColconSetup) -> str:
@@ -122,7 +123,7 @@ def _run_colcon(
     if setup.skipped:
         console.info(f"not building {len(setup.skipped)} pure-Python packages: {', '.join(setup.skipped)}")
     flags = flags_fingerprint(parts)
-    progress = colcon.BuildProgress(total=_expected_packages(plan, setup), started_at=time.monotonic())
+    progress = colcon.BuildProgress(total=_expected_packages(setup), started_at=time.monotonic())
     console.step("colcon build")
     view = console.ProgressView(progress.total, plain=plan.verbose)
 
@@ -193,9 +194,9 @@ def _run_colcon(
     return progress
 
 
-def _expected_packages(plan: BuildPlan, setup: ColconSetup) -> int:
+def _expected_packages(setup: ColconSetup) -> int:
     """How many packages colcon will build (for the progress view; colcon does not say)."""
-    return len(building_names(plan, setup.plan) - set(setup.shared))
+    return len(setup.building - set(setup.shared))
 
 
 def _check_built(
@@ -257,20 +258,19 @@ class Compiled:
     shared: tuple[str, ...]  # of those, the host stage's
     progress: colcon.BuildProgress
     ccache: dict[str, int]  # this build's ccache hits and misses (empty without ccache)
+    outside_headers: str  # the digest of the headers it read outside the workspace (their record kept)
 
 
-def compile_packages(plan: BuildPlan, facts: HostFacts, runner: Runner, inputs: Inputs) -> Compiled:
-    """colcon over the workspace: packages it lost dropped first; then what the generation cache
-    and ccache served, and the headers read outside the workspace (into ``inputs.parts``)."""
-    drop_removed_packages(plan)
+def compile_packages(ctx: Context, setup: ColconSetup, inputs: Inputs) -> Compiled:
+    """colcon over the workspace with ``setup``; then what the generation cache and ccache served,
+    and the headers read outside the workspace."""
+    plan, runner = ctx.plan, ctx.runner
     (plan.target_dir / pyshim.RUNS).unlink(missing_ok=True)
     (plan.target_dir / CCACHE_STATS).unlink(missing_ok=True)
-    ready_host_stage(plan, facts, runner, inputs)
-    setup = inputs.setup
-    progress = _run_colcon(plan, facts, runner, setup, inputs.parts)
+    progress = _run_colcon(plan, ctx.facts, runner, setup, inputs.parts)
     _say_generation(plan)
     counts = _say_ccache(plan, setup)
     built = _check_built(plan, setup, progress, inputs.parts)
     # what the compiler read outside the workspace this time: the state records its content
-    inputs.parts["headers outside the workspace"] = _record_outside_headers(plan, runner, setup)
-    return Compiled(tuple(sorted({*built, *setup.shared})), setup.shared, progress, counts)
+    outside = _record_outside_headers(plan, runner, setup)
+    return Compiled(tuple(sorted({*built, *setup.shared})), setup.shared, progress, counts, outside)

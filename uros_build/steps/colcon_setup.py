@@ -1,5 +1,6 @@
-"""How colcon is run for a target: its command line and environment (ccache, the generation
-cache's Python shim), the pure-Python packages left out, and the host stage's packages skipped.
+"""How colcon is run for a target: its environment (ccache), its command line (the generation
+cache's Python shim, the colcon.meta, the pure-Python packages left out) and the host stage whose
+packages it skips: which stage, and what it shares.
 """
 
 from __future__ import annotations
@@ -16,14 +17,36 @@ from uros_build import __version__, console
 from uros_build.colcon import command as colcon
 from uros_build.colcon import fingerprint as fp
 from uros_build.colcon import hoststage, hosttools
-from uros_build.colcon.hosttools import HostFacts
 from uros_build.config.plan import BuildPlan, ProfileTarget
 from uros_build.files import write_if_changed
 from uros_build.proc import Runner
 from uros_build.shim import gencache, pyshim
+from uros_build.sources import meta as meta_mod
 from uros_build.sources import packages as packages_mod
-from uros_build.steps import host_stage
-from uros_build.steps.toolchain_file import seeded_toolchain
+from uros_build.steps.context import Context
+
+
+@dataclass(frozen=True)
+class Environment:
+    """colcon's environment for this target, and the compiler launcher in it (ccache, or None)."""
+
+    env: Mapping[str, str]
+    launcher: str | None
+
+
+def environment(ctx: Context) -> Environment:
+    """colcon's environment (the sourced one scrubbed, said so) and ccache when it is used."""
+    plan = ctx.plan
+    env, scrubbed = hosttools.colcon_env(plan.workspace, plan.config, plan.distro, ctx.facts.cmake_version)
+    if scrubbed:
+        console.warn(f"ignoring the sourced environment for this build: {', '.join(scrubbed)}")
+    # colcon prints its job events with flush=True, but its other output is block-buffered in a
+    # pipe: unbuffered, the live view sees each line when it is written.
+    env = {**env, "PYTHONUNBUFFERED": "1"}
+    launcher = _ccache(plan, env, ctx.runner)
+    if launcher:
+        env.update(colcon.ccache_env(plan.workspace.root, plan.target_dir / CCACHE_STATS))
+    return Environment(env, launcher)
 
 
 @dataclass(frozen=True)
@@ -32,6 +55,7 @@ class ColconSetup:
     argv: tuple[str, ...]
     env: Mapping[str, str]
     skipped: tuple[str, ...]  # pure-Python packages left out
+    building: frozenset[str]  # what colcon builds or skips (building_names)
     stage: hoststage.Stage | None = None  # the host stage this build takes packages from
     shared: tuple[str, ...] = ()  # the packages it takes from there (colcon skips them)
 
@@ -44,24 +68,21 @@ class ColconSetup:
         return self.plan.install_base
 
 
+def meta_text(plan: BuildPlan) -> str:
+    """The merged colcon.meta as the build writes it."""
+    return meta_mod.dump_meta(plan.meta, f"uros build --toolchain {plan.target.key}")
+
+
 def colcon_setup(
-    plan: BuildPlan,
-    facts: HostFacts,
-    toolchain_file: Path,
-    meta_path: Path,
-    runner: Runner,
-    records: Mapping[str, fp.FileRecord],
+    ctx: Context, environment: Environment, toolchain_file: Path, records: Mapping[str, fp.FileRecord]
 ) -> ColconSetup:
+    """colcon's command for this target (with ``toolchain_file``, the seeded one): colcon.meta and
+    the Python shim written (when they change), the host stage chosen from the sources ``records``
+    and what it is expected to share skipped."""
+    plan, env = ctx.plan, environment.env
     ws = plan.workspace
-    env, scrubbed = hosttools.colcon_env(ws, plan.config, plan.distro, facts.cmake_version)
-    if scrubbed:
-        console.warn(f"ignoring the sourced environment for this build: {', '.join(scrubbed)}")
-    # colcon prints its job events with flush=True, but its other output is block-buffered in a
-    # pipe: unbuffered, the live view sees each line when it is written.
-    env = {**env, "PYTHONUNBUFFERED": "1"}
-    launcher = _ccache(plan, env, runner)
-    if launcher:
-        env.update(colcon.ccache_env(ws.root, plan.target_dir / CCACHE_STATS))
+    meta_path = plan.target_dir / "colcon.meta"
+    write_if_changed(meta_path, meta_text(plan))
     skipped = tuple(packages_mod.host_only(list(plan.workspace_packages)))
     # --packages/--for-firmware/uros.yaml packages: exactly their closure, without the test
     # dependencies colcon's --packages-up-to would add (a user's --packages-up-to stays colcon's)
@@ -73,22 +94,31 @@ def colcon_setup(
         install_base=plan.target_dir / "install",
         log_base=plan.target_dir / "log",
         metas=(meta_path,),
-        toolchain_file=seeded_toolchain(plan, facts, toolchain_file, runner, env),
-        python=str(python_shim(plan, runner, plan.target_dir)),
+        toolchain_file=toolchain_file,
+        python=str(python_shim(plan, ctx.runner, plan.target_dir)),
         generator=colcon.generator(env),
         verbose=plan.verbose,
         packages_up_to=plan.packages_up_to,
         parallel_workers=plan.jobs,
-        compiler_launcher=launcher,
+        compiler_launcher=environment.launcher,
     )
-    building = building_names(plan, colcon_plan)
-    stage = host_stage.stage_for(plan, facts, building, records, env)
+    building = frozenset(building_names(plan, colcon_plan))
+    stage = _stage_for(ctx, building, records, env)
+    argv = tuple(colcon.colcon_argv(colcon_plan, ctx.facts.colcon))
+    setup = ColconSetup(colcon_plan, argv, env, skipped, building, stage)
     # what the stage shares, as its marker says (or, not built yet, every package it will build):
-    # built only when colcon is about to run (ready_host_stage), after the team cache was asked
-    shared = host_stage.expected_shares(plan, stage) if stage is not None else ()
-    colcon_plan = dataclasses.replace(colcon_plan, packages_skip=shared)
-    argv = tuple(colcon.colcon_argv(colcon_plan, facts.colcon))
-    return ColconSetup(colcon_plan, argv, env, skipped, stage, shared)
+    # built only when colcon is about to run (host_stage.ready), after the team cache was asked
+    return sharing(ctx, setup, _expected_shares(plan, stage) if stage is not None else ())
+
+
+def sharing(ctx: Context, setup: ColconSetup, shared: tuple[str, ...]) -> ColconSetup:
+    """``setup`` with the host stage's packages ``shared`` skipped by colcon (itself when they are
+    the ones it skips already)."""
+    if shared == setup.shared and setup.plan.packages_skip == shared:
+        return setup
+    colcon_plan = dataclasses.replace(setup.plan, packages_skip=shared)
+    argv = tuple(colcon.colcon_argv(colcon_plan, ctx.facts.colcon))
+    return dataclasses.replace(setup, plan=colcon_plan, argv=argv, shared=shared)
 
 
 def building_names(plan: BuildPlan, colcon_plan: colcon.ColconPlan) -> set[str]:
@@ -101,6 +131,40 @@ def building_names(plan: BuildPlan, colcon_plan: colcon.ColconPlan) -> set[str]:
             plan.workspace.source_dir
         )
     return colcon.kept_by_ignores(colcon_plan, names)
+
+
+def _stage_for(
+    ctx: Context, building: frozenset[str], records: Mapping[str, fp.FileRecord], env: Mapping[str, str]
+) -> hoststage.Stage | None:
+    """The host stage of this target's build: None when switched off or when no package qualifies."""
+    plan, facts = ctx.plan, ctx.facts
+    if not plan.host_stage:
+        return None
+    chosen = hoststage.choose(list(plan.workspace_packages), set(building), hoststage.load_list().packages)
+    if not chosen:
+        return None
+    ws = plan.workspace
+    by_name = {p.name: p for p in plan.workspace_packages}
+    sources = {name: hoststage.package_sources(records, ws.source_dir, by_name[name]) for name in chosen}
+    dev = ws.dev_built_from()
+    tools = (facts.cmake, facts.cmake_version, facts.colcon, str(colcon.generator(env)), colcon.host_python())
+    return hoststage.plan_stage(ws.state_dir, chosen, plan.meta.names, tools, sources, dev)
+
+
+def _expected_shares(plan: BuildPlan, stage: hoststage.Stage) -> tuple[str, ...]:
+    """What the stage will share, known without building it (resolve needs it for the colcon
+    command): its marker's answer when it is built for its key, else every package it builds."""
+    found = shared_if_built(plan, stage)
+    return stage.packages if found is None else found
+
+
+def shared_if_built(plan: BuildPlan, stage: hoststage.Stage) -> tuple[str, ...] | None:
+    """What the stage shares when it is built for its key (under host_stage.stage_lock); None when it
+    must be built (never built, its inputs changed, or it failed and --rebuild asks again)."""
+    found = hoststage.read_marker(stage)
+    if found is None or found.key != stage.key or (found.failed and plan.rebuild):
+        return None
+    return found.shared
 
 
 CCACHE_STATS = "ccache-stats.log"  # this build's ccache counters (the user's totals stay theirs)

@@ -46,6 +46,7 @@ from uros_build.sources import clones
 from uros_build.sources.wsfiles import read_lock
 from uros_build.steps.colcon_run import Compiled
 from uros_build.steps.colcon_setup import ColconSetup
+from uros_build.steps.context import Context
 from uros_build.steps.inputs import Inputs
 from uros_build.target import abi
 from uros_build.target.profiles import TargetProfile
@@ -65,6 +66,7 @@ class Assembled:
 
     folder: Path
     info: BuildInfo
+    merge_key: str = ""  # what its library was merged from ("" for a team cache entry's)
 
 
 def entries_of(folder: Path) -> list[str]:
@@ -101,25 +103,26 @@ def _put_in_place(plan: BuildPlan, assembled: Assembled) -> list[str]:
         raise
 
 
-def _record(
-    plan: BuildPlan, state_path: Path, parts: dict[str, str], assembled: Assembled, merge_key: str
-) -> None:
+def _record(plan: BuildPlan, state_path: Path, parts: Mapping[str, str], assembled: Assembled) -> None:
     """The state that vouches for the output just swapped in (the next build compares with it)."""
     fp.write_state(
         state_path,
         fp.BuildState(
             fingerprint=fp.combine(parts),
-            parts=parts,
+            parts=dict(parts),
             output=str(plan.output),
             output_files=fp.stat_folder(plan.output),
             library_sha256=assembled.info.library.sha256,
-            merge_key=merge_key,
+            merge_key=assembled.merge_key,
             packages=assembled.info.packages,
         ),
     )
 
 
-def say_done(plan: BuildPlan, assembled: Assembled, left: list[str], started: float, origin: str) -> None:
+def say_done(ctx: Context, assembled: Assembled, left: list[str], started: float, origin: str) -> None:
+    """What the build delivered (``origin``: where it came from, when not built), and what of the
+    previous output is left."""
+    plan = ctx.plan
     try:
         for why in left:  # the new output is in place: a warning, not a failure
             console.warn(f"could not remove the previous output {why}: remove it by hand")
@@ -152,17 +155,24 @@ def _bintools(plan: BuildPlan, facts: HostFacts) -> BinTools:
     return hosttools.bintools_from_build(plan.target_dir / "build") or BinTools("ar", "ranlib", "nm")
 
 
-def _stage_output(
-    runner: Runner,
-    plan: BuildPlan,
-    facts: HostFacts,
-    staging: Path,
-    setup: ColconSetup,
-    built: tuple[str, ...],
-    previous: fp.BuildState | None,
-) -> tuple[BuildInfo, str]:
-    """The output in ``staging``: the archives and headers of this build's packages only.
-    Returns its build-info and the merge key (what the library depends on)."""
+@dataclass(frozen=True)
+class _Library:
+    """libmicroros.a in the staging folder, merged (or the previous one reused), with its checks,
+    and the include tree beside it."""
+
+    info: Library
+    abi_check: Mapping[str, Any]
+    include: includes.IncludeReport
+    merge_key: str  # what the library depends on
+
+
+def _library(
+    ctx: Context, staging: Path, setup: ColconSetup, built: tuple[str, ...], previous: fp.BuildState | None
+) -> _Library:
+    """The archives and headers of this build's packages only, into ``staging``: the library
+    merged and checked against the target's ELF facts (or the last one reused when its archives
+    did not change), the include tree copied meanwhile."""
+    plan, facts, runner = ctx.plan, ctx.facts, ctx.runner
     install = setup.install_base
     by_package = installtree.archives(setup.build_base, install, built)
     libs = sorted({lib for libs in by_package.values() for lib in libs}, key=lambda p: p.name)
@@ -219,11 +229,29 @@ def _stage_output(
         inc = include_tree.result()
     for warning in abi_check.get("warnings", ()):
         console.warn(warning)
+    return _Library(lib_info, abi_check, inc, merge_key)
+
+
+def _firmware_toolchain(ctx: Context, staging: Path) -> None:
+    """The firmware's toolchain file beside the library (a profile's target only: a user's own
+    toolchain file is theirs already)."""
+    profile = ctx.plan.profile
     if profile is not None:
         firmware_tc = render_toolchain(
             ToolchainRequest(profile, micro_ros=False, command=f"uros toolchain render {profile.name}")
         )
         (staging / "toolchain.cmake").write_text(firmware_tc, encoding="utf-8")
+
+
+def _build_info(
+    ctx: Context, inputs: Inputs, setup: ColconSetup, compiled: Compiled, lib: _Library
+) -> BuildInfo:
+    """build-info.json's record of this build: what was built, from what, with what, and the
+    library it made."""
+    plan, facts = ctx.plan, ctx.facts
+    profile, target, built = plan.profile, plan.target, compiled.packages
+    flags = Flags()
+    if profile is not None:
         # recorded without the workspace's folder, so that build-info.json does not depend on it
         mr_req = ToolchainRequest(
             profile,
@@ -232,37 +260,36 @@ def _stage_output(
             clock_header=CLOCK_HEADER_NAME,
             prefix_map="<workspace>",
         )
-    target = plan.target
-    info = BuildInfo(
-        generated_by=f"uros {__version__}",
-        target=target.key,
-        profile=Path(profile.source).name if profile else None,
-        toolchain_file=None if isinstance(target, ProfileTarget) else str(target.toolchain_file),
-        compiler=Compiler(facts.gcc, facts.gcc_version) if profile else None,
-        cmake_version=facts.cmake_version,
-        flags=Flags(
+        flags = Flags(
             cpu=profile.cpu_flags,
             c=profile.c_flags,
             cxx=profile.cxx_flags,
             optimization=profile.optimization,
             micro_ros_only=tuple(microros_flags(mr_req)),
         )
-        if profile
-        else Flags(),
+    inc = lib.include
+    return BuildInfo(
+        generated_by=f"uros {__version__}",
+        target=target.key,
+        profile=Path(profile.source).name if profile else None,
+        toolchain_file=None if isinstance(target, ProfileTarget) else str(target.toolchain_file),
+        compiler=Compiler(facts.gcc, facts.gcc_version) if profile else None,
+        cmake_version=facts.cmake_version,
+        flags=flags,
         transport=meta_transport(plan.meta),
         packages=built,
-        library=lib_info,
+        library=lib.info,
         include=Include(dir="include", files=inc.files, bytes=inc.bytes, packages=inc.packages),
-        abi_check=abi_check,
+        abi_check=lib.abi_check,
         skipped_python_packages=setup.skipped,
         host_stage_packages=setup.shared,
         idf_target=profile.idf_target or None if profile else None,
         idf=_idf_info(plan),
         cmake_options=contents.cmake_options(plan.meta),
         sources=_sources(plan, built),
+        build_key=inputs.key,
+        ccache=compiled.ccache,
     )
-    export.write_cmake_package(staging, info)
-    return info, merge_key
 
 
 def _sources(plan: BuildPlan, built: tuple[str, ...]) -> dict[str, dict[str, str]]:
@@ -326,16 +353,17 @@ def _idf_info(plan: BuildPlan) -> IdfInfo | None:
     )
 
 
-def merge_and_verify(
-    runner: Runner, plan: BuildPlan, facts: HostFacts, inputs: Inputs, compiled: Compiled
-) -> tuple[Assembled, str]:
+def assemble(ctx: Context, inputs: Inputs, setup: ColconSetup, compiled: Compiled) -> Assembled:
     """This build's archives merged (or the previous library reused) and checked, the include tree,
-    the CMake package: the output assembled beside its final place. Returns it and the merge key."""
+    the firmware's toolchain file, build-info and the CMake package: the output assembled beside
+    its final place (removed again if anything fails)."""
+    plan = ctx.plan
     staging = outputs.staging_dir(plan.output)
     try:
-        info, merge_key = _stage_output(
-            runner, plan, facts, staging, inputs.setup, compiled.packages, inputs.previous
-        )
+        lib = _library(ctx, staging, setup, compiled.packages, inputs.previous)
+        _firmware_toolchain(ctx, staging)
+        info = _build_info(ctx, inputs, setup, compiled, lib)
+        export.write_cmake_package(staging, info)
     except OSError as exc:
         remove_tree(staging)
         # a file named (a copy's destination, the path a call or write names) is main's to report;
@@ -348,13 +376,12 @@ def merge_and_verify(
     except BaseException:
         remove_tree(staging)
         raise
-    info = dataclasses.replace(info, build_key=inputs.key, ccache=compiled.ccache)
-    return Assembled(staging, info), merge_key
+    return Assembled(staging, info, lib.merge_key)
 
 
-def swap_in(plan: BuildPlan, inputs: Inputs, assembled: Assembled, merge_key: str) -> list[str]:
+def swap_in(ctx: Context, inputs: Inputs, assembled: Assembled) -> list[str]:
     """The assembled output swapped into place and the state that vouches for it recorded. Returns
     what of the previous output could not be removed."""
-    left = _put_in_place(plan, assembled)
-    _record(plan, inputs.state_path, inputs.parts, assembled, merge_key)
+    left = _put_in_place(ctx.plan, assembled)
+    _record(ctx.plan, inputs.state_path, inputs.parts, assembled)
     return left

@@ -10,35 +10,13 @@ from pathlib import Path
 
 from uros_build import __version__, console
 from uros_build.colcon import command as colcon
-from uros_build.colcon import fingerprint as fp
 from uros_build.colcon import hoststage, relocate
-from uros_build.colcon.hosttools import HostFacts
-from uros_build.config.plan import BuildPlan
 from uros_build.errors import StepFailed
 from uros_build.files import locked
-from uros_build.proc import Runner
 from uros_build.sources import packages as packages_mod
-
-
-def stage_for(
-    plan: BuildPlan,
-    facts: HostFacts,
-    building: set[str],
-    records: Mapping[str, fp.FileRecord],
-    env: Mapping[str, str],
-) -> hoststage.Stage | None:
-    """The stage of this target's build: None when switched off or when no package qualifies."""
-    if not plan.host_stage:
-        return None
-    chosen = hoststage.choose(list(plan.workspace_packages), building, hoststage.load_list().packages)
-    if not chosen:
-        return None
-    ws = plan.workspace
-    by_name = {p.name: p for p in plan.workspace_packages}
-    sources = {name: hoststage.package_sources(records, ws.source_dir, by_name[name]) for name in chosen}
-    dev = ws.dev_built_from()
-    tools = (facts.cmake, facts.cmake_version, facts.colcon, str(colcon.generator(env)), colcon.host_python())
-    return hoststage.plan_stage(ws.state_dir, chosen, plan.meta.names, tools, sources, dev)
+from uros_build.steps.colcon_setup import ColconSetup, python_shim, shared_if_built
+from uros_build.steps.context import Context
+from uros_build.steps.toolchain_file import host_toolchain
 
 
 def stage_lock(stage: hoststage.Stage) -> AbstractContextManager[None]:
@@ -46,29 +24,28 @@ def stage_lock(stage: hoststage.Stage) -> AbstractContextManager[None]:
     return locked(stage.folder, "the host stage")
 
 
-def expected_shares(plan: BuildPlan, stage: hoststage.Stage) -> tuple[str, ...]:
-    """What the stage will share, known without building it (resolve needs it for the colcon
-    command): its marker's answer when it is built for its key, else every package it builds."""
-    found = shared_if_built(plan, stage)
-    return stage.packages if found is None else found
+def ready(ctx: Context, setup: ColconSetup) -> tuple[str, ...]:
+    """Just before colcon: the host stage built for its key (once) and its packages taken into the
+    target's trees, under the stage's lock. Returns the packages it shares: those ``setup`` expected,
+    or fewer when it failed or a listed package compiled code (() without a stage)."""
+    stage, plan = setup.stage, ctx.plan
+    if stage is None:
+        return ()
+    with stage_lock(stage):
+        shared = shared_if_built(plan, stage)
+        if shared is None:
+            python = str(python_shim(plan, ctx.runner, stage.folder))
+            toolchain = host_toolchain(plan, stage.folder, ctx.facts, ctx.runner, setup.env)
+            shared = _build(ctx, stage, setup.env, setup.building, python, toolchain)
+        take_into(setup.build_base, setup.install_base, stage, shared, plan.workspace.root)
+    return shared
 
 
-def shared_if_built(plan: BuildPlan, stage: hoststage.Stage) -> tuple[str, ...] | None:
-    """What the stage shares when it is built for its key (under :func:`stage_lock`); None when it
-    must be built (never built, its inputs changed, or it failed and --rebuild asks again)."""
-    found = hoststage.read_marker(stage)
-    if found is None or found.key != stage.key or (found.failed and plan.rebuild):
-        return None
-    return found.shared
-
-
-def build(
-    plan: BuildPlan,
-    facts: HostFacts,
-    runner: Runner,
+def _build(
+    ctx: Context,
     stage: hoststage.Stage,
     env: Mapping[str, str],
-    building: set[str],
+    building: frozenset[str],
     python: str,
     toolchain_file: Path,
 ) -> tuple[str, ...]:
@@ -76,6 +53,7 @@ def build(
     and ``toolchain_file`` (the host compilers' facts, found once); returns the packages it shares:
     those that compiled nothing (and need no other). A stage whose colcon fails shares nothing:
     each target builds them; --rebuild tries the stage again."""
+    plan, facts, runner = ctx.plan, ctx.facts, ctx.runner
     written_by = f"uros {__version__} build"
     relocate.reconfigure_moved(stage.build_base, "the host stage")
     stage.meta_path.write_text(hoststage.meta_text(stage, written_by), encoding="utf-8")
@@ -118,7 +96,9 @@ def build(
     compiled = tuple(
         p for p in stage.packages if hoststage.compiled_code(stage.build_base, stage.install_base, p)
     )
-    shared = hoststage.choose(list(plan.workspace_packages), building, set(stage.packages) - set(compiled))
+    shared = hoststage.choose(
+        list(plan.workspace_packages), set(building), set(stage.packages) - set(compiled)
+    )
     if compiled:
         them = "it" if len(compiled) == 1 else "them"
         console.warn(

@@ -19,42 +19,15 @@ from uros_build.colcon import fingerprint as fp
 from uros_build.colcon.hosttools import HostFacts
 from uros_build.config.plan import BuildPlan, ProfileTarget
 from uros_build.errors import ConfigError
-from uros_build.files import write_if_changed
 from uros_build.output.buildinfo import read_build_info
-from uros_build.proc import Runner
-from uros_build.sources import meta as meta_mod
 from uros_build.sources import packages as packages_mod
 from uros_build.sources.workspace import Workspace
 from uros_build.sources.wsfiles import CONFIG
-from uros_build.steps import host_stage
-from uros_build.steps.colcon_setup import ColconSetup, building_names, colcon_setup, python_shim
-from uros_build.steps.prepare import compiler_identity, drop_readers_of_changed_headers
-from uros_build.steps.toolchain_file import host_toolchain, toolchain_request, write_toolchain
+from uros_build.steps.colcon_setup import ColconSetup, meta_text
+from uros_build.steps.context import Context
+from uros_build.steps.prepare import compiler_identity
+from uros_build.steps.toolchain_file import toolchain_request
 from uros_build.target.toolchain import render_toolchain
-
-
-def ready_host_stage(plan: BuildPlan, facts: HostFacts, runner: Runner, inputs: Inputs) -> None:
-    """Just before colcon: the host stage built for its key (once), and its packages copied into
-    the target's trees, under the stage's lock. Where the stage shares other packages than
-    resolve expected (it failed, or a listed package compiled code), the colcon command and the
-    fingerprint's parts are made to say so."""
-    setup = inputs.setup
-    stage = setup.stage
-    if stage is None:
-        return
-    with host_stage.stage_lock(stage):
-        found = host_stage.shared_if_built(plan, stage)
-        if found is None:
-            python = str(python_shim(plan, runner, stage.folder))
-            toolchain = host_toolchain(plan, stage.folder, facts, runner, setup.env)
-            building = building_names(plan, setup.plan)
-            found = host_stage.build(plan, facts, runner, stage, setup.env, building, python, toolchain)
-        if found != setup.shared:
-            colcon_plan = dataclasses.replace(setup.plan, packages_skip=found)
-            argv = tuple(colcon.colcon_argv(colcon_plan, facts.colcon))
-            inputs.setup = setup = dataclasses.replace(setup, plan=colcon_plan, argv=argv, shared=found)
-            inputs.parts.update(colcon_parts(facts, setup))
-        host_stage.take_into(setup.build_base, setup.install_base, stage, found, plan.workspace.root)
 
 
 def build_key(plan: BuildPlan, facts: HostFacts, toolchain_file: Path, parts: Mapping[str, str]) -> str:
@@ -121,11 +94,6 @@ def scan_sources(
     return sources, cached
 
 
-def meta_text(plan: BuildPlan) -> str:
-    """The merged colcon.meta as the build writes it."""
-    return meta_mod.dump_meta(plan.meta, f"uros build --toolchain {plan.target.key}")
-
-
 def workspace_parts(ws: Workspace, sources_digest: str) -> dict[str, str]:
     """The inputs that are the workspace's alone, whatever the command line said: the sources'
     content and the workspace's settings files (uros.yaml, its colcon.meta). `uros doctor` judges
@@ -162,9 +130,10 @@ def changes(previous: fp.BuildState, parts: Mapping[str, str], complete: bool) -
     return changed
 
 
-def _scan(plan: BuildPlan) -> dict[str, fp.FileRecord]:
+def scan(ctx: Context) -> dict[str, fp.FileRecord]:
     """The workspace's sources now (their stat cache updated, files whose content changed under
     an old mtime made newer, so that CMake and ninja see them)."""
+    plan = ctx.plan
     ws = plan.workspace
     sources, cached = scan_sources(ws, plan.target_dir, plan.output)
     newer = fp.content_changed(cached, sources)
@@ -242,38 +211,50 @@ def flags_fingerprint(parts: Mapping[str, str]) -> str:
     return fp.digest(parts["toolchain file"], parts["compiler"], parts["colcon"])
 
 
-@dataclass
+@dataclass(frozen=True)
 class Inputs:
-    """What this build is made of: the step after resolve reads it, colcon_run adds the headers it
-    read outside the workspace to ``parts``."""
+    """What this build is made of (a new record, never an edit, when the host stage or colcon's run
+    tell more: :func:`with_colcon`, :func:`with_outside_headers`)."""
 
     toolchain_file: Path  # the rendered one (the build key's); colcon gets its seeded form
-    setup: ColconSetup
-    parts: dict[str, str]  # every input as a digest (the fingerprint's parts)
+    parts: Mapping[str, str]  # every input as a digest (the fingerprint's parts)
     previous: fp.BuildState | None  # the last good build's state
     state_path: Path
     key: str  # the portable build key
 
 
-def resolve(plan: BuildPlan, facts: HostFacts, runner: Runner) -> Inputs:
-    """The toolchain file and colcon.meta written (only when they change), the colcon command,
-    every input as a digest, the last good build's state, the build key."""
-    toolchain_file = write_toolchain(plan, facts)
-    meta_path = plan.target_dir / "colcon.meta"
-    write_if_changed(meta_path, meta_text(plan))
-    sources = _scan(plan)
-    setup = colcon_setup(plan, facts, toolchain_file, meta_path, runner, sources)
-    outside_digest = drop_readers_of_changed_headers(plan)
+def resolve(
+    ctx: Context,
+    toolchain_file: Path,
+    setup: ColconSetup,
+    sources: Mapping[str, fp.FileRecord],
+    outside_headers: str,
+) -> Inputs:
+    """Every input as a digest (``outside_headers``: the headers read outside the workspace, as
+    prepare found them), the last good build's state, the build key."""
+    plan, facts = ctx.plan, ctx.facts
     parts = _input_parts(plan, facts, toolchain_file, setup, sources)
-    parts["headers outside the workspace"] = outside_digest
+    parts["headers outside the workspace"] = outside_headers
     state_path = plan.target_dir / fp.STATE
     key = build_key(plan, facts, toolchain_file, parts)
-    return Inputs(toolchain_file, setup, parts, fp.read_state(state_path), state_path, key)
+    return Inputs(toolchain_file, parts, fp.read_state(state_path), state_path, key)
 
 
-def up_to_date(plan: BuildPlan, inputs: Inputs, repaired: bool) -> bool:
+def with_colcon(ctx: Context, inputs: Inputs, setup: ColconSetup) -> Inputs:
+    """``inputs`` with colcon's command as ``setup`` has it now (the host stage may share fewer
+    packages than expected); the build key stays the one the team cache was asked for."""
+    return dataclasses.replace(inputs, parts={**inputs.parts, **colcon_parts(ctx.facts, setup)})
+
+
+def with_outside_headers(inputs: Inputs, digest: str) -> Inputs:
+    """``inputs`` with the headers outside the workspace that colcon's run read (their digest)."""
+    return dataclasses.replace(inputs, parts={**inputs.parts, "headers outside the workspace": digest})
+
+
+def up_to_date(ctx: Context, inputs: Inputs, repaired: bool) -> bool:
     """No input changed since the last good build and its output is as written (else say what
     changed). A repair changed the trees the state vouches for: never up to date then."""
+    plan = ctx.plan
     previous = inputs.previous
     if previous is None or plan.rebuild or repaired:
         return False

@@ -18,6 +18,7 @@ from uros_build.files import remove_tree, write_if_changed
 from uros_build.output import swap
 from uros_build.proc import stop_leftovers
 from uros_build.sources import packages as packages_mod
+from uros_build.steps.context import Context
 
 
 def compiler_identity(facts: HostFacts) -> str:
@@ -65,11 +66,12 @@ def _reconfigure_after_a_full_disk(plan: BuildPlan) -> None:
         mark.unlink()
 
 
-def drop_readers_of_changed_headers(plan: BuildPlan) -> str:
+def drop_readers_of_changed_headers(ctx: Context) -> str:
     """Packages that read a header outside the workspace whose content changed since their build
     (a C library upgrade, a profile's -I folder, an edit restored with an old mtime) are built
     afresh: ninja goes by mtimes, and such a header need not be newer than the objects. Returns
     the digest of those headers' current content, for the fingerprint."""
+    plan = ctx.plan
     record = depfiles.read_record(plan.target_dir / depfiles.RECORD)
     changed, digest = depfiles.changed_packages(record)
     existing = [p for p in changed if (plan.target_dir / "build" / p).is_dir()]
@@ -108,9 +110,10 @@ def _repair(plan: BuildPlan) -> bool:
     return repaired or bool(stopped)
 
 
-def drop_removed_packages(plan: BuildPlan) -> None:
+def drop_removed_packages(ctx: Context) -> None:
     """A package the workspace no longer has must leave the target's trees, or its archive and
     headers would ship in the next library."""
+    plan = ctx.plan
     build_base, install_base = plan.target_dir / "build", plan.target_dir / "install"
     names = {p.name for p in plan.workspace_packages}
     if installtree.tree_packages(build_base) - names:
@@ -130,12 +133,13 @@ def forget_configured_flags(build_base: Path) -> None:
         cache.unlink()
 
 
-def prepare_trees(plan: BuildPlan, facts: HostFacts) -> bool:
+def prepare_trees(ctx: Context) -> bool:
     """Under the target's lock, before anything is decided: repair what a killed build left, redo
     what a changed compiler, a full disk or a moved workspace requires. True when a repair changed
     the trees (the recorded state no longer vouches for them)."""
+    plan = ctx.plan
     repaired = _repair(plan)
-    _redo_what_must_be_redone(plan, facts)
+    _redo_what_must_be_redone(plan, ctx.facts)
     _reconfigure_after_a_full_disk(plan)
     moved = relocate.reconfigure_moved(plan.target_dir / "build", f"{plan.target.key}'s build tree")
     return repaired or moved

@@ -1,5 +1,6 @@
 """The run itself, before the target's lock: its log, what the plan found worth saying, the host
-and target facts, the extra packages and the dev workspace (built once, shared by every target)."""
+and target facts (the two make the build's context with the plan), then the extra packages and the
+dev workspace (built once, shared by every target)."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ from uros_build.colcon import hosttools
 from uros_build.colcon.hosttools import HostFacts
 from uros_build.config.plan import BuildPlan
 from uros_build.proc import Runner
+from uros_build.steps.context import Context
 
 
 def open_run(plan: BuildPlan) -> Runner:
@@ -34,22 +36,33 @@ def open_run(plan: BuildPlan) -> Runner:
 
 
 def host_facts(plan: BuildPlan, runner: Runner) -> HostFacts:
-    """The host's and target's tools (probes cached by program identity), then the workspace's
-    extra packages synced and its dev_ws built when the MCU packages need more of it."""
-    ws = plan.workspace
-    facts = hosttools.probe_host(
+    """The host's and target's tools (probes cached by program identity)."""
+    return hosttools.probe_host(
         runner,
         plan.profile,
         plan.target_dir,
         check_libraries=plan.config is not None,
-        cache=hosttools.ProbeCache(ws.state_dir / "probes.json"),
+        cache=hosttools.ProbeCache(plan.workspace.state_dir / "probes.json"),
     )
-    if plan.config is not None:
-        ws.sync_extra_packages(plan.config)
-        # a workspace with a hand-written uros.yaml may have no dev_ws: nothing to build then
-        if ws.dev_dir.is_dir() and hosttools.dev_needs_building(ws, plan.workspace_packages):
-            hosttools.build_dev_workspace(ws, plan.config, plan.distro, runner, plan.verbose, plan.jobs)
-    return facts
+
+
+def sync_extra_packages(ctx: Context) -> None:
+    """The workspace's extra packages (uros.yaml) brought to what uros.yaml says."""
+    if ctx.plan.config is not None:
+        ctx.plan.workspace.sync_extra_packages(ctx.plan.config)
+
+
+def build_dev_workspace(ctx: Context) -> None:
+    """The dev_ws built when the MCU packages need more of it (shared by every target). A
+    workspace with a hand-written uros.yaml may have no dev_ws: nothing to build then."""
+    plan, ws = ctx.plan, ctx.plan.workspace
+    if (
+        plan.config is None
+        or not ws.dev_dir.is_dir()
+        or not hosttools.dev_needs_building(ws, plan.workspace_packages)
+    ):
+        return
+    hosttools.build_dev_workspace(ws, plan.config, plan.distro, ctx.runner, plan.verbose, plan.jobs)
 
 
 def _say_selection(plan: BuildPlan) -> None:

@@ -27,6 +27,7 @@ from uros_build.output.buildinfo import (
 )
 from uros_build.output.team_cache import CacheSettings, CacheUnusable
 from uros_build.proc import Runner
+from uros_build.steps.context import Context
 from uros_build.steps.deliver import Assembled
 from uros_build.target import abi
 from uros_build.target.toolchain import ToolchainRequest, render_toolchain
@@ -179,14 +180,16 @@ def _upload(plan: BuildPlan, key: str, entries: list[str]) -> None:
         console.warn(f"cache {shown}: not uploaded: {cache_mod.scrub(str(exc))}")
 
 
-def take(runner: Runner, plan: BuildPlan, key: str) -> Assembled | None:
+def take(ctx: Context, key: str) -> Assembled | None:
     """The team cache's output for this build key, checked (None: no cache, --rebuild, a miss or
     an entry that cannot be used)."""
+    plan = ctx.plan
     if plan.cache is None or plan.rebuild:
         return None
-    return _from_cache(runner, plan, plan.cache, key)
+    return _from_cache(ctx.runner, plan, plan.cache, key)
 
 
-def upload_if_asked(plan: BuildPlan, key: str, entries: list[str]) -> None:
-    if plan.cache is not None and plan.cache.upload:
-        _upload(plan, key, entries)
+def upload_if_asked(ctx: Context, key: str, entries: list[str]) -> None:
+    """The output uploaded as the entry ``key`` when the build asks (--cache-upload)."""
+    if ctx.plan.cache is not None and ctx.plan.cache.upload:
+        _upload(ctx.plan, key, entries)

@@ -18,6 +18,7 @@ from uros_build.colcon.hosttools import HostFacts
 from uros_build.config.plan import BuildPlan, ProfileTarget, meta_transport
 from uros_build.files import write_if_changed
 from uros_build.proc import Runner
+from uros_build.steps.context import Context
 from uros_build.steps.prepare import compiler_identity, forget_configured_flags
 from uros_build.target.toolchain import (
     CLOCK_HEADER_NAME,
@@ -33,12 +34,11 @@ from uros_build.target.toolchain import (
 SEED_FORMAT = "3"
 
 
-def seeded_toolchain(
-    plan: BuildPlan, facts: HostFacts, toolchain_file: Path, runner: Runner, env: Mapping[str, str]
-) -> Path:
+def seeded_toolchain(ctx: Context, toolchain_file: Path, env: Mapping[str, str]) -> Path:
     """The toolchain file colcon passes to every package: the target's, with CMake's compiler facts
-    found once per target (and again only when the toolchain, compiler or CMake changes). The
-    rendered toolchain file stays what the build key and build-info describe."""
+    found once per target (and again only when the toolchain, compiler or CMake changes), in colcon's
+    environment ``env``. The rendered toolchain file stays what the build key and build-info describe."""
+    plan, facts, runner = ctx.plan, ctx.facts, ctx.runner
     if not plan.compiler_seed:  # UROS_COMPILER_SEED=off (config/settings.py)
         return toolchain_file
     identity = (compiler_identity(facts), facts.cmake, facts.cmake_version, str(colcon.generator(env)))
@@ -108,7 +108,11 @@ def seed_compilers(
     return seed
 
 
-def write_toolchain(plan: BuildPlan, facts: HostFacts) -> Path:
+def write_toolchain(ctx: Context) -> Path:
+    """The target's toolchain file: rendered from its profile (written only when it changes), or the
+    user's own; a changed one makes every package configure afresh (its flags reach no compile
+    otherwise)."""
+    plan, facts = ctx.plan, ctx.facts
     target = plan.target
     if not isinstance(target, ProfileTarget):
         # The user's own file: its flags, too, reach the compiles only through a fresh configure.

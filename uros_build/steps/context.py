@@ -1,0 +1,18 @@
+"""The one frozen context every step of a target's build is handed (model: colcon-core's
+TaskContext): made once the run is open and the host's facts are known, unchanged to the end.
+A step reads it, with what earlier steps returned, and returns a frozen result of its own."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from uros_build.colcon.hosttools import HostFacts
+from uros_build.config.plan import BuildPlan
+from uros_build.proc import Runner
+
+
+@dataclass(frozen=True)
+class Context:
+    plan: BuildPlan  # what the user asked, checked
+    runner: Runner  # this run's processes and its log
+    facts: HostFacts  # the host's and the target's tools
