@@ -46,3 +46,4 @@ def test_the_plan_says_each_setting_and_who_chose_it(tmp_path: Path) -> None:
     assert "host_stage = off  ($UROS_HOST_STAGE)" in lines
     assert f"output = {(ws / 'build' / 'cortex-m7').resolve()}  (default)" in lines  # the folder itself
     assert "preset = default  (default)" in lines
+    assert f"distro = humble  ({ws}/uros.yaml: distro)" in lines

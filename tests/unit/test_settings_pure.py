@@ -155,3 +155,10 @@ def test_the_table_is_one_row_a_name_and_every_build_argument_is_a_row() -> None
 def test_the_team_cache_wait_from_the_environment_a_bad_one_is_the_default(text: str, seconds: float) -> None:
     chosen = build_settings(BuildArgs(), None, ROOT, {"UROS_CACHE_TIMEOUT": text})[rows.CACHE_TIMEOUT]
     assert chosen == Chosen(seconds, "$UROS_CACHE_TIMEOUT")
+
+
+def test_the_distro_is_uros_yaml_s_and_none_without_a_line() -> None:
+    assert resolve_one(rows.DISTRO, {}, CFG, ROOT, {}) == Chosen("humble", "/ws/uros.yaml: distro")
+    no_line = WorkspaceConfig(target="cortex-m7")  # a plain colcon workspace's uros.yaml
+    assert resolve_one(rows.DISTRO, {}, no_line, ROOT, {}) == Chosen(None, "default")
+    assert resolve_one(rows.DISTRO, {"distro": "jazzy"}, CFG, ROOT, {}) == Chosen("jazzy", "--distro")

@@ -432,12 +432,11 @@ def plan_build(args: BuildArgs, env: Mapping[str, str] | None = None) -> BuildPl
     if toolchain and args.toolchain_from != "--toolchain" and names_a_file(toolchain):
         toolchain = str(ws.root / toolchain)  # a file named in uros.yaml: from the workspace
     target = resolve_target(toolchain, args.profile, args.compiler_prefix, args.cflags, args.toolchain_from)
-    # a distro only chooses the meta preset here: a uros.yaml without one builds with uros's own
-    distro = (
-        distros_mod.load_distro(cfg.distro, f"{ws.root / CONFIG}: distro") if cfg and cfg.distro else None
-    )
     settings = build_settings(args, cfg, ws.root, os.environ if env is None else env)
     get = settings.value  # every setting below as the precedence chose it (settings.py)
+    # a distro only chooses the meta preset here: a uros.yaml without one builds with uros's own
+    name = settings[rows.DISTRO]
+    distro = distros_mod.load_distro(name.value, name.source) if name.value else None
     metas: tuple[Path, ...] = get(rows.METAS)
     user_metas = list(metas)
     if cfg is not None and ws.user_meta.is_file():

@@ -76,6 +76,10 @@ def _targets_of(cfg: WorkspaceConfig, root: Path) -> tuple[tuple[str, ...], str]
     return ((cfg.target,), "target") if cfg.target else None
 
 
+def _distro_of(cfg: WorkspaceConfig, root: Path) -> tuple[str | None, str] | None:
+    return (cfg.distro, "distro") if cfg.distro else None  # "": the file has no distro: line
+
+
 def _idf_build_of(cfg: WorkspaceConfig, root: Path) -> tuple[Path | None, str] | None:
     # relative to the workspace (or absolute)
     return (root / cfg.idf_build, "idf_build") if cfg.idf_build else None
@@ -124,6 +128,13 @@ CFLAGS: Setting[tuple[str, ...]] = Setting(
 OUTPUT: Setting[Path | None] = Setting(
     "output", "-o/--output", None, None, None, "<workspace>/build/<target>", "the output folder"
 )
+DISTRO: Setting[str | None] = Setting(
+    "distro", "--distro", "distro", None, None,
+    f"none: uros's own preset (create-firmware: {defaults.DISTRO})",
+    "the micro-ROS distro: which clones create-firmware makes and update moves to (update needs one); "
+    "a build takes its colcon.meta preset",
+    commands=("build", "update"), from_config=_distro_of,
+)  # fmt: skip
 TRANSPORT: Setting[str | None] = Setting(
     "transport", "--transport", "transport", None, None, "the target's",
     "the XRCE-DDS transport: custom, udp or serial",
@@ -219,7 +230,7 @@ AGENT: Setting[str | None] = Setting(
 
 # The table, in the order `uros build -v` prints it and docs/settings.md lists it.
 SETTINGS: tuple[Setting[Any], ...] = (
-    WORKSPACE, TARGETS, PROFILE, COMPILER_PREFIX, CFLAGS, OUTPUT, TRANSPORT, PRESET, METAS, SETS,
+    WORKSPACE, TARGETS, PROFILE, COMPILER_PREFIX, CFLAGS, OUTPUT, DISTRO, TRANSPORT, PRESET, METAS, SETS,
     PACKAGES, FOR_FIRMWARE, PACKAGES_UP_TO, JOBS, IDF_BUILD, CACHE, CACHE_TIMEOUT, CACHE_UPLOAD,
     CCACHE, FORCE, REBUILD, VERBOSE, HOST_STAGE, COMPILER_SEED, GEN_CACHE, GEN_CACHE_DIR, AGENT,
 )  # fmt: skip

@@ -11,9 +11,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from uros_build import defaults, loader
-from uros_build.config.settings import (
-    resolve_workspace,
-)
+from uros_build.config.settings import DISTRO, resolve_one, resolve_workspace
 from uros_build.errors import ConfigError
 from uros_build.sources import distros as distros_mod
 from uros_build.sources.distros import Distro, Mirror, Source
@@ -213,7 +211,8 @@ def plan_update(args: UpdateArgs) -> UpdatePlan:
             "re-create the workspace with `uros create-firmware --force`",
         )
     lock = read_lock(ws.lock_path, "--workspace")
-    name = args.distro if args.distro is not None else cfg.distro
+    # --distro, else uros.yaml's (config/settings.py)
+    name = resolve_one(DISTRO, {DISTRO.name: args.distro}, cfg, ws.root, {}).value
     if not name:  # a build needs no distro; moving the clones does
         raise ConfigError(
             f"{ws.root / CONFIG}: distro: is required by `uros update` but missing",
