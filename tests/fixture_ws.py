@@ -307,3 +307,19 @@ def add_plain_package(folder: Path, name: str, c_text: str) -> Path:
     )
     (folder / f"{name}.c").write_text(c_text, encoding="utf-8")
     return folder
+
+
+def add_twin_packages(root: Path) -> None:
+    """fx_twin_a and fx_twin_b: two packages whose objects define one global function, as std_msgs'
+    and example_interfaces' introspection code once did (micro_ros_arduino#910): a normal link takes
+    one member and never notices, a --whole-archive link fails with "multiple definition". Each also
+    defines a weak hook, which collides with nothing."""
+    for side in ("a", "b"):
+        name = f"fx_twin_{side}"
+        add_plain_package(
+            root / "mcu_ws" / "src" / name,
+            name,
+            f'const char *fx_twin_type_support(void) {{ return "{side}"; }}\n'
+            f"__attribute__((weak)) int fx_twin_hook(void) {{ return '{side}'; }}\n"
+            f"int {name}_only(void) {{ return 1; }}\n",
+        )

@@ -41,6 +41,12 @@ def _recorded(line: str) -> None:
         pass  # a log that cannot be written must not stop the build (the disk-full path says why)
 
 
+def logged(text: str) -> None:
+    """Into the run log only (a long list a warning line sums up)."""
+    for line in text.splitlines():
+        _recorded(line)
+
+
 def step(text: str) -> None:
     _recorded(f"==> {text}")
     _err.print(f"[bold cyan]==>[/] {escape(text)}")

@@ -19,7 +19,7 @@ from typing import cast
 import pytest
 
 from uros_build.errors import VerifyError
-from uros_build.output import archive
+from uros_build.output import archive, symbols
 from uros_build.output.archive import ArchiveContents, ArchiveListing
 from uros_build.proc import Runner
 from uros_build.target.toolsearch import BinTools
@@ -307,6 +307,26 @@ def test_merge_archives_process_count(tmp_path: Path) -> None:
     assert [c[:2] for c in runner.calls] == [["nm", "-g"], ["ar", "qcsD"], ["nm", "-g"]]
     assert runner.calls[0][4:] == [str(p.resolve()) for p in sorted(libs)]
     assert not (tmp_path / "merge").exists()
+
+
+def test_the_merge_finds_duplicates_in_the_nm_run_it_already_makes(tmp_path: Path) -> None:
+    class TwinRunner(FakeRunner):
+        """fx_core's core.c.obj and fx_util's scale.c.obj both define ``twin``."""
+
+        def query(self, argv: object, *, step: str, cwd: Path | None = None) -> str:
+            text = super().query(argv, step=step, cwd=cwd)  # type: ignore[arg-type]
+            for line in ("fx_core_add T 0 4\n", "fx_util_scale T 0 10\n"):
+                text = text.replace(line, line + "twin T 0 4\n")
+            return text
+
+    runner = TwinRunner()
+    report = archive.merge_archives(
+        cast(Runner, runner), TOOLS, _lib(tmp_path), tmp_path / "libmicroros.a", tmp_path / "merge"
+    )
+    assert report.duplicates == (
+        symbols.Duplicate("twin", ("libfx_core__core.c.obj", "libfx_util__scale.c.obj")),
+    )
+    assert [c[:2] for c in runner.calls] == [["nm", "-g"], ["ar", "qcsD"], ["nm", "-g"]]  # no extra run
 
 
 # --- parse_ar: the member table read from the archive itself ----------------------------------

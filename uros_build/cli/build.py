@@ -166,9 +166,22 @@ def build(
 @click.option("--profile", type=PATH_ARG, help="Or your own target profile (.yaml).")
 @VERBOSE
 @click.option("--json", "as_json", is_flag=True, help="Print the verdict as JSON.")
-def check(library: Path, toolchain: str | None, profile: Path | None, verbose: bool, as_json: bool) -> None:
-    """Check that every object in LIBRARY has the ELF facts of a target (exit 5 if not)."""
-    check_cmd.check_library(library, toolchain, profile, verbose, as_json)
+@click.option(
+    "--whole-archive",
+    is_flag=True,
+    help="Fail (exit 5) on a global symbol two members define, as a --whole-archive link does.",
+)
+def check(
+    library: Path,
+    toolchain: str | None,
+    profile: Path | None,
+    verbose: bool,
+    as_json: bool,
+    whole_archive: bool,
+) -> None:
+    """Check that every object in LIBRARY has the ELF facts of a target (exit 5 if not); list the
+    global symbols two members define and the symbols the firmware must provide."""
+    check_cmd.check_library(library, toolchain, profile, verbose, as_json, whole_archive)
 
 
 @click.command()

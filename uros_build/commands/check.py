@@ -1,4 +1,5 @@
-"""`uros check`: the build's ABI check on any library or object."""
+"""`uros check`: the build's ABI check on any library or object, the global symbols two members
+define (``--whole-archive``: a failure) and the symbols the firmware must provide."""
 
 from __future__ import annotations
 
@@ -8,13 +9,19 @@ from pathlib import Path
 
 from uros_build import console
 from uros_build.errors import ConfigError, VerifyError
+from uros_build.output import symbols
 from uros_build.proc import Runner, new_run_log, user_log_dir
 from uros_build.target import abi
 from uros_build.target.profiles import find_profile, load_profile_file
 
 
 def check_library(
-    library: Path, target: str | None, profile_path: Path | None, verbose: bool, as_json: bool = False
+    library: Path,
+    target: str | None,
+    profile_path: Path | None,
+    verbose: bool,
+    as_json: bool = False,
+    whole_archive: bool = False,
 ) -> None:
     if (target is None) == (profile_path is None):
         raise ConfigError("uros check needs one target", "pass --toolchain NAME or --profile FILE")
@@ -28,6 +35,16 @@ def check_library(
     runner = Runner(new_run_log(user_log_dir(), "check"), verbose=verbose)
     try:
         summary = abi.check_library(runner, library.resolve(), profile)
+        # a library's members; a linked firmware (app.elf) or one object has none to collide
+        text = symbols.read_nm(runner, "nm", library.resolve()) if _is_archive(library) else ""
+        found = symbols.parse_nm(text, library.name)
+        duplicates = symbols.duplicate_globals(found)
+        if whole_archive and duplicates:
+            if not as_json:  # the full list; the error line sums it up
+                for line in symbols.duplicate_lines(duplicates):
+                    console.info(line)
+            hint = f"{symbols.DUPLICATE_HINT}, or link the library without --whole-archive"
+            raise VerifyError(symbols.describe_duplicates(duplicates, str(library)), hint)
     except VerifyError as exc:
         if not _is_archive(library):  # a linked firmware (app.elf) or one object, not the library
             exc.hint = (
@@ -39,12 +56,37 @@ def check_library(
             failed = {"library": str(library), "target": profile.name, "result": "fail", "error": exc.message}
             sys.stdout.write(json.dumps(failed, indent=2, sort_keys=True) + "\n")
         raise
+    undefined = symbols.undefined_globals(found)
+    known = symbols.firmware_symbols()
     if as_json:  # the warnings are in the summary too
-        sys.stdout.write(json.dumps({"library": str(library), **summary}, indent=2, sort_keys=True) + "\n")
+        report = {
+            "library": str(library),
+            **summary,
+            "duplicate_globals": {d.name: list(d.members) for d in duplicates},
+            "undefined": symbols.needed_json(undefined, known),
+        }
+        sys.stdout.write(json.dumps(report, indent=2, sort_keys=True) + "\n")
     else:
         console.step(f"{library}: {abi.describe(summary)}")
     for warning in summary.get("warnings", ()):
         console.warn(warning)
+    if as_json:
+        return
+    if _is_archive(library):
+        _say_duplicates(duplicates, library)
+    if undefined:
+        console.step(f"{len(undefined)} symbols {library.name} leaves undefined, for the firmware's link:")
+        for line in symbols.needed_lines(undefined, known):
+            console.info(line)
+
+
+def _say_duplicates(duplicates: tuple[symbols.Duplicate, ...], library: Path) -> None:
+    if not duplicates:
+        console.info(f"{library.name}: no global symbol is defined in more than one member")
+        return
+    console.warn(symbols.describe_duplicates(duplicates, library.name))
+    for line in symbols.duplicate_lines(duplicates):
+        console.info(line)
 
 
 def _is_archive(path: Path) -> bool:

@@ -8,10 +8,11 @@ from collections.abc import Callable
 from pathlib import Path
 
 from uros_build import console
-from uros_build.errors import ConfigError
-from uros_build.output import export, swap
+from uros_build.errors import ConfigError, VerifyError
+from uros_build.output import export, swap, symbols
 from uros_build.output import folders as outputs
 from uros_build.output.buildinfo import BuildInfo, read_build_info
+from uros_build.proc import Runner, new_run_log, user_log_dir
 from uros_build.sources.workspace import check_folder_target
 
 
@@ -164,6 +165,19 @@ def _tree_digest(folder: Path) -> dict[str, str]:
     }
 
 
+def _refuse_duplicates(runner: Runner, library: Path) -> None:
+    """Arduino's cores link precompiled libraries with --whole-archive (micro_ros_arduino#910,
+    #1300, #847), so a global symbol two members define fails every sketch with "multiple
+    definition": refused before anything is written, judged by the library's own symbols (nm)."""
+    found = symbols.parse_nm(symbols.read_nm(runner, "nm", library), library.name)
+    duplicates = symbols.duplicate_globals(found)
+    if duplicates:
+        raise VerifyError(
+            f"--from {library.parent}: {symbols.describe_duplicates(duplicates, library.name)}",
+            symbols.DUPLICATE_HINT,
+        )
+
+
 def export_arduino(sources: tuple[Path, ...], output: Path) -> Path:
     """One precompiled Arduino library from one or more outputs (one per target): each archive in
     the folder Arduino's builder looks in for its board, one include tree (it must be the same)."""
@@ -176,10 +190,12 @@ def export_arduino(sources: tuple[Path, ...], output: Path) -> Path:
     includes: tuple[Path, dict[str, str]] | None = None
     targets: list[str] = []
     architectures: list[str] = []
+    runner = Runner(new_run_log(user_log_dir(), "export"))
     for given in sources:
         src = given.resolve()
         info = read_build_info(src, "--from")
         _check_complete(src, info, "--from")
+        _refuse_duplicates(runner, src / info.library.file)
         folders = export.arduino_folders(info.flags.cpu)
         if not folders:
             raise ConfigError(

@@ -12,8 +12,9 @@ Plan, then execute (as in :mod:`uros_build.target.abi`): :func:`parse_ar` reads 
 reads ``nm`` text, :func:`plan_merge` decides every output name, :func:`verify_merge` compares
 inputs with the output; all are pure. Only :func:`merge_archives` runs commands, and few of them:
 one ``nm`` over all inputs at once, one ``ar qcsD`` that also writes the index, and one ``nm`` of
-the output. The members are written from the archives' own bytes: one ``ar x`` per archive (and
-one ``ar xN`` per instance number) cost real Humble 119 processes, about 2 s of every build.
+the output, whose text also says which global symbols two members define (output/symbols.py).
+The members are written from the archives' own bytes: one ``ar x`` per archive (and one ``ar xN``
+per instance number) cost real Humble 119 processes, about 2 s of every build.
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ from pathlib import Path
 from typing import BinaryIO
 
 from uros_build.errors import VerifyError
+from uros_build.output import symbols as syms
 from uros_build.proc import Runner
 from uros_build.target import arfile
 from uros_build.target.toolsearch import BinTools
@@ -44,6 +46,8 @@ class MergeReport:
     members: int
     symbols: int
     renamed_duplicates: int
+    # global symbols two members define (a --whole-archive link fails on them), from the output's nm
+    duplicates: tuple[syms.Duplicate, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -189,14 +193,13 @@ def verify_merge(expected: Sequence[ArchiveContents], actual: ArchiveContents, w
         )
 
 
-def read_symbols(runner: Runner, tools: BinTools, archives: Sequence[Path], what: str) -> Counter[str]:
-    """The defined global symbols of all ``archives`` together, from one ``nm`` run. ``query``
-    hands the parser stdout alone, so nm's "no symbols" notes on stderr never reach it."""
-    text = runner.query(
+def read_defined_globals(runner: Runner, tools: BinTools, archives: Sequence[Path], what: str) -> str:
+    """The defined global symbols of all ``archives`` together as nm text, from one ``nm`` run.
+    ``query`` hands the parser stdout alone, so nm's "no symbols" notes on stderr never reach it."""
+    return runner.query(
         [tools.nm, "-g", "--defined-only", "--format=posix", *map(str, archives)],
         step=f"read symbols of {what}",
     )
-    return parse_defined_globals(text)
 
 
 def merge_archives(
@@ -211,7 +214,7 @@ def merge_archives(
     listings = [ArchiveListing(p, tuple(name for name, _ in contents[p])) for p in resolved]
     expected = ArchiveContents(
         tuple(m for listing in listings for m in listing.members),
-        read_symbols(runner, tools, resolved, f"{len(resolved)} libraries"),
+        parse_defined_globals(read_defined_globals(runner, tools, resolved, f"{len(resolved)} libraries")),
     )
     plan = plan_merge(listings)
 
@@ -233,7 +236,8 @@ def merge_archives(
     target = output.resolve()
     runner.run([tools.ar, "qcsD", str(target), f"@{listing.name}"], step="write libmicroros.a", cwd=workdir)
 
-    result = ArchiveContents(read_members(target), read_symbols(runner, tools, [target], "libmicroros.a"))
+    merged = read_defined_globals(runner, tools, [target], "libmicroros.a")
+    result = ArchiveContents(read_members(target), parse_defined_globals(merged))
     verify_merge([expected], result, workdir)
     shutil.rmtree(workdir)
     return MergeReport(
@@ -241,4 +245,6 @@ def merge_archives(
         members=len(result.members),
         symbols=sum(result.symbols.values()),
         renamed_duplicates=plan.renamed_duplicates,
+        # the same nm text: no other tool run
+        duplicates=syms.duplicate_globals(syms.parse_nm(merged, target.name)),
     )

@@ -50,6 +50,8 @@ class Library:
     renamed_duplicate_members: int
     inputs: tuple[str, ...]
     size: Mapping[str, int] | None = None  # text/data/bss from <prefix>size, where a profile names it
+    # global symbol -> the members that define it, where more than one does (output/symbols.py)
+    duplicate_globals: Mapping[str, tuple[str, ...]] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -186,6 +188,7 @@ def parse_build_info(data: Any, source: str) -> BuildInfo:
             renamed_duplicate_members=_count(lib, "renamed_duplicate_members", lib_where),
             inputs=_tuple(lib, "inputs", lib_where),
             size=size,
+            duplicate_globals=_string_lists(lib.get("duplicate_globals"), f"{lib_where}: duplicate_globals"),
         ),
         include=Include(
             dir=loader.string(inc, "dir", f"{source}: include", "include"),
@@ -211,6 +214,12 @@ def _counts(value: Any, where: str) -> dict[str, int]:
         return {}
     data = loader.mapping(value, where)
     return {str(k): _count(data, k, where) for k in data}
+
+
+def _string_lists(data: Any, where: str) -> dict[str, tuple[str, ...]]:
+    """{name: [string, ...]} (absent: empty, for a build-info written before the key existed)."""
+    top = loader.mapping(data, where)
+    return {str(k): loader.string_list(top, k, where) for k in top}
 
 
 def _nested_strings(data: Any, where: str) -> dict[str, dict[str, str]]:

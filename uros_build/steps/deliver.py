@@ -29,7 +29,7 @@ from uros_build.errors import (
     written_path,
 )
 from uros_build.files import locked, remove_tree
-from uros_build.output import contents, export, includes, swap
+from uros_build.output import contents, export, includes, swap, symbols
 from uros_build.output import folders as outputs
 from uros_build.output.archive import MergeReport, merge_archives
 from uros_build.output.buildinfo import (
@@ -133,6 +133,7 @@ def say_done(ctx: Context, assembled: Assembled, left: list[str], started: float
             f"{assembled.info.include.files} headers in {plan.output / 'include'}{origin} "
             f"({time.monotonic() - started:.1f} s)"
         )
+        symbols.warn_duplicates(assembled.info.library.duplicate_globals)
     except KeyboardInterrupt as stop:
         raise interrupted(
             stop, "interrupted", f"the new output was already in place: {plan.output}"
@@ -317,6 +318,7 @@ def _library_info(
         members=report.members,
         defined_global_symbols=report.symbols,
         renamed_duplicate_members=report.renamed_duplicates,
+        duplicate_globals={d.name: d.members for d in report.duplicates},
         inputs=report.inputs,
         size=size,
     )
