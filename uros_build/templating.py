@@ -13,6 +13,7 @@ A value reaches a CMake file in one of three places, each with its own escape:
 
 from __future__ import annotations
 
+import json
 import re
 import shlex
 from collections.abc import Iterable
@@ -151,6 +152,12 @@ def meson_list(items: Iterable[str]) -> str:
     return "[" + ", ".join(meson_string(i) for i in items) + "]"
 
 
+def python_literal(value: str | list[str] | dict[str, str]) -> str:
+    """A Python literal of strings, lists and dicts of strings: JSON's escapes (ASCII only, every
+    quote, backslash and control character escaped) are Python's, so the value stays data."""
+    return json.dumps(value, sort_keys=True)
+
+
 @cache
 def _env() -> jinja2.Environment:
     env = jinja2.Environment(
@@ -170,6 +177,7 @@ def _env() -> jinja2.Environment:
     env.filters["pc_flags"] = pc_flags
     env.filters["meson_string"] = meson_string
     env.filters["meson_list"] = meson_list
+    env.filters["python_literal"] = python_literal
     return env
 
 

@@ -9,7 +9,6 @@ import os
 import shlex
 import shutil
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
@@ -229,16 +228,11 @@ def test_one_arduino_library_for_two_boards(m7_build: Path, tmp_path: Path) -> N
 
 def test_platformio_reads_the_library_manifest(m7_build: Path, tmp_path: Path) -> None:
     """Issue 20, item 1: library.json validated by PlatformIO's own manifest schema (platformio from
-    PyPI in a venv of the test's; its toolchains cannot be downloaded here, so no pio build)."""
+    pyproject's test extra; test_platformio.py builds the export with `pio run`)."""
+    need("pio")
     out = tmp_path / "pio-lib"
     run_uros("export", "platformio", "--from", str(m7_build / "build" / "cortex-m7"), "--output", str(out))
-    venv = tmp_path / "pio-venv"
-    made = subprocess.run([sys.executable, "-m", "venv", str(venv)], capture_output=True)
-    pip = subprocess.run(
-        [str(venv / "bin/pip"), "install", "-q", "platformio"], capture_output=True, text=True
-    )
-    if made.returncode != 0 or pip.returncode != 0:
-        pytest.skip(f"platformio could not be installed from PyPI: {pip.stderr[-300:]}")
+    venv_bin = Path(shutil.which("pio") or "pio").resolve().parent
     check = (
         "import json, sys\n"
         "from platformio.package.manifest.parser import ManifestParserFactory\n"
@@ -249,7 +243,7 @@ def test_platformio_reads_the_library_manifest(m7_build: Path, tmp_path: Path) -
         "ManifestSchema().load_manifest(parser.as_dict())  # raises on an invalid manifest\n"
         "print(json.dumps(parser.as_dict(), sort_keys=True))\n"
     )
-    done = subprocess.run([str(venv / "bin/python"), "-c", check, str(out)], capture_output=True, text=True)
+    done = subprocess.run([str(venv_bin / "python"), "-c", check, str(out)], capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
     data = json.loads(done.stdout)
     assert data["name"] == "micro_ros_uros" and data["build"]["includeDir"] == "include"

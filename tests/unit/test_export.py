@@ -247,7 +247,7 @@ def test_a_build_carries_over_the_exports_its_marker_names(tmp_path: Path) -> No
     )
     # microros.pc is the user's (not in the marker); microros-cross.ini was removed by the user
     assert ex.carry_over(out, staging, info) == ["make", "platformio"]
-    assert sorted(p.name for p in staging.iterdir()) == ["library.json", "microros.mk"]
+    assert sorted(p.name for p in staging.iterdir()) == ["library.json", "microros.mk", ex.PLATFORMIO_SCRIPT]
 
 
 @pytest.mark.parametrize(

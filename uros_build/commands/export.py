@@ -132,7 +132,9 @@ def export_pkg_config(source: Path | None, output: Path) -> Path:
 
 
 def export_platformio(source: Path | None, output: Path) -> Path:
-    use = "in platformio.ini: lib_deps = file://<that folder>"
+    src = (source or output).resolve()
+    cpu = read_build_info(src, "--from" if source else "--output").flags.cpu
+    use = f"in platformio.ini: lib_deps = file://<that folder> and {export.platformio_build_flags(cpu)}"
     return _simple("platformio", source, output, export.write_platformio, use)
 
 

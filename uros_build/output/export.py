@@ -330,11 +330,15 @@ def arduino_header() -> str:
 # PlatformIO: a library folder for lib_deps (https://docs.platformio.org/en/latest/manifests/library-json/)
 
 PLATFORMIO_FILE = "library.json"
+# PlatformIO gives a library's build.flags to the compiler only: its extra script puts the CPU
+# flags on the firmware's link (templates/platformio-abi.py.j2 says how and why)
+PLATFORMIO_SCRIPT = "uros_platformio_abi.py"
 
 
 def platformio_manifest(target: str) -> dict[str, str]:
     """library.json beside libmicroros.a and include/: nothing to compile, the headers on the
-    include path, the prebuilt archive linked (flags are relative to the library's folder)."""
+    include path, the prebuilt archive linked (flags are relative to the library's folder), and
+    the extra script that links the firmware with the library's CPU flags."""
     data = {
         "name": ARDUINO_NAME,
         "version": __version__,
@@ -348,13 +352,28 @@ def platformio_manifest(target: str) -> dict[str, str]:
             "srcFilter": ["-<*>"],
             "libArchive": False,
             "flags": ["-L.", "-lmicroros"],
+            "extraScript": PLATFORMIO_SCRIPT,
         },
     }
     return {PLATFORMIO_FILE: json.dumps(data, indent=2, sort_keys=True) + "\n"}
 
 
+def platformio_files(target: str, cpu_flags: tuple[str, ...]) -> dict[str, str]:
+    """library.json and its extra script (pure)."""
+    abi = {name: value for name, value in abi_flags(cpu_flags).items() if value}
+    script = templating.render(
+        "platformio-abi.py.j2", version=__version__, target=target, cpu_flags=list(cpu_flags), abi=abi
+    )
+    return {**platformio_manifest(target), PLATFORMIO_SCRIPT: script}
+
+
+def platformio_build_flags(cpu_flags: tuple[str, ...]) -> str:
+    """The platformio.ini line that compiles a firmware with the library's ABI (pure)."""
+    return "build_flags = " + " ".join(cpu_flags)
+
+
 def write_platformio(out: Path, info: BuildInfo) -> list[Path]:
-    return _write(out, platformio_manifest(info.target))
+    return _write(out, platformio_files(info.target, info.flags.cpu))
 
 
 # ---------------------------------------------------------------------------------------------
