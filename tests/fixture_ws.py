@@ -323,3 +323,34 @@ def add_twin_packages(root: Path) -> None:
             f"__attribute__((weak)) int fx_twin_hook(void) {{ return '{side}'; }}\n"
             f"int {name}_only(void) {{ return 1; }}\n",
         )
+
+
+def add_message_package(root: Path) -> None:
+    """fx_msgs: message headers in rosidl_generator_c's shape (``include/fx_msgs/msg/<type>.h`` and
+    ``detail/<type>__struct.h``, bounds as its ``__MAX_SIZE`` enums), written here rather than
+    generated (no rosidl in the fixture), and one object so that it installs a library.
+    Small (4 bytes), Big (800: more than one 512-byte MTU), Huge (4,096: more than 512 x 4),
+    Bounded (a bounded sequence of 10 Big: 8,004) and Text (an unbounded string)."""
+    folder = root / "mcu_ws" / "src" / "fx_msgs"
+    add_plain_package(folder, "fx_msgs", "int fx_msgs_present(void) { return 1; }\n")
+    with (folder / "CMakeLists.txt").open("a", encoding="utf-8") as cmake:
+        cmake.write("install(DIRECTORY include/ DESTINATION include)\n")
+    structs = {
+        "small": "int32_t value;",
+        "big": "double samples[100];",
+        "huge": "uint8_t data[4096];",
+        "bounded": "fx_msgs__msg__Big__Sequence items;",
+        "text": "rosidl_runtime_c__String text;",
+    }
+    for stem, body in structs.items():
+        name = f"fx_msgs__msg__{stem.capitalize()}"
+        bound = f"enum\n{{\n  {name}__items__MAX_SIZE = 10\n}};\n" if stem == "bounded" else ""
+        _write(
+            folder / "include" / "fx_msgs" / "msg" / f"{stem}.h",
+            f'#include "fx_msgs/msg/detail/{stem}__struct.h"\n',
+        )
+        _write(
+            folder / "include" / "fx_msgs" / "msg" / "detail" / f"{stem}__struct.h",
+            f"{bound}typedef struct {name}\n{{\n  {body}\n}} {name};\n\n"
+            f"typedef struct {name}__Sequence\n{{\n  {name} * data;\n  size_t size;\n  size_t capacity;\n}} {name}__Sequence;\n",
+        )

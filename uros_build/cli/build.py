@@ -171,6 +171,11 @@ def build(
     is_flag=True,
     help="Fail (exit 5) on a global symbol two members define, as a --whole-archive link does.",
 )
+@click.option(
+    "--for-firmware",
+    type=PATH_ARG,
+    help="Your firmware's sources: each message type they use, its largest size against MTU x history.",
+)
 def check(
     library: Path,
     toolchain: str | None,
@@ -178,10 +183,11 @@ def check(
     verbose: bool,
     as_json: bool,
     whole_archive: bool,
+    for_firmware: Path | None,
 ) -> None:
     """Check that every object in LIBRARY has the ELF facts of a target (exit 5 if not); list the
     global symbols two members define and the symbols the firmware must provide."""
-    check_cmd.check_library(library, toolchain, profile, verbose, as_json, whole_archive)
+    check_cmd.check_library(library, toolchain, profile, verbose, as_json, whole_archive, for_firmware)
 
 
 @click.command()

@@ -9,8 +9,10 @@ from pathlib import Path
 
 from uros_build import console
 from uros_build.errors import ConfigError, VerifyError
-from uros_build.output import symbols
+from uros_build.output import msgsize, symbols
+from uros_build.output.buildinfo import read_build_info
 from uros_build.proc import Runner, new_run_log, user_log_dir
+from uros_build.sources import firmware_scan
 from uros_build.target import abi
 from uros_build.target.profiles import find_profile, load_profile_file
 
@@ -22,6 +24,7 @@ def check_library(
     verbose: bool,
     as_json: bool = False,
     whole_archive: bool = False,
+    for_firmware: Path | None = None,
 ) -> None:
     if (target is None) == (profile_path is None):
         raise ConfigError("uros check needs one target", "pass --toolchain NAME or --profile FILE")
@@ -32,6 +35,7 @@ def check_library(
         if profile_path is not None
         else find_profile(str(target), alternative="or pass your own profile with --profile FILE")
     )
+    streams = _message_verdicts(library, for_firmware) if for_firmware is not None else []
     runner = Runner(new_run_log(user_log_dir(), "check"), verbose=verbose)
     try:
         summary = abi.check_library(runner, library.resolve(), profile)
@@ -65,6 +69,8 @@ def check_library(
             "duplicate_globals": {d.name: list(d.members) for d in duplicates},
             "undefined": symbols.needed_json(undefined, known),
         }
+        if for_firmware is not None:
+            report["messages"] = {name: {"warning": warn, "says": line} for name, warn, line in streams}
         sys.stdout.write(json.dumps(report, indent=2, sort_keys=True) + "\n")
     else:
         console.step(f"{library}: {abi.describe(summary)}")
@@ -78,6 +84,20 @@ def check_library(
         console.step(f"{len(undefined)} symbols {library.name} leaves undefined, for the firmware's link:")
         for line in symbols.needed_lines(undefined, known):
             console.info(line)
+    if for_firmware is not None:
+        console.step(f"the message types {for_firmware} uses, against the library's XRCE-DDS streams:")
+        for _, warn, line in streams:
+            (console.warn if warn else console.info)(line)
+
+
+def _message_verdicts(library: Path, firmware: Path) -> list[tuple[str, bool, str]]:
+    """(type, is it a warning, the line) for each message type the firmware's sources use, from
+    the output the library is in (its build-info.json and include tree)."""
+    if not firmware.is_dir():
+        raise ConfigError(f"--for-firmware {firmware}: no such folder", "pass your firmware's source folder")
+    info = read_build_info(library.resolve().parent, "LIBRARY's folder")
+    used = firmware_scan.scan_folder(firmware.resolve())
+    return msgsize.verdicts(library.resolve().parent, info, used.packages)
 
 
 def _say_duplicates(duplicates: tuple[symbols.Duplicate, ...], library: Path) -> None:

@@ -29,7 +29,7 @@ from uros_build.errors import (
     written_path,
 )
 from uros_build.files import locked, remove_tree
-from uros_build.output import contents, export, includes, swap, symbols
+from uros_build.output import contents, export, includes, msgsize, swap, symbols
 from uros_build.output import folders as outputs
 from uros_build.output.archive import MergeReport, merge_archives
 from uros_build.output.buildinfo import (
@@ -134,6 +134,11 @@ def say_done(ctx: Context, assembled: Assembled, left: list[str], started: float
             f"({time.monotonic() - started:.1f} s)"
         )
         symbols.warn_duplicates(assembled.info.library.duplicate_globals)
+        firmware = plan.selection.firmware if plan.selection else None
+        if firmware is not None:  # --for-firmware: its messages against MTU x history
+            for _, warn, line in msgsize.verdicts(plan.output, assembled.info, firmware.packages):
+                if warn:
+                    console.warn(line)
     except KeyboardInterrupt as stop:
         raise interrupted(
             stop, "interrupted", f"the new output was already in place: {plan.output}"
