@@ -7,6 +7,7 @@ from golden import check_golden
 from uros_build.colcon.command import (
     ColconPlan,
     build_env,
+    ccache_counts,
     ccache_env,
     ccache_settings,
     ccache_trouble,
@@ -281,3 +282,14 @@ def test_a_star_in_a_path_is_escaped_for_colcon_discovery() -> None:
     assert colcon_path(Path("/home/me/fw*/mcu_ws/src")) == "/home/me/fw[*]/mcu_ws/src"
     assert colcon_path(Path("/home/me/fw*[1]?/src")) == "/home/me/fw[*][[]1][?]/src"
     assert colcon_path(Path("/home/me/fw[1]?/src")) == "/home/me/fw[1]?/src"
+
+
+def test_ccache_counts_say_what_its_remote_storage_served() -> None:
+    """Issue 33, item 6: a compile taken from ccache's remote storage (a team's Redis) is a hit
+    that the build names as remote; ccache logs one remote_storage_hit per compile and a
+    remote_storage_read_hit per file read (ccache 4.7's stats_log, as test_ccache_remote.py's
+    build wrote it)."""
+    remote = "# a.c\ndirect_cache_hit\nlocal_storage_miss\nremote_storage_hit\nremote_storage_read_hit\nremote_storage_read_hit\n"
+    local = "# b.c\ndirect_cache_hit\nlocal_storage_hit\n# c.c\ncache_miss\ndirect_cache_miss\nremote_storage_read_miss\n"
+    assert ccache_counts(remote + local) == {"hits": 2, "misses": 1, "remote_hits": 1}
+    assert ccache_counts(local) == {"hits": 1, "misses": 1}  # no remote storage: as before

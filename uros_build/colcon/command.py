@@ -172,9 +172,14 @@ def ccache_trouble(settings: Mapping[str, str]) -> str | None:
 
 
 def ccache_counts(stats_log: str) -> dict[str, int]:
-    """Compiles that hit and missed, from a ccache stats_log ("# <source>" then its counters)."""
+    """Compiles that hit and missed, from a ccache stats_log ("# <source>" then its counters), and
+    ``remote_hits`` where ccache's remote storage (a team's Redis or HTTP store) served some of the
+    hits: ccache counts one ``remote_storage_hit`` per compile it took from there (ccache 4.7,
+    src/core/Statistic.hpp), a ``remote_storage_read_hit`` per file it read."""
     hits = stats_log.count("\ndirect_cache_hit") + stats_log.count("\npreprocessed_cache_hit")
-    return {"hits": hits, "misses": stats_log.count("\ncache_miss")}
+    counts = {"hits": hits, "misses": stats_log.count("\ncache_miss")}
+    remote = stats_log.splitlines().count("remote_storage_hit")
+    return {**counts, "remote_hits": remote} if remote else counts
 
 
 def kept_by_ignores(plan: ColconPlan, names: Iterable[str]) -> set[str]:

@@ -68,7 +68,8 @@ def _say_ccache(plan: BuildPlan, setup: ColconSetup) -> dict[str, int]:
         counts = {"hits": 0, "misses": 0}
     total = counts["hits"] + counts["misses"]
     rate = f" ({100 * counts['hits'] / total:.0f}%)" if total else ""
-    console.info(f"ccache: {counts['hits']} of {total} compiles taken from the cache{rate}")
+    remote = f", {counts['remote_hits']} of them from its remote storage" if counts.get("remote_hits") else ""
+    console.info(f"ccache: {counts['hits']} of {total} compiles taken from the cache{rate}{remote}")
     return counts
 
 
