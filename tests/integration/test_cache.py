@@ -12,6 +12,7 @@ import os
 import shutil
 import socket
 import subprocess
+import sys
 import tarfile
 import threading
 import time
@@ -499,3 +500,145 @@ def test_credentials_never_follow_a_redirect_to_another_host_and_a_token_is_neve
     )
     assert "UROS_CACHE_TOKEN" in bad.stderr and "building instead" in bad.stderr
     assert "secret" not in bad.stderr + _all_logs(ws) and _library(ws) == _library(seed)
+
+
+def _build_within(ws: Path, seconds: float, *more: str, env: dict[str, str] | None = None) -> str:
+    """A build that must end within ``seconds`` (a FIFO or a trickling server hung it), with exit
+    0 and no internal error; its stderr."""
+    argv = [
+        sys.executable,
+        "-m",
+        "uros_build",
+        *M7,
+        "--workspace",
+        str(ws),
+        "--meta",
+        str(ws / "fixture.meta"),
+    ]
+    try:
+        done = subprocess.run([*argv, *more], capture_output=True, text=True, timeout=seconds, env=env)
+    except subprocess.TimeoutExpired:
+        pytest.fail(f"uros build did not end within {seconds} s")
+    assert done.returncode == 0 and "Traceback" not in done.stderr, done.stderr
+    assert "internal error" not in done.stderr.lower(), done.stderr
+    return done.stderr
+
+
+@pytest.mark.parametrize(
+    "case", ["file-folder-clash", "long-name", "huge-include", "fifo-tarball", "dev-zero-tarball",
+             "dev-zero-header", "fifo-header"],
+)  # fmt: skip
+def test_a_hostile_file_cache_entry_is_one_warning_and_a_local_build(
+    seed: Path, tmp_path: Path, case: str
+) -> None:
+    """Each was an internal error, a hang or a 64 MB header in include/: now one line (a warning,
+    or the info that the entry was built against other headers) and a build here, the same bytes."""
+    key = _key(seed)
+    out = seed / "build" / "cortex-m7"
+    store = tmp_path / "store"
+    store.mkdir()
+    extra: dict[str, bytes | None] = {
+        "file-folder-clash": {"include/fx_core": b"a file where a folder is\n"},
+        "long-name": {"include/" + "n" * 300 + ".h": b"int n;\n"},
+        "huge-include": {"include/huge.h": bytes(64 * 1024 * 1024)},
+    }.get(case, {})
+    data, files = _crafted(out, extra)
+    headers = {}
+    if case.endswith("-header"):
+        fifo = tmp_path / "header-fifo"
+        os.mkfifo(fifo)
+        headers = {"/dev/zero" if case == "dev-zero-header" else str(fifo): "0" * 64}
+    (store / f"{key}.json").write_bytes(_manifest_json(key, data, files, headers))
+    if case == "fifo-tarball":
+        os.mkfifo(store / f"{key}.tar.gz")
+    elif case == "dev-zero-tarball":
+        (store / f"{key}.tar.gz").symlink_to("/dev/zero")
+    else:
+        (store / f"{key}.tar.gz").write_bytes(data)
+    ws = _fresh_copy(seed, tmp_path / "ws")
+    said = _build_within(ws, 300, "--cache", store.as_uri())
+    expected = "other headers outside the workspace" if case.endswith("-header") else "building instead"
+    assert expected in said and said.count("warning:") <= 1, said
+    assert "==> built " in said and _library(ws) == _library(seed)
+    assert not (ws / "build" / "cortex-m7" / "include" / "huge.h").exists()
+
+
+def _answer(
+    status: int, body: bytes, length: int | None = None, pause: float = 0.0, forever: bool = False
+) -> Callable[[BaseHTTPRequestHandler], None]:
+    """An answer: ``body`` after a Content-Length of ``length`` (None: none, the connection closes
+    at the end); ``pause`` seconds between bytes (a trickle); ``forever``: ``body`` again and again."""
+
+    def answer(handler: BaseHTTPRequestHandler) -> None:
+        handler.send_response(status)
+        if length is not None:
+            handler.send_header("Content-Length", str(length))
+        else:
+            handler.send_header("Connection", "close")
+            handler.close_connection = True
+        handler.end_headers()
+        try:
+            while True:
+                if pause:
+                    for i in range(len(body)):
+                        handler.wfile.write(body[i : i + 1])
+                        handler.wfile.flush()
+                        time.sleep(pause)
+                else:
+                    handler.wfile.write(body)
+                if not forever:
+                    break
+        except OSError:
+            pass  # the client gave up: as it should
+        handler.close_connection = True
+
+    return answer
+
+
+def test_a_hostile_http_cache_is_one_warning_and_a_local_build(
+    seed: Path, tmp_path: Path, servers: Callable[..., _Server]
+) -> None:
+    """A connection closed before the end of the body (an internal error), an endless body (read
+    until memory ran out), a trickling server (no overall deadline), a redirect to a port that is
+    not a number or a malformed IPv6 host (internal errors): each one warning and a build here."""
+    store = tmp_path / "store"
+    _upload_from(seed, store.as_uri())
+    key = _key(seed)
+    manifest = (store / f"{key}.json").read_bytes()
+    tarball = (store / f"{key}.tar.gz").read_bytes()
+    served = _serve(store)
+    server = servers({
+        "/closed/": lambda h: (served if h.path.endswith(".json") else _answer(200, tarball[:100], len(tarball)))(h),
+        "/endless/": lambda h: (served if h.path.endswith(".json") else _answer(200, bytes(65536), forever=True))(h),
+        "/trickle/": _answer(200, manifest, len(manifest), pause=0.5),
+        "/port/": _redirect("http://127.0.0.1:abc/x/"),
+        "/ipv6/": _redirect("http://[::1/x/"),
+    })  # fmt: skip
+    env = {**os.environ, "UROS_CACHE_TIMEOUT": "2"}
+    for case, says in [("closed", "closed before the end"), ("endless", "more than the"),
+                       ("trickle", "no whole answer within"), ("port", "building instead"),
+                       ("ipv6", "building instead")]:  # fmt: skip
+        ws = _fresh_copy(seed, tmp_path / case)
+        started = time.monotonic()
+        said = _build_within(ws, 300, "--cache", f"{server.url}/{case}/", env=env)
+        assert says in said and said.count("warning:") == 1 and "==> built " in said, (case, said)
+        assert _library(ws) == _library(seed)
+        assert case != "trickle" or time.monotonic() - started < 120
+
+
+def test_a_corrupt_entry_is_replaced_by_the_next_upload(seed: Path, tmp_path: Path) -> None:
+    """An entry that fails its checks (here one flipped byte) stayed for good: every upload said
+    the cache already had it. Now an upload replaces it, and a teammate takes the new one."""
+    store = tmp_path / "store"
+    _upload_from(seed, store.as_uri())
+    key = _key(seed)
+    tarball = store / f"{key}.tar.gz"
+    flipped = bytearray(tarball.read_bytes())
+    flipped[len(flipped) // 2] ^= 0xFF
+    tarball.write_bytes(bytes(flipped))
+    said = _upload_from(seed, store.as_uri())
+    assert "fails its checks" in said and f"uploaded entry {key[:16]}" in said, said
+    assert "already has entry" in _upload_from(seed, store.as_uri())
+    ws = _fresh_copy(seed, tmp_path / "teammate")
+    assert "from the cache" in _build(ws, "--cache", store.as_uri()).stderr
+    assert _library(ws) == _library(seed)

@@ -590,6 +590,11 @@ class HttpStore:
                     got += len(chunk)
                     if got > limit:
                         raise CacheUnusable(f"the answer is more than the {limit:,} bytes expected")
+                missing = getattr(answer, "length", None)  # what its Content-Length still promised
+                if isinstance(missing, int) and missing > 0:
+                    raise CacheUnusable(
+                        f"the connection closed before the end of the answer ({missing:,} bytes missing)"
+                    )
                 return b"".join(chunks)
         except urllib.error.HTTPError as exc:
             if exc.code == 404 and data is None:
