@@ -305,7 +305,7 @@ def _crafted(out: Path, extra: dict[str, bytes | None]) -> tuple[bytes, dict[str
     with tarfile.open(fileobj=buffer, mode="w:gz") as tar:
         for path in sorted(out.rglob("*")):
             name = path.relative_to(out).as_posix()
-            if name == ".uros-output":
+            if name == ".uros-output" or name in extra:  # replaced by ``extra``'s
                 continue
             info = tarfile.TarInfo(name)
             if path.is_dir():
@@ -526,7 +526,7 @@ def _build_within(ws: Path, seconds: float, *more: str, env: dict[str, str] | No
 
 @pytest.mark.parametrize(
     "case", ["file-folder-clash", "long-name", "huge-include", "fifo-tarball", "dev-zero-tarball",
-             "dev-zero-header", "fifo-header"],
+             "dev-zero-header", "fifo-header", "injected-toolchain", "changed-header"],
 )  # fmt: skip
 def test_a_hostile_file_cache_entry_is_one_warning_and_a_local_build(
     seed: Path, tmp_path: Path, case: str
@@ -541,8 +541,18 @@ def test_a_hostile_file_cache_entry_is_one_warning_and_a_local_build(
         "file-folder-clash": {"include/fx_core": b"a file where a folder is\n"},
         "long-name": {"include/" + "n" * 300 + ".h": b"int n;\n"},
         "huge-include": {"include/huge.h": bytes(64 * 1024 * 1024)},
+        # a firmware's cmake would run this (every checksum consistent)
+        "injected-toolchain": {
+            "toolchain.cmake": (out / "toolchain.cmake").read_bytes() + b"execute_process(COMMAND id)\n"
+        },
     }.get(case, {})
+    header = next(p for p in sorted(out.rglob("*.h")))
+    header_name = header.relative_to(out).as_posix()
+    if case == "changed-header":
+        extra = {header_name: header.read_bytes().replace(b"#", b"/", 1)}
     data, files = _crafted(out, extra)
+    if case == "changed-header":  # the manifest lists the header as it was built
+        files[header_name] = header.read_bytes()
     headers = {}
     if case.endswith("-header"):
         fifo = tmp_path / "header-fifo"

@@ -103,17 +103,27 @@ install(TARGETS fx_py ARCHIVE DESTINATION lib)
 """
 
 
-def test_a_build_writes_the_interpreters_answers_into_its_shim_and_cmake_takes_them(tmp_path: Path) -> None:
-    need("arm-none-eabi-gcc", "cmake", "arm-none-eabi-strings")
-    ws = make_fixture_workspace(tmp_path / "ws")
-    pkg = ws / "mcu_ws" / "src" / "fx_py"
+def _cmake_package(ws: Path, name: str, cmake: str, files: dict[str, str] | None = None) -> Path:
+    """A colcon cmake package ``name`` in the workspace's mcu_ws/src with ``cmake`` as its
+    CMakeLists.txt and ``files`` (relative name -> text) beside it."""
+    pkg = ws / "mcu_ws" / "src" / name
     pkg.mkdir(parents=True)
     (pkg / "package.xml").write_text(
-        '<?xml version="1.0"?><package format="3"><name>fx_py</name><version>0.1.0</version>'
+        f'<?xml version="1.0"?><package format="3"><name>{name}</name><version>0.1.0</version>'
         "<description>d</description><maintainer email='d@example.com'>t</maintainer>"
         "<license>Apache-2.0</license><export><build_type>cmake</build_type></export></package>\n"
     )
-    (pkg / "CMakeLists.txt").write_text(PY_CMAKE)
+    (pkg / "CMakeLists.txt").write_text(cmake)
+    for rel, text in (files or {}).items():
+        (pkg / rel).parent.mkdir(parents=True, exist_ok=True)
+        (pkg / rel).write_text(text)
+    return pkg
+
+
+def test_a_build_writes_the_interpreters_answers_into_its_shim_and_cmake_takes_them(tmp_path: Path) -> None:
+    need("arm-none-eabi-gcc", "cmake", "arm-none-eabi-strings")
+    ws = make_fixture_workspace(tmp_path / "ws")
+    _cmake_package(ws, "fx_py", PY_CMAKE)
     run_uros("build", "--toolchain", "cortex-m7", "-w", str(ws), "--meta", str(ws / "fixture.meta"))
 
     shim = ws / ".uros" / "targets" / "cortex-m7" / "uros-python"
@@ -139,9 +149,7 @@ def test_a_build_writes_the_interpreters_answers_into_its_shim_and_cmake_takes_t
 
 # A package whose configure makes one of the calls uros-python sends to uros's caches (an ament
 # templates call, recognised by its script's path), as every ament package's configure does.
-TEMPLATES_CMAKE = """\
-cmake_minimum_required(VERSION 3.16)
-project(fx_templates NONE)
+TEMPLATES_CALL = """\
 execute_process(
   COMMAND ${Python3_EXECUTABLE} ${CMAKE_CURRENT_SOURCE_DIR}/package_templates/templates_2_cmake.py
     ${CMAKE_CURRENT_BINARY_DIR}/templates.cmake
@@ -149,7 +157,11 @@ execute_process(
 if(NOT result EQUAL 0 OR NOT EXISTS ${CMAKE_CURRENT_BINARY_DIR}/templates.cmake)
   message(FATAL_ERROR "the templates call failed: ${result}")
 endif()
-install(FILES ${CMAKE_CURRENT_BINARY_DIR}/templates.cmake DESTINATION share/fx_templates)
+"""
+TEMPLATES_CMAKE = f"""\
+cmake_minimum_required(VERSION 3.16)
+project(fx_templates NONE)
+{TEMPLATES_CALL}install(FILES ${{CMAKE_CURRENT_BINARY_DIR}}/templates.cmake DESTINATION share/fx_templates)
 """
 TEMPLATES_PY = """\
 import sys
@@ -164,15 +176,9 @@ def test_uros_calls_keep_compiled_modules_in_the_cache_even_without_bytecode_wri
     sources."""
     need("arm-none-eabi-gcc", "cmake")
     ws = make_fixture_workspace(tmp_path / "ws")
-    pkg = ws / "mcu_ws" / "src" / "fx_templates"
-    (pkg / "package_templates").mkdir(parents=True)
-    (pkg / "package.xml").write_text(
-        '<?xml version="1.0"?><package format="3"><name>fx_templates</name><version>0.1.0</version>'
-        "<description>d</description><maintainer email='d@example.com'>t</maintainer>"
-        "<license>Apache-2.0</license><export><build_type>cmake</build_type></export></package>\n"
+    pkg = _cmake_package(
+        ws, "fx_templates", TEMPLATES_CMAKE, {"package_templates/templates_2_cmake.py": TEMPLATES_PY}
     )
-    (pkg / "CMakeLists.txt").write_text(TEMPLATES_CMAKE)
-    (pkg / "package_templates" / "templates_2_cmake.py").write_text(TEMPLATES_PY)
     cache = tmp_path / "gen-cache"
     env = {**os.environ, "PYTHONDONTWRITEBYTECODE": "1", "UROS_GEN_CACHE_DIR": str(cache)}
     run_uros("build", "--toolchain", "cortex-m7", "-w", str(ws), "--meta", str(ws / "fixture.meta"), env=env)
@@ -181,3 +187,125 @@ def test_uros_calls_keep_compiled_modules_in_the_cache_even_without_bytecode_wri
     compiled = {p.name.split(".")[0] for p in (cache / "pycache").rglob("*.pyc")}
     assert {"pyshim", "callcache", "gencache"} <= compiled, sorted(compiled)
     assert not list(pkg.rglob("__pycache__"))
+
+
+# A package whose build runs a generator as rosidl runs its generators (SCRIPT
+# --generator-arguments-file FILE: the generation cache) and whose configure makes an ament
+# templates call (the configure call cache); what each writes reaches the library as a string.
+GEN_CMAKE = (
+    """\
+cmake_minimum_required(VERSION 3.16)
+project(fx_gen C)
+"""
+    + TEMPLATES_CALL
+    + """\
+include(${CMAKE_CURRENT_BINARY_DIR}/templates.cmake)
+file(WRITE ${CMAKE_CURRENT_BINARY_DIR}/word.c "const char *fx_word = \\"${FX_WORD}\\";\\n")
+set(args ${CMAKE_CURRENT_BINARY_DIR}/args.json)
+file(WRITE ${args} "{\\"output_dir\\": \\"${CMAKE_CURRENT_BINARY_DIR}/gen\\", \\"idl_tuples\\": [\\"${CMAKE_CURRENT_SOURCE_DIR}:types.idl\\"], \\"target_dependencies\\": [\\"${CMAKE_CURRENT_SOURCE_DIR}/gen.py\\"]}")
+add_custom_command(OUTPUT ${CMAKE_CURRENT_BINARY_DIR}/gen/types.c
+  COMMAND ${Python3_EXECUTABLE} ${CMAKE_CURRENT_SOURCE_DIR}/gen.py --generator-arguments-file ${args}
+  DEPENDS gen.py types.idl)
+add_library(fx_gen STATIC ${CMAKE_CURRENT_BINARY_DIR}/gen/types.c ${CMAKE_CURRENT_BINARY_DIR}/word.c)
+install(TARGETS fx_gen ARCHIVE DESTINATION lib)
+"""
+)
+GEN_PY = """\
+import json, os, sys
+args = json.load(open(sys.argv[2]))
+base, _, rel = args["idl_tuples"][0].rpartition(":")
+text = open(os.path.join(base, rel)).read().strip()
+os.makedirs(args["output_dir"], exist_ok=True)
+with open(os.path.join(args["output_dir"], "types.c"), "w") as f:
+    f.write('const char *fx_type = "%s";\\n' % text)
+"""
+WORD_PY = """\
+import sys
+with open(sys.argv[1], "w") as f:
+    f.write('set(FX_WORD "Word1")\\n')
+"""
+
+
+def _gen_workspace(where: Path) -> Path:
+    ws = make_fixture_workspace(where)
+    files = {"gen.py": GEN_PY, "types.idl": "Int32\n", "package_templates/templates_2_cmake.py": WORD_PY}
+    _cmake_package(ws, "fx_gen", GEN_CMAKE, files)
+    return ws
+
+
+def _strings(ws: Path) -> str:
+    return subprocess.run(
+        ["arm-none-eabi-strings", "-a", str(ws / "build" / "cortex-m7" / "libmicroros.a")],
+        capture_output=True, text=True, check=True,
+    ).stdout  # fmt: skip
+
+
+def _built_with_gen_cache(tmp_path: Path) -> tuple[Path, dict[str, str]]:
+    """The fx_gen workspace built once with its own generation cache: (the cache, the env)."""
+    need("arm-none-eabi-gcc", "cmake", "arm-none-eabi-strings")
+    cache = tmp_path / "gen-cache"
+    env = {**os.environ, "UROS_GEN_CACHE_DIR": str(cache)}
+    one = _gen_workspace(tmp_path / "one")
+    run_uros(
+        "build", "--toolchain", "cortex-m7", "-w", str(one), "--meta", str(one / "fixture.meta"), env=env
+    )
+    assert {"Int32", "Word1"} <= set(_strings(one).split())
+    return cache, env
+
+
+def test_a_byte_changed_in_a_cached_file_never_reaches_the_library(tmp_path: Path) -> None:
+    """A same-size change in a generation-cache entry ("Int32" -> "Int3X") ended up in
+    libmicroros.a with exit 0, as did one in a configure call's entry: every cached file carries
+    its sha256, a mismatch is a miss, and the entry is written again."""
+    cache, env = _built_with_gen_cache(tmp_path)
+    changed = []
+    for entry in cache.rglob("*.entry"):
+        data = entry.read_bytes()
+        for good, bad in ((b'"Int32"', b'"Int3X"'), (b'"Word1"', b'"Word9"')):
+            if good in data:
+                entry.write_bytes(data.replace(good, bad))
+                changed.append((entry, data))
+    assert len(changed) == 2, changed
+    two = _gen_workspace(tmp_path / "two")  # another checkout: the same keys
+    run_uros(
+        "build", "--toolchain", "cortex-m7", "-w", str(two), "--meta", str(two / "fixture.meta"), env=env
+    )
+    words = set(_strings(two).split())
+    assert {"Int32", "Word1"} <= words and not {"Int3X", "Word9"} & words
+    runs = (two / ".uros" / "targets" / "cortex-m7" / pyshim.RUNS).read_text()
+    assert "miss gen.py" in runs and "call-miss" in runs, runs
+    for entry, data in changed:
+        assert entry.read_bytes() == data  # written again whole
+
+
+def test_a_compiled_module_cut_by_a_full_disk_is_dropped_and_the_build_goes_on(tmp_path: Path) -> None:
+    """A full generation-cache disk left cut .pyc files in its pycache folder (Python does not
+    check the write), and every later build failed in the first configure that called uros
+    ("marshal data too short") even after space returned. A call that fails has the folder checked,
+    what does not load dropped, and runs once more."""
+    cache, env = _built_with_gen_cache(tmp_path)
+    compiled = sorted((cache / "pycache").rglob("*.pyc"))
+    assert {"pyshim", "callcache", "gencache"} <= {p.name.split(".")[0] for p in compiled}
+    for pyc in compiled:  # as a full disk leaves them: the header whole, the code cut
+        data = pyc.read_bytes()
+        pyc.write_bytes(data[: 16 + (len(data) - 16) // 2])
+    two = _gen_workspace(tmp_path / "two")
+    done = run_uros(
+        "build",
+        "--toolchain",
+        "cortex-m7",
+        "-w",
+        str(two),
+        "--meta",
+        str(two / "fixture.meta"),
+        env=env,
+        check=False,
+    )
+    assert done.returncode == 0, done.stderr
+    assert {"Int32", "Word1"} <= set(_strings(two).split())
+    runs = (two / ".uros" / "targets" / "cortex-m7" / pyshim.RUNS).read_text()
+    assert "gen.py" in runs and "call-" in runs, runs
+    import marshal
+
+    for pyc in (cache / "pycache").rglob("*.pyc"):  # written again whole
+        marshal.loads(pyc.read_bytes()[16:])

@@ -132,13 +132,14 @@ def test_the_shim_sends_only_generator_runs_to_the_cache(tmp_path: Path) -> None
     assert "*'from distutils import sysconfig'*)" in text and "SETUPTOOLS_USE_DISTUTILS=stdlib" in text
     assert "SETUPTOOLS_USE_DISTUTILS" not in shim(False)
     # uros's own calls keep their compiled modules in the cache, even under PYTHONDONTWRITEBYTECODE
+    # (one shell function: the call, and once more after cut compiled modules are dropped)
     to_uros = [line for line in text.splitlines() if "from uros_build.shim.pyshim import main" in line]
-    assert len(to_uros) == 3 and all(
-        line.strip().startswith(
-            f"PYTHONDONTWRITEBYTECODE= exec /venv/bin/python3 -X pycache_prefix='{tmp_path / 'c d' / 'pycache'}'"
-        )
-        for line in to_uros
-    ), to_uros
+    prefix = f"/venv/bin/python3 -X pycache_prefix='{tmp_path / 'c d' / 'pycache'}'"
+    assert [line.strip().partition(" -c ")[0] for line in to_uros] == [
+        f"PYTHONDONTWRITEBYTECODE= {prefix}",
+        f"PYTHONDONTWRITEBYTECODE= exec {prefix}",
+    ], to_uros
+    assert text.count('uros "$@"') == 3  # generator runs, ament's calls, rosidl_adapter
     assert pyshim.count_runs("hit a\nmiss b\nhit c\nbypass d\ncall-hit -m rosidl_adapter\n") == {
         "hit": 2,
         "miss": 1,
@@ -273,3 +274,41 @@ def test_an_entry_holds_its_files_and_a_cut_or_foreign_one_is_refused(tmp_path: 
     entry.write_bytes(whole[:-2])
     assert gencache.generate(argv, cache, m7, MODULES_JSON, WS) == "miss"
     assert entry.read_bytes() == whole
+
+
+def test_a_same_size_change_in_a_cached_file_is_a_miss(tmp_path: Path, counter: Path) -> None:
+    """An entry's files carry their sha256: a byte changed on disk ("Int32" -> "Int3X", the same
+    size) was written into the build; now it is a miss and the entry is written again."""
+    data = gencache.pack({"types.c": b'const char *t = "Int32";\n'})
+    with pytest.raises(ValueError, match="sha256"):
+        gencache.unpack_files(data.replace(b"Int32", b"Int3X"))
+    assert gencache.unseal(gencache.seal(b"out\na.idl")) == b"out\na.idl"
+    with pytest.raises(ValueError):
+        gencache.unseal(gencache.seal(b"out\na.idl").replace(b"a.idl", b"b.idl"))
+    cache = tmp_path / "cache"
+    argv, m7 = _target(tmp_path / "ws", "cortex-m7")
+    assert gencache.generate(argv, cache, m7, MODULES_JSON, WS) == "miss"
+    (entry,) = cache.rglob("*.entry")
+    whole = entry.read_bytes()
+    changed = bytearray(whole)
+    changed[-2] ^= 0x01  # the last file's content, same size
+    entry.write_bytes(bytes(changed))
+    assert gencache.generate(argv, cache, m7, MODULES_JSON, WS) == "miss"
+    assert entry.read_bytes() == whole
+    (index,) = cache.rglob(f"*{gencache.INDEX}")
+    index.write_bytes(index.read_bytes().replace(b"<target>", b"<targex>"))  # another output folder
+    assert gencache.generate(argv, cache, m7, MODULES_JSON, WS) == "miss"
+
+
+def test_cut_compiled_modules_are_dropped_and_others_kept(tmp_path: Path) -> None:
+    import marshal
+
+    good = b"\0" * 16 + marshal.dumps(compile("x = 1", "m", "exec"))
+    (tmp_path / "a").mkdir()
+    (tmp_path / "a" / "good.cpython-311.pyc").write_bytes(good)
+    (tmp_path / "a" / "cut.cpython-311.pyc").write_bytes(good[: len(good) // 2])
+    (tmp_path / "a" / "empty.cpython-311.pyc").write_bytes(b"")
+    (tmp_path / "a" / "notes.txt").write_bytes(b"")
+    assert pyshim.drop_unloadable(str(tmp_path)) == 2
+    assert sorted(p.name for p in (tmp_path / "a").iterdir()) == ["good.cpython-311.pyc", "notes.txt"]
+    assert pyshim.drop_unloadable(str(tmp_path)) == 0

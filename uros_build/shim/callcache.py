@@ -39,7 +39,7 @@ if TYPE_CHECKING:
 
     from uros_build.shim.gencache import StrPath
 
-FORMAT = 3  # 3: keys and manifests without JSON, the adapter's .msg files in the manifest
+FORMAT = 4  # 4: entries and manifests carry sha256 (3: no JSON, the adapter's .msg files listed)
 OUT = "<out>"  # the scratch folder of a miss, in a kept output
 
 
@@ -248,8 +248,8 @@ def run(argv: Sequence[str], cache_dir: StrPath, target_dir: StrPath, workspace:
     first = _first_key(call, top, ws)
     manifest = os.path.join(cache_dir, first[:2], f"{first}.code")
     try:
-        with open(manifest, encoding="utf-8") as f:
-            listed = f.read().split("\n")
+        with open(manifest, "rb") as f:
+            listed = gencache.unseal(f.read()).decode("utf-8").split("\n")
         code = [gencache.expand(p, top, ws) for p in listed if p]
         with open(
             os.path.join(cache_dir, first[:2], f"{_second_key(first, code, top, ws)}.entry"), "rb"
@@ -287,7 +287,7 @@ def run(argv: Sequence[str], cache_dir: StrPath, target_dir: StrPath, workspace:
             raise ValueError("a path with a line break")
         entry = os.path.join(cache_dir, first[:2], f"{_second_key(first, code, top, ws)}.entry")
         write_atomic(entry, gencache.pack(files))
-        write_atomic(manifest, "\n".join(listing).encode())
+        write_atomic(manifest, gencache.seal("\n".join(listing).encode()))
     except (OSError, ValueError):
         pass  # not kept: the next configure asks again
     _restore(files, call, ws)

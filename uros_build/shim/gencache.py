@@ -46,7 +46,7 @@ if TYPE_CHECKING:
 
     StrPath: TypeAlias = "str | os.PathLike[str]"
 
-FORMAT = 3  # 3: keys, entries and indexes without JSON (2: JSON)
+FORMAT = 4  # 4: every cached file carries its sha256 (3: keys, entries, indexes without JSON; 2: JSON)
 ARGUMENTS_FLAG = "--generator-arguments-file"
 # third-party modules the generators import: their versions are part of the key
 GENERATOR_MODULES = ("empy", "lark", "lark-parser", "numpy")
@@ -188,10 +188,11 @@ def second_key(first: str, named: Sequence[str], target_dir: str, workspace: str
     return key_of(first, tuple((normal(p, target_dir, workspace), sha(p)) for p in named))
 
 
-# An entry: this line, one line "SIZE NAME" per file in name order, an empty line, then the
+# An entry: this line, one line "SIZE SHA256 NAME" per file in name order, an empty line, then the
 # contents one after the other. Not a tar (reading one must not cost tarfile's import on every
-# hit), not JSON (nor json's).
-ENTRY_MAGIC = b"uros-files 2\n"
+# hit), not JSON (nor json's). Each file's sha256 is checked on every hit: a byte changed on disk
+# (same size: "Int32" -> "Int3X") is a miss, never code in a library.
+ENTRY_MAGIC = b"uros-files 3\n"
 
 
 def pack(files: Mapping[str, bytes]) -> bytes:
@@ -200,7 +201,9 @@ def pack(files: Mapping[str, bytes]) -> bytes:
     ordered = sorted(files.items())
     if any("\n" in name or "\r" in name for name, _ in ordered):
         raise ValueError("a file name with a line break")
-    header = "".join(f"{len(data)} {name}\n" for name, data in ordered).encode()
+    header = "".join(
+        f"{len(data)} {hashlib.sha256(data).hexdigest()} {name}\n" for name, data in ordered
+    ).encode()
     return b"".join([ENTRY_MAGIC, header, b"\n", *(data for _, data in ordered)])
 
 
@@ -221,7 +224,7 @@ def unpack_files(data: bytes) -> dict[str, bytes]:
     or foreign file is never used)."""
     if not data.startswith(ENTRY_MAGIC):
         raise ValueError("not an entry")
-    listed: list[tuple[str, int]] = []
+    listed: list[tuple[str, int, str]] = []
     at = len(ENTRY_MAGIC)
     while True:
         end = data.find(b"\n", at)
@@ -230,17 +233,20 @@ def unpack_files(data: bytes) -> dict[str, bytes]:
         line, at = data[at:end], end + 1
         if not line:
             break
-        digits, space, name = line.decode("utf-8").partition(" ")  # UnicodeDecodeError is a ValueError
+        digits, space, rest = line.decode("utf-8").partition(" ")  # UnicodeDecodeError is a ValueError
+        sha, space2, name = rest.partition(" ")
         parts = name.split("/")
-        if not space or not digits.isdigit() or not digits.isascii():
+        if not space or not space2 or not digits.isdigit() or not digits.isascii() or len(sha) != 64:
             raise ValueError(f"refused entry line {line!r}")
         if not name or name.startswith("/") or ".." in parts or "" in parts:
             raise ValueError(f"refused entry {name!r}")
-        listed.append((name, int(digits)))
+        listed.append((name, int(digits), sha))
     files: dict[str, bytes] = {}
-    for name, size in listed:
+    for name, size, sha in listed:
         files[name] = data[at : at + size]
         at += size
+        if hashlib.sha256(files[name]).hexdigest() != sha:
+            raise ValueError(f"{name}: not the content the entry's sha256 says")
     if at != len(data):
         raise ValueError("the entry's size is not its files' sizes")
     return files
@@ -260,6 +266,20 @@ def _package_tree(folder: StrPath) -> str:
     return hashlib.sha256(_tree_digest(os.fspath(folder))).hexdigest()
 
 
+def seal(data: bytes) -> bytes:
+    """``data`` behind its sha256 (a cache file that is not an entry: an index, a manifest, a
+    pickled parse), for :func:`unseal`."""
+    return hashlib.sha256(data).hexdigest().encode() + b"\n" + data
+
+
+def unseal(data: bytes) -> bytes:
+    """What :func:`seal` sealed; ValueError when it is not whole (cut, changed on disk)."""
+    sha, newline, body = data.partition(b"\n")
+    if not newline or hashlib.sha256(body).hexdigest().encode() != sha:
+        raise ValueError("not the content its sha256 says")
+    return body
+
+
 def _parse_memo(parse: Callable[..., Any], memo_dir: StrPath, salt: str) -> Callable[..., Any]:
     """``rosidl_parser.parser.parse_idl_string`` remembered by the .idl text: what the parser made
     of a text is pickled under the hash of the text, the parser's code and ``salt`` (the third-party
@@ -275,12 +295,12 @@ def _parse_memo(parse: Callable[..., Any], memo_dir: StrPath, salt: str) -> Call
         path = os.path.join(memo_dir, key[:2], f"{key}.pickle")
         try:
             with open(path, "rb") as f:
-                return pickle.loads(f.read())
-        except Exception:  # missing, cut or from other code: parse again
+                return pickle.loads(unseal(f.read()))
+        except Exception:  # missing, cut, changed or from other code: parse again
             pass
         content = parse(idl_string)
         with contextlib.suppress(OSError, pickle.PicklingError):
-            write_atomic(path, pickle.dumps(content, protocol=pickle.HIGHEST_PROTOCOL))
+            write_atomic(path, seal(pickle.dumps(content, protocol=pickle.HIGHEST_PROTOCOL)))
         return content
 
     return memo
@@ -350,8 +370,8 @@ def _taken(index: str, first: str, target_dir: str, workspace: str) -> tuple[str
     index (the output folder and the named files, as the first miss listed them); None when there
     is none, or anything about it is missing or cut."""
     try:
-        with open(index, encoding="utf-8") as f:
-            output_dir, *named = f.read().split("\n")
+        with open(index, "rb") as f:
+            output_dir, *named = unseal(f.read()).decode("utf-8").split("\n")
         if not output_dir:  # not an index uros wrote (it names the output folder first)
             return None
         files = [expand(p, target_dir, workspace) for p in named if p]
@@ -419,6 +439,6 @@ def generate(
             raise ValueError("a path with a line break")
         entry = os.path.join(os.path.dirname(index), f"{second_key(first, named, top, ws)}.entry")
         write_atomic(entry, pack(files))
-        write_atomic(index, "\n".join(listing).encode())
+        write_atomic(index, seal("\n".join(listing).encode()))
     write_changed(files, output_dir)
     return "miss"

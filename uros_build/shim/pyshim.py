@@ -149,10 +149,27 @@ def shim_text(
     # is, on some CI images): else every call compiles uros's cache modules (and a miss rosidl's,
     # empy's and lark's) again, ~20 ms per call; no .pyc lands beside anyone's sources.
     # https://docs.python.org/3/using/cmdline.html#cmdoption-X (pycache_prefix)
-    interpreter = (
-        f"PYTHONDONTWRITEBYTECODE= exec {q(python)} -X pycache_prefix={q(str(cache_dir / 'pycache'))}"
+    pycache = q(str(cache_dir / "pycache"))
+    call = f'{q(python)} -X pycache_prefix={pycache} -c {q(entry)} {folders} {q(versions)} "$@"'
+    # A compiled module cut short (a full disk while Python wrote it: its write is not checked)
+    # fails every later call that imports it ("marshal data too short"), even once space is back.
+    # So a failed call has the pycache folder checked by a Python that does not read it (-I -B, no
+    # prefix): what does not load is dropped, and the call runs once more. A call that fails for
+    # its own reasons fails as before (nothing dropped: its exit status).
+    repair = (
+        f"import sys; sys.path.append({str(code_dir)!r}); "
+        "from uros_build.shim.pyshim import drop_unloadable; "
+        "sys.exit(0 if drop_unloadable(sys.argv[1]) else 1)"
     )
-    to_uros = f'{interpreter} -c {q(entry)} {folders} {q(versions)} "$@"'
+    to_uros_function = [
+        "uros() {",
+        f"  PYTHONDONTWRITEBYTECODE= {call} && exit 0",
+        "  status=$?",
+        f"  {q(python)} -I -B -c {q(repair)} {pycache} || exit $status",
+        f"  PYTHONDONTWRITEBYTECODE= exec {call}",
+        "}",
+    ]
+    to_uros = 'uros "$@"'
     probe = (
         [
             f'if [ "$1" = -c ]; then case "$2" in *{q(FINDPYTHON_PROBE)}*)',
@@ -179,6 +196,7 @@ def shim_text(
             "# (uros_build/shim/pyshim.py); FindPython's questions about the interpreter itself are",
             "# answered with what it answered once for this build; all else is the real Python.",
             *answered,
+            *to_uros_function,
             f'if [ "$2" = {gencache.ARGUMENTS_FLAG} ] && [ -n "$3" ]; then',
             f"  {to_uros}",
             "fi",
@@ -193,6 +211,37 @@ def shim_text(
             "",
         ]
     )
+
+
+def drop_unloadable(folder: str) -> int:
+    """Remove each compiled module under ``folder`` (the pycache prefix of uros's calls) that does
+    not load: cut short, or not one at all. Returns how many were removed (0: none was the cause
+    of a failed call)."""
+    import marshal
+
+    dropped = 0
+    for top, _dirs, files in os.walk(folder):
+        for name in files:
+            if not name.endswith(".pyc"):
+                continue
+            path = os.path.join(top, name)
+            try:
+                with open(path, "rb") as f:
+                    data = f.read()
+                if len(data) < 16:  # magic, flags and the source's stamp come first
+                    raise EOFError("no header")
+                marshal.loads(data[16:])
+            except OSError:
+                continue
+            except Exception:  # EOFError "marshal data too short", ValueError "bad marshal data"
+                try:
+                    os.unlink(path)
+                    dropped += 1
+                except OSError:
+                    pass
+    if dropped:
+        print(f"uros: removed {dropped} cut compiled module(s) from {folder}: running again", file=sys.stderr)
+    return dropped
 
 
 def main(args: Sequence[str]) -> int:
