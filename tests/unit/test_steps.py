@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from fake_idf import make_idf_build
 from fake_runner import FakeRunner
 
 from uros_build.colcon import command as colcon
@@ -29,6 +30,7 @@ from uros_build.steps import (
     inputs,
     prepare,
     start,
+    target_kind,
     team_cache,
     toolchain_file,
 )
@@ -60,11 +62,11 @@ def _cmake(argv: Sequence[str]) -> str:
     return ""
 
 
-def _plan(tmp_path: Path, *names: str, toolchain: str = "cortex-m7") -> BuildPlan:
+def _plan(tmp_path: Path, *names: str, toolchain: str = "cortex-m7", **args: Any) -> BuildPlan:
     ws = tmp_path / "ws"
     for name in names or ("app",):
         _package(ws, name)
-    plan = plan_build(BuildArgs(workspace=ws, toolchain=toolchain))
+    plan = plan_build(BuildArgs(workspace=ws, toolchain=toolchain, **args))
     plan.target_dir.mkdir(parents=True, exist_ok=True)
     return dataclasses.replace(plan, ccache=False)
 
@@ -73,7 +75,7 @@ def _ctx(plan: BuildPlan, **answers: Any) -> Context:
     # python: asked what CMake will ask it, it answers nothing (every question goes to it then)
     python = {Path(colcon.host_python()).name: lambda argv: ""}
     runner = FakeRunner(plan.workspace.root / "run.log", {"cmake": _cmake, **python, **answers})
-    return Context(plan, runner, FACTS)  # type: ignore[arg-type]
+    return Context(plan, runner, FACTS, target_kind.kind_of(plan, FACTS))  # type: ignore[arg-type]
 
 
 def _setup(ctx: Context) -> tuple[Path, colcon_setup.ColconSetup, dict[str, fp.FileRecord]]:
@@ -272,3 +274,33 @@ def test_deliver_assembles_swaps_in_and_records_the_state(
     deliver.say_done(ctx, assembled, [], 0.0, "")
     team_cache.upload_if_asked(ctx, found.key, deliver.entries_of(plan.output))  # no cache: nothing
     assert team_cache.take(ctx, found.key) is None
+
+
+# -- target_kind ---------------------------------------------------------------------------------
+
+
+def test_the_target_kind_is_chosen_once_and_answers_for_the_target(tmp_path: Path) -> None:
+    """A profile's target, the user's own toolchain file, an ESP-IDF project: the steps ask the
+    kind, never which kind it is."""
+    (tmp_path / "board.cmake").write_text("set(CMAKE_SYSTEM_NAME Generic)\n")
+    own = target_kind.kind_of(_plan(tmp_path / "own", toolchain=str(tmp_path / "board.cmake")), FACTS)
+    profile = target_kind.kind_of(_plan(tmp_path / "m7"), FACTS)
+    idf_plan = _plan(tmp_path / "idf", toolchain="esp32s3", idf_build=make_idf_build(tmp_path / "idf-build"))
+    idf = target_kind.kind_of(idf_plan, FACTS)
+    assert isinstance(own, target_kind.OwnToolchainFile) and isinstance(idf, target_kind.IdfProfile)
+    assert isinstance(profile, target_kind.Profile) and not isinstance(profile, target_kind.IdfProfile)
+    assert (own.uses_ccache, profile.uses_ccache) == (False, True)
+    assert own.firmware_toolchain() is None and "cortex-m7" in (profile.firmware_toolchain() or "")
+    assert own.check_library(FakeRunner(tmp_path / "log"), tmp_path / "lib.a")["checked"] is False  # type: ignore[arg-type]
+    assert own.described().toolchain_file == str(tmp_path / "board.cmake")
+    described = profile.described()
+    assert (
+        described.profile == "cortex-m7.yaml" and described.idf is None and described.toolchain_file is None
+    )
+    assert idf.described().idf is not None and idf.described().idf_target == "esp32s3"
+    # the portable key's toolchain text: no workspace folder in it, the user's file as it is
+    m7_plan = _plan(tmp_path / "m7b")
+    m7 = target_kind.kind_of(m7_plan, FACTS)
+    assert str(m7_plan.workspace.root) not in m7.portable_toolchain(m7.write_toolchain())
+    assert str(m7_plan.workspace.root) in m7.write_toolchain().read_text()
+    assert own.portable_toolchain(tmp_path / "board.cmake") == (tmp_path / "board.cmake").read_text()

@@ -140,3 +140,13 @@ def read_stamp(build_base: Path, package: str) -> str | None:
 def stale(build_base: Path, expected: Mapping[str, str]) -> list[str]:
     """The packages whose stamp is missing or differs from ``expected`` (package -> stamp)."""
     return sorted(p for p, stamp in expected.items() if read_stamp(build_base, p) != stamp)
+
+
+def forget_configured_flags(build_base: Path) -> None:
+    """A changed toolchain file must reach the compiles: CMake reads CMAKE_<LANG>_FLAGS_INIT only
+    when it creates the CMAKE_<LANG>_FLAGS cache entry, on the first configure
+    (https://cmake.org/cmake/help/latest/variable/CMAKE_LANG_FLAGS_INIT.html), so a reconfigure
+    would keep compiling with the old flags. Dropping each package's CMakeCache.txt makes colcon
+    configure afresh in the same folder; ninja then recompiles what the new flags change."""
+    for cache in sorted(build_base.glob("*/CMakeCache.txt")):
+        cache.unlink()

@@ -31,6 +31,7 @@ from uros_build.steps import (
     inputs,
     prepare,
     start,
+    target_kind,
     team_cache,
     toolchain_file,
 )
@@ -82,7 +83,8 @@ def build(plan: BuildPlan) -> Outcome:
     """One planned target, every action in the order it is taken (model: colcon-core's
     BuildVerb.main): each step takes the frozen context and what earlier steps returned."""
     runner = start.open_run(plan)
-    ctx = Context(plan, runner, start.host_facts(plan, runner))
+    facts = start.host_facts(plan, runner)
+    ctx = Context(plan, runner, facts, target_kind.kind_of(plan, facts))
     start.sync_extra_packages(ctx)
     start.build_dev_workspace(ctx)
     with locked(plan.target_dir, plan.target.key):

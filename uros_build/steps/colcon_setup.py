@@ -17,7 +17,7 @@ from uros_build import __version__, console
 from uros_build.colcon import command as colcon
 from uros_build.colcon import fingerprint as fp
 from uros_build.colcon import hoststage, hosttools
-from uros_build.config.plan import BuildPlan, ProfileTarget
+from uros_build.config.plan import BuildPlan
 from uros_build.files import write_if_changed
 from uros_build.proc import Runner
 from uros_build.shim import gencache, pyshim
@@ -43,7 +43,7 @@ def environment(ctx: Context) -> Environment:
     # colcon prints its job events with flush=True, but its other output is block-buffered in a
     # pipe: unbuffered, the live view sees each line when it is written.
     env = {**env, "PYTHONUNBUFFERED": "1"}
-    launcher = _ccache(plan, env, ctx.runner)
+    launcher = _ccache(plan, ctx.kind.uses_ccache, env, ctx.runner)
     if launcher:
         env.update(colcon.ccache_env(plan.workspace.root, plan.target_dir / CCACHE_STATS))
     return Environment(env, launcher)
@@ -170,11 +170,11 @@ def shared_if_built(plan: BuildPlan, stage: hoststage.Stage) -> tuple[str, ...] 
 CCACHE_STATS = "ccache-stats.log"  # this build's ccache counters (the user's totals stay theirs)
 
 
-def _ccache(plan: BuildPlan, env: Mapping[str, str], runner: Runner) -> str | None:
+def _ccache(plan: BuildPlan, allowed: bool, env: Mapping[str, str], runner: Runner) -> str | None:
     """ccache's path when the build compiles through it: --ccache (then it must be installed),
     --no-ccache never, by default when it is on PATH. Only for uros's own toolchain: a user's
     toolchain file does not carry the path maps that keep the library the same under ccache."""
-    if plan.ccache is False or not isinstance(plan.target, ProfileTarget):
+    if plan.ccache is False or not allowed:
         return None
     found = (
         runner.which("ccache", path=env.get("PATH"))

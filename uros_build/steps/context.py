@@ -9,6 +9,7 @@ from dataclasses import dataclass
 from uros_build.colcon.hosttools import HostFacts
 from uros_build.config.plan import BuildPlan
 from uros_build.proc import Runner
+from uros_build.steps.target_kind import TargetKind
 
 
 @dataclass(frozen=True)
@@ -16,3 +17,4 @@ class Context:
     plan: BuildPlan  # what the user asked, checked
     runner: Runner  # this run's processes and its log
     facts: HostFacts  # the host's and the target's tools
+    kind: TargetKind  # what the target is (a profile's, the user's toolchain file, ESP-IDF's), chosen once

@@ -17,9 +17,8 @@ from typing import Any
 
 from uros_build import __version__, console
 from uros_build.colcon import fingerprint as fp
-from uros_build.colcon import hosttools, installtree
-from uros_build.colcon.hosttools import HostFacts
-from uros_build.config.plan import BuildPlan, ProfileTarget, meta_transport
+from uros_build.colcon import installtree
+from uros_build.config.plan import BuildPlan, meta_transport
 from uros_build.defaults import BUILD_INFO
 from uros_build.errors import (
     ConfigError,
@@ -34,30 +33,16 @@ from uros_build.output import folders as outputs
 from uros_build.output.archive import MergeReport, merge_archives
 from uros_build.output.buildinfo import (
     BuildInfo,
-    Compiler,
-    Flags,
-    IdfInfo,
     Include,
     Library,
     read_build_info,
 )
-from uros_build.proc import Runner
 from uros_build.sources import clones
 from uros_build.sources.wsfiles import read_lock
 from uros_build.steps.colcon_run import Compiled
 from uros_build.steps.colcon_setup import ColconSetup
 from uros_build.steps.context import Context
 from uros_build.steps.inputs import Inputs
-from uros_build.target import abi
-from uros_build.target.profiles import TargetProfile
-from uros_build.target.toolchain import (
-    CLOCK_HEADER_NAME,
-    ToolchainRequest,
-    microros_flags,
-    render_toolchain,
-    tool_paths,
-)
-from uros_build.target.toolsearch import BinTools
 
 
 @dataclass(frozen=True)
@@ -152,15 +137,6 @@ def _free_bytes(folder: Path) -> int:
         return 1 << 62
 
 
-def _bintools(plan: BuildPlan, facts: HostFacts) -> BinTools:
-    if isinstance(plan.target, ProfileTarget):
-        tools = tool_paths(plan.target.profile, facts.tool_dir)
-        return BinTools(ar=tools["ar"], ranlib=tools["ranlib"], nm=tools["nm"])
-    # A user toolchain file: use the archiver CMake recorded for it (the target's); the host
-    # binutils read foreign ELF archives too, as a fallback.
-    return hosttools.bintools_from_build(plan.target_dir / "build") or BinTools("ar", "ranlib", "nm")
-
-
 @dataclass(frozen=True)
 class _Library:
     """libmicroros.a in the staging folder, merged (or the previous one reused), with its checks,
@@ -178,7 +154,7 @@ def _library(
     """The archives and headers of this build's packages only, into ``staging``: the library
     merged and checked against the target's ELF facts (or the last one reused when its archives
     did not change), the include tree copied meanwhile."""
-    plan, facts, runner = ctx.plan, ctx.facts, ctx.runner
+    plan, runner = ctx.plan, ctx.runner
     install = setup.install_base
     by_package = installtree.archives(setup.build_base, install, built)
     libs = sorted({lib for libs in by_package.values() for lib in libs}, key=lambda p: p.name)
@@ -191,7 +167,7 @@ def _library(
         shutil.rmtree(staging)
     staging.mkdir(parents=True)
     library = staging / "libmicroros.a"
-    tools = _bintools(plan, facts)
+    tools = ctx.kind.bintools()
     profile = plan.profile
     merge_key = fp.digest_json(
         {
@@ -222,16 +198,8 @@ def _library(
             console.step(f"merging {len(libs)} libraries into libmicroros.a")
             report = merge_archives(runner, tools, libs, library, plan.target_dir / "merge")
             # Before the output is swapped in: a library that fails the check never replaces a good one.
-            if profile is None:
-                abi_check = {
-                    "checked": False,
-                    "reason": "your own toolchain file: no target profile to compare with",
-                }
-            else:
-                console.step(f"checking every object against {profile.name}'s ELF facts")
-                abi_check = abi.check_library(runner, library, profile)
-                console.info(abi.describe(abi_check))
-            lib_info = _library_info(runner, facts, profile, library, report)
+            abi_check = ctx.kind.check_library(runner, library)
+            lib_info = _library_info(ctx, library, report)
         inc = include_tree.result()
     for warning in abi_check.get("warnings", ()):
         console.warn(warning)
@@ -239,14 +207,10 @@ def _library(
 
 
 def _firmware_toolchain(ctx: Context, staging: Path) -> None:
-    """The firmware's toolchain file beside the library (a profile's target only: a user's own
-    toolchain file is theirs already)."""
-    profile = ctx.plan.profile
-    if profile is not None:
-        firmware_tc = render_toolchain(
-            ToolchainRequest(profile, micro_ros=False, command=f"uros toolchain render {profile.name}")
-        )
-        (staging / "toolchain.cmake").write_text(firmware_tc, encoding="utf-8")
+    """The firmware's toolchain file beside the library, when the target's kind gives one."""
+    text = ctx.kind.firmware_toolchain()
+    if text is not None:
+        (staging / "toolchain.cmake").write_text(text, encoding="utf-8")
 
 
 def _build_info(
@@ -254,34 +218,16 @@ def _build_info(
 ) -> BuildInfo:
     """build-info.json's record of this build: what was built, from what, with what, and the
     library it made."""
-    plan, facts = ctx.plan, ctx.facts
-    profile, target, built = plan.profile, plan.target, compiled.packages
-    flags = Flags()
-    if profile is not None:
-        # recorded without the workspace's folder, so that build-info.json does not depend on it
-        mr_req = ToolchainRequest(
-            profile,
-            micro_ros=True,
-            gcc_major=facts.gcc_major,
-            clock_header=CLOCK_HEADER_NAME,
-            prefix_map="<workspace>",
-        )
-        flags = Flags(
-            cpu=profile.cpu_flags,
-            c=profile.c_flags,
-            cxx=profile.cxx_flags,
-            optimization=profile.optimization,
-            micro_ros_only=tuple(microros_flags(mr_req)),
-        )
-    inc = lib.include
+    plan, built = ctx.plan, compiled.packages
+    target, inc = ctx.kind.described(), lib.include
     return BuildInfo(
         generated_by=f"uros {__version__}",
-        target=target.key,
-        profile=Path(profile.source).name if profile else None,
-        toolchain_file=None if isinstance(target, ProfileTarget) else str(target.toolchain_file),
-        compiler=Compiler(facts.gcc, facts.gcc_version) if profile else None,
-        cmake_version=facts.cmake_version,
-        flags=flags,
+        target=plan.target.key,
+        profile=target.profile,
+        toolchain_file=target.toolchain_file,
+        compiler=target.compiler,
+        cmake_version=ctx.facts.cmake_version,
+        flags=target.flags,
         transport=meta_transport(plan.meta),
         packages=built,
         library=lib.info,
@@ -289,8 +235,8 @@ def _build_info(
         abi_check=lib.abi_check,
         skipped_python_packages=setup.skipped,
         host_stage_packages=setup.shared,
-        idf_target=profile.idf_target or None if profile else None,
-        idf=_idf_info(plan),
+        idf_target=target.idf_target,
+        idf=target.idf,
         cmake_options=contents.cmake_options(plan.meta),
         sources=_sources(plan, built),
         build_key=inputs.key,
@@ -310,12 +256,7 @@ def _sources(plan: BuildPlan, built: tuple[str, ...]) -> dict[str, dict[str, str
     return clones.built_from(located, ws.root, clone_paths)
 
 
-def _library_info(
-    runner: Runner, facts: HostFacts, profile: TargetProfile | None, library: Path, report: MergeReport
-) -> Library:
-    size = None
-    if profile is not None:
-        size = hosttools.size_totals(runner, tool_paths(profile, facts.tool_dir)["size"], library)
+def _library_info(ctx: Context, library: Path, report: MergeReport) -> Library:
     return Library(
         file="libmicroros.a",
         bytes=library.stat().st_size,
@@ -325,7 +266,7 @@ def _library_info(
         renamed_duplicate_members=report.renamed_duplicates,
         duplicate_globals={d.name: d.members for d in report.duplicates},
         inputs=report.inputs,
-        size=size,
+        size=ctx.kind.library_size(ctx.runner, library),
     )
 
 
@@ -343,21 +284,6 @@ def _previous_library(plan: BuildPlan, previous: fp.BuildState | None, merge_key
     if info.library.sha256 != previous.library_sha256 or not lib.is_file():
         return None
     return info if fp.file_sha256(lib) == previous.library_sha256 else None
-
-
-def _idf_info(plan: BuildPlan) -> IdfInfo | None:
-    idf = plan.idf
-    if idf is None:
-        return None
-    return IdfInfo(
-        version=idf.version_text,
-        target=idf.target,
-        sdkconfig_sha256=idf.sdkconfig_sha256,
-        components=idf.components,
-        include_dirs=len(idf.include_dirs),
-        c_flags=idf.c_flags,
-        cxx_flags=idf.cxx_flags,
-    )
 
 
 def assemble(ctx: Context, inputs: Inputs, setup: ColconSetup, compiled: Compiled) -> Assembled:

@@ -17,7 +17,7 @@ from uros_build import __version__, console
 from uros_build.colcon import command as colcon
 from uros_build.colcon import fingerprint as fp
 from uros_build.colcon.hosttools import HostFacts
-from uros_build.config.plan import BuildPlan, ProfileTarget
+from uros_build.config.plan import BuildPlan
 from uros_build.errors import ConfigError
 from uros_build.output.buildinfo import read_build_info
 from uros_build.sources import packages as packages_mod
@@ -26,22 +26,17 @@ from uros_build.sources.wsfiles import CONFIG
 from uros_build.steps.colcon_setup import ColconSetup, meta_text
 from uros_build.steps.context import Context
 from uros_build.steps.prepare import compiler_identity
-from uros_build.steps.toolchain_file import toolchain_request
-from uros_build.target.toolchain import render_toolchain
 
 
-def build_key(plan: BuildPlan, facts: HostFacts, toolchain_file: Path, parts: Mapping[str, str]) -> str:
+def build_key(ctx: Context, toolchain_file: Path, parts: Mapping[str, str]) -> str:
     """The build's inputs by content alone, so that two machines (or two checkouts) that build the
     same thing get the same key (issue 19): the sources' names and contents, the merged colcon.meta,
     the toolchain text with the workspace's path taken out, the profile's file, the compiler's version
     and program, the package selection, uros's own code. Known before anything is built, so that a
     cache can be asked for it: the headers read outside the workspace are known only after a build,
     so they are not in the key; a cache entry lists them and is used only where they match."""
-    if isinstance(plan.target, ProfileTarget):
-        # rendered again with a placeholder for the workspace, quoted as a plain path is
-        toolchain = render_toolchain(toolchain_request(plan, facts, Path("/workspace")))
-    else:
-        toolchain = toolchain_file.read_text(encoding="utf-8", errors="replace")
+    plan, facts = ctx.plan, ctx.facts
+    toolchain = ctx.kind.portable_toolchain(toolchain_file)
     profile = plan.profile
     profile_text = (
         Path(profile.source).read_bytes() if profile is not None and Path(profile.source).is_file() else b""
@@ -236,7 +231,7 @@ def resolve(
     parts = _input_parts(plan, facts, toolchain_file, setup, sources)
     parts["headers outside the workspace"] = outside_headers
     state_path = plan.target_dir / fp.STATE
-    key = build_key(plan, facts, toolchain_file, parts)
+    key = build_key(ctx, toolchain_file, parts)
     return Inputs(toolchain_file, parts, fp.read_state(state_path), state_path, key)
 
 

@@ -62,7 +62,7 @@ def _reconfigure_after_a_full_disk(plan: BuildPlan) -> None:
     mark = plan.target_dir / DISK_FULL_MARK
     if mark.is_file():
         console.info("the last build ran out of disk space: configuring every package afresh")
-        forget_configured_flags(plan.target_dir / "build")
+        installtree.forget_configured_flags(plan.target_dir / "build")
         mark.unlink()
 
 
@@ -121,16 +121,6 @@ def drop_removed_packages(ctx: Context) -> None:
     gone = installtree.drop_removed(build_base, install_base, names)
     if gone:
         console.info(f"dropped from the target's trees (no longer in the workspace): {', '.join(gone)}")
-
-
-def forget_configured_flags(build_base: Path) -> None:
-    """A changed toolchain file must reach the compiles: CMake reads CMAKE_<LANG>_FLAGS_INIT only
-    when it creates the CMAKE_<LANG>_FLAGS cache entry, on the first configure
-    (https://cmake.org/cmake/help/latest/variable/CMAKE_LANG_FLAGS_INIT.html), so a reconfigure
-    would keep compiling with the old flags. Dropping each package's CMakeCache.txt makes colcon
-    configure afresh in the same folder; ninja then recompiles what the new flags change."""
-    for cache in sorted(build_base.glob("*/CMakeCache.txt")):
-        cache.unlink()
 
 
 def prepare_trees(ctx: Context) -> bool:

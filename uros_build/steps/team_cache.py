@@ -26,20 +26,17 @@ from uros_build.output.buildinfo import (
     read_build_info,
 )
 from uros_build.output.team_cache import CacheSettings, CacheUnusable
-from uros_build.proc import Runner
 from uros_build.steps.context import Context
 from uros_build.steps.deliver import Assembled
-from uros_build.target import abi
-from uros_build.target.toolchain import ToolchainRequest, render_toolchain
 
 
-def _from_cache(runner: Runner, plan: BuildPlan, settings: CacheSettings, key: str) -> Assembled | None:
+def _from_cache(ctx: Context, settings: CacheSettings, key: str) -> Assembled | None:
     """The output of the entry ``key``, unpacked beside the output and checked as a build's would
     be (every file has the manifest's size and sha256, its build-info names this key and target,
     the library has the sha256 it names, every object passes the ABI check, the CMake package and
     toolchain.cmake are what this uros writes); None, with a line saying why, when there is none or
     it cannot be used."""
-    shown = settings.url.shown
+    plan, shown = ctx.plan, settings.url.shown
     staging = outputs.staging_dir(plan.output)
     try:
         store = cache_mod.store(settings.url, settings.timeout)
@@ -64,7 +61,7 @@ def _from_cache(runner: Runner, plan: BuildPlan, settings: CacheSettings, key: s
         remove_tree(staging)
         console.step(f"cache: entry {key[:16]} found in {shown} ({len(data):,} bytes): checking it")
         cache_mod.unpack(data, manifest, staging)
-        info = _check_cached(runner, plan, staging, key)
+        info = _check_cached(ctx, staging, key)
         origin = {"url": shown, "key": key, "archive_sha256": manifest.archive_sha256}
         return Assembled(staging, dataclasses.replace(info, from_cache=origin))
     except CacheUnusable as exc:
@@ -85,7 +82,8 @@ def _drop(staging: Path) -> None:
         console.warn(f"could not remove {staging} ({exc.strerror}): the next build replaces it")
 
 
-def _check_cached(runner: Runner, plan: BuildPlan, staging: Path, key: str) -> BuildInfo:
+def _check_cached(ctx: Context, staging: Path, key: str) -> BuildInfo:
+    plan = ctx.plan
     try:
         info = read_build_info(staging, "the cache entry")
     except ConfigError as exc:
@@ -100,12 +98,9 @@ def _check_cached(runner: Runner, plan: BuildPlan, staging: Path, key: str) -> B
     # The files a firmware's CMake runs are written by this uros for this target: an entry's must
     # be exactly those (a server's copy could add execute_process lines).
     expected = export.cmake_package_files(info.target, info.flags.cpu)
-    if plan.profile is not None:
-        expected["toolchain.cmake"] = render_toolchain(
-            ToolchainRequest(
-                plan.profile, micro_ros=False, command=f"uros toolchain render {plan.profile.name}"
-            )
-        )
+    firmware_toolchain = ctx.kind.firmware_toolchain()
+    if firmware_toolchain is not None:
+        expected["toolchain.cmake"] = firmware_toolchain
     for name in sorted(cache_mod.ENTRY_FILES - {BUILD_INFO, "libmicroros.a"}):
         path = staging / name
         there = path.read_bytes() if path.is_file() else None
@@ -114,11 +109,10 @@ def _check_cached(runner: Runner, plan: BuildPlan, staging: Path, key: str) -> B
             raise CacheUnusable(
                 f"the entry {key[:16]}'s {name} is not the one uros writes for {plan.target.key}"
             )
-    if plan.profile is not None:
-        try:
-            console.info(abi.describe(abi.check_library(runner, library, plan.profile)))
-        except VerifyError as exc:
-            raise CacheUnusable(f"the entry {key[:16]}'s library fails the ABI check: {exc}") from None
+    try:  # as a build's library is checked (a user's toolchain file: nothing to check against)
+        ctx.kind.check_library(ctx.runner, library, announce=False)
+    except VerifyError as exc:
+        raise CacheUnusable(f"the entry {key[:16]}'s library fails the ABI check: {exc}") from None
     return info
 
 
@@ -186,7 +180,7 @@ def take(ctx: Context, key: str) -> Assembled | None:
     plan = ctx.plan
     if plan.cache is None or plan.rebuild:
         return None
-    return _from_cache(ctx.runner, plan, plan.cache, key)
+    return _from_cache(ctx, plan.cache, key)
 
 
 def upload_if_asked(ctx: Context, key: str, entries: list[str]) -> None:

@@ -15,16 +15,12 @@ from uros_build.colcon import command as colcon
 from uros_build.colcon import fingerprint as fp
 from uros_build.colcon import hosttools
 from uros_build.colcon.hosttools import HostFacts
-from uros_build.config.plan import BuildPlan, ProfileTarget, meta_transport
+from uros_build.config.plan import BuildPlan
 from uros_build.files import write_if_changed
 from uros_build.proc import Runner
 from uros_build.steps.context import Context
-from uros_build.steps.prepare import compiler_identity, forget_configured_flags
+from uros_build.steps.prepare import compiler_identity
 from uros_build.target.toolchain import (
-    CLOCK_HEADER_NAME,
-    CLOCK_HEADER_TEXT,
-    ToolchainRequest,
-    render_toolchain,
     seed_module_text,
     seeded_toolchain_text,
 )
@@ -109,42 +105,6 @@ def seed_compilers(
 
 
 def write_toolchain(ctx: Context) -> Path:
-    """The target's toolchain file: rendered from its profile (written only when it changes), or the
-    user's own; a changed one makes every package configure afresh (its flags reach no compile
-    otherwise)."""
-    plan, facts = ctx.plan, ctx.facts
-    target = plan.target
-    if not isinstance(target, ProfileTarget):
-        # The user's own file: its flags, too, reach the compiles only through a fresh configure.
-        seen = plan.target_dir / "toolchain-file.sha256"
-        if write_if_changed(seen, fp.file_sha256(target.toolchain_file) + "\n"):
-            forget_configured_flags(plan.target_dir / "build")
-        return target.toolchain_file
-    profile = target.profile
-    header = plan.target_dir / CLOCK_HEADER_NAME
-    if profile.micro_ros.declare_clock_gettime:
-        write_if_changed(header, CLOCK_HEADER_TEXT)
-    path = plan.target_dir / "toolchain.cmake"
-    if write_if_changed(path, render_toolchain(toolchain_request(plan, facts, plan.workspace.root))):
-        forget_configured_flags(plan.target_dir / "build")
-    return path
-
-
-def toolchain_request(plan: BuildPlan, facts: HostFacts, root: Path) -> ToolchainRequest:
-    """The micro-ROS toolchain file's inputs, with ``root`` standing for the workspace (the real one,
-    or a placeholder for the portable build key)."""
-    target = plan.target
-    assert isinstance(target, ProfileTarget)
-    profile = target.profile
-    header = root / plan.target_dir.relative_to(plan.workspace.root) / CLOCK_HEADER_NAME
-    return ToolchainRequest(
-        profile,
-        micro_ros=True,
-        gcc_major=facts.gcc_major,
-        clock_header=str(header) if profile.micro_ros.declare_clock_gettime else None,
-        tool_dir=facts.tool_dir,
-        command=f"uros build --toolchain {profile.name}",
-        prefix_map=str(root),
-        idf=plan.idf,
-        transport=meta_transport(plan.meta),
-    )
+    """The target's toolchain file, as its kind makes it (written only when it changes; a changed
+    one makes every package configure afresh: its flags reach no compile otherwise)."""
+    return ctx.kind.write_toolchain()
