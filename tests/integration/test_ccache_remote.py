@@ -96,6 +96,11 @@ def test_a_second_workspace_takes_its_compiles_from_ccache_remote_storage_on_red
     info = json.loads((second / "build" / "cortex-m7" / "build-info.json").read_text())
     assert info["ccache"] == {"hits": compiles, "misses": 0, "remote_hits": compiles}
     assert _sha256(first) == _sha256(second)  # the bytes, not the message
+    # where the entries are kept is no input of the build: the remote storage turned off, another
+    # local cache, and the workspace is up to date (colcon ran again for each before)
+    env = {k: v for k, v in os.environ.items() if k != "CCACHE_REMOTE_STORAGE"}
+    again = run_uros(*fixture_build_args(second), env={**env, "CCACHE_DIR": str(tmp_path / "other")}).stderr
+    assert "up to date" in again and "changed since the last build" not in again, again
     # figures for docs/cache.md (pytest -s shows them)
     print(f"\nremote ccache: first {seconds['first']:.1f} s, second {seconds['second machine']:.1f} s, "
           f"{compiles} of {compiles} compiles from Redis")  # fmt: skip

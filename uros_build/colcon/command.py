@@ -46,6 +46,21 @@ SCRUBBED_VARIABLES = (
 # reproducible-build dates).
 FINGERPRINTED_PREFIXES = ("CCACHE_",)
 FINGERPRINTED_VARIABLES = ("SOURCE_DATE_EPOCH",)
+# ccache's settings that say where entries are kept and how many, never what a compile makes: a
+# change must not run colcon again (a CI job or a developer turning a team's remote storage on,
+# issue 33 item 6; whose URL may hold a password). https://ccache.dev/manual/4.7.html#_configuration_options
+UNFINGERPRINTED_VARIABLES = frozenset(
+    {
+        "CCACHE_DIR",
+        "CCACHE_REMOTE_STORAGE",
+        "CCACHE_REMOTE_ONLY",
+        "CCACHE_RESHARE",
+        "CCACHE_READONLY",
+        "CCACHE_MAXSIZE",
+        "CCACHE_TEMPDIR",
+        "CCACHE_LOGFILE",
+    }
+)
 # colcon writes every installed package's environment scripts once per shell extension it has, and
 # colcon-common-extensions brings bash, zsh and PowerShell beside sh and dsv: ~340 more files a
 # target (each rendered with empy), which nobody sources in a cross-compiled install tree. sh

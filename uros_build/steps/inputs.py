@@ -182,7 +182,10 @@ def colcon_parts(facts: HostFacts, setup: ColconSetup) -> dict[str, str]:
         for k, v in setup.env.items()
         if k in _ENV_THAT_MATTERS
         or k in colcon.FINGERPRINTED_VARIABLES
-        or k.startswith(("GIT_CONFIG_", *colcon.FINGERPRINTED_PREFIXES))
+        or (
+            k.startswith(("GIT_CONFIG_", *colcon.FINGERPRINTED_PREFIXES))
+            and k not in colcon.UNFINGERPRINTED_VARIABLES
+        )
     }
     return {
         "colcon": fp.digest_json([stable, sorted(env.items())]),
