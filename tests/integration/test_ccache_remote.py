@@ -95,6 +95,11 @@ def test_a_second_workspace_takes_its_compiles_from_ccache_remote_storage_on_red
     assert line in said["second machine"], said["second machine"]
     info = json.loads((second / "build" / "cortex-m7" / "build-info.json").read_text())
     assert info["ccache"] == {"hits": compiles, "misses": 0, "remote_hits": compiles}
+    shown = run_uros("info", str(second / "build" / "cortex-m7")).stdout
+    assert (
+        f"{compiles} of {compiles} compiles of this build taken from the cache ({compiles} from its remote storage)"
+        in shown
+    )
     assert _sha256(first) == _sha256(second)  # the bytes, not the message
     # where the entries are kept is no input of the build: the remote storage turned off, another
     # local cache, and the workspace is up to date (colcon ran again for each before)

@@ -80,7 +80,11 @@ def render(data: dict[str, Any]) -> str:
     lines.append(f"headers    {data['include']['files']:,} files in {data['include']['dir']}/")
     if data["ccache"]:
         hits, misses = data["ccache"].get("hits", 0), data["ccache"].get("misses", 0)
-        lines.append(f"ccache     {hits} of {hits + misses} compiles of this build taken from the cache")
+        remote = data["ccache"].get("remote_hits", 0)
+        remote_text = f" ({remote} from its remote storage)" if remote else ""
+        lines.append(
+            f"ccache     {hits} of {hits + misses} compiles of this build taken from the cache{remote_text}"
+        )
     lines.append(f"transport  {data['transport'] or '-'}")
     memory = contents.memory_options(data["options"])
     for i, (pkg, opts) in enumerate(memory.items()):
