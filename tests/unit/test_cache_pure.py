@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 
 from uros_build.errors import ConfigError
+from uros_build.output import cache_store
 from uros_build.output import team_cache as cache
 
 
@@ -122,18 +123,19 @@ def test_manifests() -> None:
 
 def test_credentials_from_the_environment_or_netrc(tmp_path: Path) -> None:
     assert (
-        cache.authorization("c.example", {"UROS_CACHE_TOKEN": "t0k", "HOME": str(tmp_path)}) == "Bearer t0k"
+        cache_store.authorization("c.example", {"UROS_CACHE_TOKEN": "t0k", "HOME": str(tmp_path)})
+        == "Bearer t0k"
     )
-    assert cache.authorization("c.example", {"HOME": str(tmp_path)}) == ""
+    assert cache_store.authorization("c.example", {"HOME": str(tmp_path)}) == ""
     netrc = tmp_path / "netrc"
     netrc.write_text("machine c.example login ci password s3cret\n")
     netrc.chmod(0o600)
-    assert cache.authorization("c.example", {"NETRC": str(netrc)}) == "Basic Y2k6czNjcmV0"
-    assert cache.authorization("other.example", {"NETRC": str(netrc)}) == ""
+    assert cache_store.authorization("c.example", {"NETRC": str(netrc)}) == "Basic Y2k6czNjcmV0"
+    assert cache_store.authorization("other.example", {"NETRC": str(netrc)}) == ""
 
 
 def test_file_store(tmp_path: Path) -> None:
-    store = cache.FileStore(tmp_path / "c")
+    store = cache_store.FileStore(tmp_path / "c")
     assert store.get("x.json", 10) is None
     store.put("x.json", b"{}")
     assert store.get("x.json", 10) == b"{}" and [p.name for p in (tmp_path / "c").iterdir()] == ["x.json"]
@@ -144,7 +146,7 @@ def test_file_store(tmp_path: Path) -> None:
 def test_a_store_reads_only_regular_files_and_never_waits(tmp_path: Path) -> None:
     """A FIFO or /dev/zero where an entry should be: refused at once (a FIFO with no writer used to
     hang the build, /dev/zero to fill the memory); as an outside header a manifest names: missing."""
-    store = cache.FileStore(tmp_path)
+    store = cache_store.FileStore(tmp_path)
     os.mkfifo(tmp_path / "k.tar.gz")
     (tmp_path / "z.tar.gz").symlink_to("/dev/zero")
     for name in ("k.tar.gz", "z.tar.gz"):
@@ -217,18 +219,18 @@ def test_a_small_entry_never_unpacks_to_more_than_its_manifest_lists(tmp_path: P
 
 def test_a_token_is_stripped_and_never_printed() -> None:
     env = {"UROS_CACHE_TOKEN": "tok-123-secret\n"}
-    assert cache.authorization("c.example", env) == "Bearer tok-123-secret"
+    assert cache_store.authorization("c.example", env) == "Bearer tok-123-secret"
     with pytest.raises(cache.CacheUnusable) as err:
-        cache.authorization("c.example", {"UROS_CACHE_TOKEN": "tok 123\x01"})
+        cache_store.authorization("c.example", {"UROS_CACHE_TOKEN": "tok 123\x01"})
     assert "tok" not in str(err.value).replace("token", "")
     said = "Invalid header value b'Bearer tok-123-secret\\n' for http://x/"
-    assert "secret" not in cache.scrub(said, env)
+    assert "secret" not in cache_store.scrub(said, env)
 
 
 def test_credentials_stay_with_the_caches_origin() -> None:
-    assert cache.origin("http://C.example/uros/") == cache.origin("http://c.example:80/x")
-    assert cache.origin("http://c.example/") != cache.origin("https://c.example/")
-    assert cache.origin("http://c.example:8080/") != cache.origin("http://c.example/")
+    assert cache_store.origin("http://C.example/uros/") == cache_store.origin("http://c.example:80/x")
+    assert cache_store.origin("http://c.example/") != cache_store.origin("https://c.example/")
+    assert cache_store.origin("http://c.example:8080/") != cache_store.origin("http://c.example/")
 
 
 @pytest.mark.parametrize("text", ["http://127.0.0.1:abc/uros", "http://[::1/uros", "http://h:99999/"])

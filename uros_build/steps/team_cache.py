@@ -18,7 +18,7 @@ from uros_build.errors import (
     VerifyError,
 )
 from uros_build.files import remove_tree
-from uros_build.output import export
+from uros_build.output import cache_store, export
 from uros_build.output import folders as outputs
 from uros_build.output import team_cache as cache_mod
 from uros_build.output.buildinfo import (
@@ -39,7 +39,7 @@ def _from_cache(ctx: Context, settings: CacheSettings, key: str) -> Assembled | 
     plan, shown = ctx.plan, settings.url.shown
     staging = outputs.staging_dir(plan.output)
     try:
-        store = cache_mod.store(settings.url, settings.timeout)
+        store = cache_store.store(settings.url, settings.timeout)
         raw = store.get(cache_mod.manifest_name(key), cache_mod.MAX_MANIFEST_BYTES)
         if raw is None:
             console.info(f"cache: no entry {key[:16]} in {shown}: building")
@@ -66,7 +66,7 @@ def _from_cache(ctx: Context, settings: CacheSettings, key: str) -> Assembled | 
         return Assembled(staging, dataclasses.replace(info, from_cache=origin))
     except CacheUnusable as exc:
         _drop(staging)
-        console.warn(f"cache {shown}: {cache_mod.scrub(str(exc))}: building instead")
+        console.warn(f"cache {shown}: {cache_store.scrub(str(exc))}: building instead")
         return None
     except BaseException:
         _drop(staging)
@@ -116,7 +116,7 @@ def _check_cached(ctx: Context, staging: Path, key: str) -> BuildInfo:
     return info
 
 
-def _existing_entry_is_whole(store: cache_mod.Store, key: str) -> None:
+def _existing_entry_is_whole(store: cache_store.Store, key: str) -> None:
     """CacheUnusable unless the store's entry ``key`` passes the checks a reader makes of its
     bytes (a manifest of this format and key, a tarball of its size and sha256, every file as it
     lists): an entry that fails them is replaced by the next upload, not kept forever."""
@@ -138,7 +138,7 @@ def _upload(plan: BuildPlan, key: str, entries: list[str]) -> None:
     assert plan.cache is not None
     shown = plan.cache.url.shown
     try:
-        store = cache_mod.store(plan.cache.url, plan.cache.timeout)
+        store = cache_store.store(plan.cache.url, plan.cache.timeout)
         if store.get(cache_mod.manifest_name(key), cache_mod.MAX_MANIFEST_BYTES) is not None:
             try:
                 _existing_entry_is_whole(store, key)
@@ -171,7 +171,7 @@ def _upload(plan: BuildPlan, key: str, entries: list[str]) -> None:
         store.put(cache_mod.manifest_name(key), manifest.to_json().encode("utf-8"))
         console.step(f"cache: uploaded entry {key[:16]} to {shown} ({len(data):,} bytes)")
     except (CacheUnusable, ConfigError, OSError) as exc:
-        console.warn(f"cache {shown}: not uploaded: {cache_mod.scrub(str(exc))}")
+        console.warn(f"cache {shown}: not uploaded: {cache_store.scrub(str(exc))}")
 
 
 def take(ctx: Context, key: str) -> Assembled | None:
