@@ -2,7 +2,7 @@
 eye: check-jsonschema against schemastore's github-workflow schema (vendored in the package, so
 offline), which also refuses a broken copy of it (so the check is no rubber stamp), and bash's own
 parser over every step's script; its Build and Check steps run by bash on the fixture, twice (a
-second runner takes the output from the team cache). Its uros lines are parsed by uros in tests/unit/test_ci_example.py."""
+second runner takes the output from the team cache). Its uros lines are parsed by uros in tests/unit/test_ci_example_pure.py."""
 
 from __future__ import annotations
 

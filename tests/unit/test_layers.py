@@ -74,3 +74,11 @@ def test_no_module_imports_a_posix_only_module() -> None:
                 names = [node.module.split(".")[0]]
             found += [f"{path.name}: {n}" for n in names if n in POSIX_ONLY]
     assert found == []
+
+
+def test_test_files_have_unique_names() -> None:
+    # pytest imports test files by basename (no packages under tests/): two of one name stop the
+    # whole collection ("import file mismatch"), as CI found once.
+    tests = import_graph.PACKAGE.parent / "tests"
+    names = [p.name for p in tests.rglob("test_*.py")]
+    assert sorted({n for n in names if names.count(n) > 1}) == []
