@@ -15,10 +15,11 @@ PACKAGE = Path(__file__).resolve().parent.parent / "uros_build"
 LAYERS: tuple[tuple[str, str], ...] = (
     ("base", "the top-level modules: errors, console, loader, templating, proc, files, defaults"),
     ("shim", "what runs inside a target's build: the Python shim and its two caches"),
-    ("target", "what a target is: profiles, toolchain text, compilers, ESP-IDF, ABI, probe machines"),
+    ("target", "what a target is: profiles, toolchain text, compilers, ESP-IDF, ABI"),
     ("sources", "what is built: the workspace, its files, distros, clones, packages, interfaces, meta"),
     ("colcon", "how it is built: colcon's command, host tools, fingerprints, install trees, host stage"),
     ("output", "what comes out: the archive, includes, build-info, output folders, exports, team cache"),
+    ("run", "what runs a built library: QEMU machines, the probe and app firmware, the agent session, the peer"),
     ("config", "what the user asked: settings and their precedence, the build and source plans"),
     ("steps", "a build's steps, each over the frozen plan"),
     ("commands", "one module a command"),

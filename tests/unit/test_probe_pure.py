@@ -10,7 +10,7 @@ import pytest
 from uros_build.commands import doctor
 from uros_build.commands import probe as probe_cmd
 from uros_build.errors import ConfigError
-from uros_build.target import machines as probe
+from uros_build.run import machines as probe
 
 
 def test_the_shipped_machine_table() -> None:

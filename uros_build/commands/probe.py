@@ -12,9 +12,7 @@ from __future__ import annotations
 import json
 import math
 import os
-import shutil
 import sys
-import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
@@ -22,12 +20,14 @@ from uros_build import console
 from uros_build.colcon.fingerprint import digest
 from uros_build.config.plan import finish_killed_swaps, folder_key, resolve_output
 from uros_build.config.settings import AGENT, resolve_outside
-from uros_build.errors import ConfigError, MissingToolError, StepFailed, VerifyError
+from uros_build.errors import ConfigError, MissingToolError, VerifyError
 from uros_build.files import locked
 from uros_build.output.buildinfo import BuildInfo, read_build_info
-from uros_build.proc import Background, Runner, new_run_log, user_log_dir
+from uros_build.proc import Runner, new_run_log, user_log_dir
+from uros_build.run import machines as probe_mod
+from uros_build.run.firmware import build_firmware
+from uros_build.run.session import run_session
 from uros_build.sources.workspace import workspace_of_output
-from uros_build.target import machines as probe_mod
 
 _AGENT_HINT = (
     "pass --agent PATH (or set UROS_AGENT) to a MicroXRCEAgent: eProsima Micro-XRCE-DDS-Agent v2.3.0 "
@@ -59,18 +59,6 @@ def _agent(given: str | None, runner: Runner) -> str:
     if os.sep in wanted and not (Path(wanted).is_file() and os.access(wanted, os.X_OK)):
         raise MissingToolError(f"--agent {wanted}: no such program", _AGENT_HINT)
     return runner.which(wanted, _AGENT_HINT)
-
-
-def _wait_for_pty(qemu_output: Path, qemu: Background, seconds: float) -> str | None:
-    end = time.monotonic() + seconds
-    while time.monotonic() < end:
-        text = qemu_output.read_text(encoding="utf-8", errors="replace") if qemu_output.is_file() else ""
-        pty = probe_mod.pty_of(text)
-        if pty is not None:
-            return pty
-        if qemu.wait(0.1) is not None:
-            return None
-    return None
 
 
 def probe(
@@ -136,50 +124,10 @@ def _probe(
         "qemu-system-arm", "install qemu-system-arm (Debian: apt-get install qemu-system-arm)"
     )
     agent_program = _agent(agent, runner)
-    cmake = runner.which("cmake")
-
-    # the firmware, built as a user's project would be: the output's toolchain file and package
-    src, build = work / "src", work / "build"
-    # afresh every time (it takes a second): another output of the target has another toolchain file
-    shutil.rmtree(src, ignore_errors=True)
-    shutil.rmtree(build, ignore_errors=True)
-    shutil.copytree(probe_mod.firmware_sources(), src)
-    runner.run(
-        [cmake, "-S", str(src), "-B", str(build), "-DCMAKE_BUILD_TYPE=Release",
-         f"-DCMAKE_TOOLCHAIN_FILE={out / 'toolchain.cmake'}", f"-DCMAKE_PREFIX_PATH={out}"],
-        step="configure the probe firmware", quiet=not verbose,
-    )  # fmt: skip
-    runner.run([cmake, "--build", str(build)], step="build the probe firmware", quiet=not verbose)
-    elf = next(iter(sorted(p for p in build.glob("uros_probe*") if p.suffix in ("", ".elf"))), None)
-    if elf is None or not elf.is_file():
-        raise StepFailed(
-            "build the probe firmware: no uros_probe ELF was made", f"the log is {runner.log_path}"
-        )
-
-    console_log, qemu_log, agent_log = work / "console.log", work / "qemu.log", work / "agent.log"
-    console_log.unlink(missing_ok=True)
-    argv = probe_mod.qemu_argv(machine, elf, console_log)
-    started = time.monotonic()
-    qemu = runner.start([qemu_program, *argv[1:]], step="QEMU", output=qemu_log)
-    agent_proc = None
-    try:
-        pty = _wait_for_pty(qemu_log, qemu, 10.0)
-        if pty is None:
-            raise StepFailed(
-                f"QEMU {machine.machine} did not open the firmware's link (no pseudo-terminal)",
-                f"its output is in {qemu_log}",
-            )
-        agent_proc = runner.start(
-            probe_mod.agent_argv(agent_program, pty), step="the agent", output=agent_log
-        )
-        status = qemu.wait(timeout)
-    finally:
-        qemu.stop()
-        if agent_proc is not None:
-            agent_proc.stop()
-    seconds = time.monotonic() - started
-    text = console_log.read_text(encoding="utf-8", errors="replace") if console_log.is_file() else ""
-    runner.log("firmware console:\n" + text)
+    elf = build_firmware(runner, probe_mod.firmware_sources(), work, out, "uros_probe", verbose)
+    ran = run_session(runner, qemu_program, machine, elf, agent_program, work, timeout)
+    status, seconds, text = ran.status, ran.seconds, ran.console
+    console_log, agent_log = ran.console_log, ran.agent_log
     used = probe_mod.resources_used(text)
     limits = probe_mod.limits_held(text)
     report = ProbeReport(

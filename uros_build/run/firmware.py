@@ -1,0 +1,33 @@
+"""A firmware built against an output, as a user's project would build it: the output's
+`toolchain.cmake` and its CMake package (`microros::microros`), configured and built afresh in a work
+folder. The probe firmware is one; `uros probe --app` builds another from the same board files."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+from uros_build.errors import StepFailed
+from uros_build.proc import Runner
+
+
+def build_firmware(runner: Runner, sources: Path, work: Path, out: Path, name: str, verbose: bool) -> Path:
+    """Copy `sources` to work/src, configure and build it against `out`; the ELF called `name`."""
+    cmake = runner.which("cmake")
+    src, build = work / "src", work / "build"
+    # afresh every time (it takes a second): another output of the target has another toolchain file
+    shutil.rmtree(src, ignore_errors=True)
+    shutil.rmtree(build, ignore_errors=True)
+    shutil.copytree(sources, src)
+    runner.run(
+        [cmake, "-S", str(src), "-B", str(build), "-DCMAKE_BUILD_TYPE=Release",
+         f"-DCMAKE_TOOLCHAIN_FILE={out / 'toolchain.cmake'}", f"-DCMAKE_PREFIX_PATH={out}"],
+        step=f"configure the {name} firmware", quiet=not verbose,
+    )  # fmt: skip
+    runner.run([cmake, "--build", str(build)], step=f"build the {name} firmware", quiet=not verbose)
+    elf = next(iter(sorted(p for p in build.glob(f"{name}*") if p.suffix in ("", ".elf"))), None)
+    if elf is None or not elf.is_file():
+        raise StepFailed(
+            f"build the {name} firmware: no {name} ELF was made", f"the log is {runner.log_path}"
+        )
+    return elf
