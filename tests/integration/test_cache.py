@@ -341,12 +341,12 @@ def test_an_upload_packs_only_what_uros_wrote_and_a_take_keeps_the_users_files(
     (out / "private" / "cred.txt").write_text("password=uploader\n")
     store = tmp_path / "store"
     try:
-        _build(seed)  # the output folder changed: a build (which keeps the user's files), then up to date
+        _build(seed)  # up to date: the user's files beside the output are not part of it
         said = _upload_from(seed, store.as_uri())
     finally:
         shutil.rmtree(out / "private")
         (out / "notes.txt").unlink()
-        _build(seed)  # up to date again for the other tests
+        _build(seed)  # still up to date for the other tests
     key = _key(seed)
     assert f"uploaded entry {key[:16]}" in said, said
     with tarfile.open(store / f"{key}.tar.gz") as tar:

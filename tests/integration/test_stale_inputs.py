@@ -133,3 +133,28 @@ def test_a_header_outside_the_workspace_restored_with_an_old_mtime(tmp_path: Pat
     assert "BOARD_CONFIG_TWO" in text and "BOARD_CONFIG_ONE" not in text
     assert "headers outside the workspace changed since the last build" in proc.stderr
     assert "up to date" in run_uros(*args).stderr  # and then nothing to do
+
+
+def test_a_users_file_beside_the_output_is_not_a_change_but_a_header_added_to_include_is(
+    tmp_path: Path,
+) -> None:
+    """A notes.txt (or a folder of the user's) beside an up-to-date libmicroros.a made the next
+    build rebuild everything ("changed since the last build: the output folder"): only what uros
+    wrote there (its `.uros-output` marker names it) is the output. A header dropped into include/
+    is uros's tree changed, and still rebuilds it, to exactly this build's headers."""
+    need("arm-none-eabi-gcc", "cmake")
+    ws = make_fixture_workspace(tmp_path / "ws")
+    _build(ws)
+    out = ws / "build/cortex-m7"
+    (out / "notes.txt").write_text("mine\n")
+    (out / "mine").mkdir()
+    (out / "mine" / "board.h").write_text("/* mine */\n")
+    again = _build(ws)
+    assert "up to date" in again.stderr and "the output folder" not in again.stderr, again.stderr
+    assert (out / "notes.txt").read_text() == "mine\n" and (out / "mine" / "board.h").is_file()
+    stray = out / "include" / "stray.h"
+    stray.write_text("/* not from this build */\n")
+    rebuilt = _build(ws)
+    assert "the output folder" in rebuilt.stderr and "up to date" not in rebuilt.stderr, rebuilt.stderr
+    assert not stray.exists()
+    assert (out / "notes.txt").read_text() == "mine\n"

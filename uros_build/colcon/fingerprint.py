@@ -21,7 +21,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Collection, Iterable, Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -218,18 +218,23 @@ def stat_files(paths: Iterable[Path]) -> dict[str, list[int]]:
     return out
 
 
-def stat_folder(folder: Path) -> dict[str, list[int]]:
-    """relative path -> [size, mtime_ns] of every file under ``folder`` (an output folder)."""
+def stat_folder(folder: Path, only: Collection[str] | None = None) -> dict[str, list[int]]:
+    """relative path -> [size, mtime_ns] of every file under ``folder`` (an output folder);
+    with ``only``, of the files under those top-level entries (what uros wrote there: a user's
+    own file beside the output is not part of it)."""
     top = str(folder)
     cut = len(top) + 1
     out = {}
     stack = [top]
     while stack:
+        at = stack.pop()
         try:
-            entries = list(os.scandir(stack.pop()))
+            entries = list(os.scandir(at))
         except OSError:
             continue
         for entry in entries:
+            if only is not None and at == top and entry.name not in only:
+                continue
             try:
                 if entry.is_dir(follow_symlinks=False):
                     stack.append(entry.path)
@@ -313,13 +318,24 @@ def differing(before: Mapping[str, str], after: Mapping[str, str]) -> list[str]:
     return sorted(k for k in set(before) | set(after) if before.get(k) != after.get(k))
 
 
-def output_intact(state: BuildState, output: Path, library: str, library_sha256: str | None) -> bool:
+def output_intact(
+    state: BuildState,
+    output: Path,
+    library: str,
+    library_sha256: str | None,
+    owned: Collection[str] | None = None,
+) -> bool:
     """The output folder holds exactly the files the build wrote, unchanged (size and mtime),
     and its libmicroros.a has the sha256 ``library_sha256`` (from its build-info.json) that the
-    state recorded."""
+    state recorded. ``owned``: the top-level entries uros wrote (its marker); only those count,
+    so a user's notes.txt beside the library does not make the next build rebuild (a file added
+    inside include/ still does: the tree must hold exactly this build's headers)."""
     if str(output) != state.output or library_sha256 != state.library_sha256:
         return False
-    if stat_folder(output) != state.output_files:
+    recorded = state.output_files
+    if owned is not None:
+        recorded = {k: v for k, v in recorded.items() if k.split(os.sep, 1)[0] in owned}
+    if stat_folder(output, owned) != recorded:
         return False
     lib = output / library
     return lib.is_file() and file_sha256(lib) == state.library_sha256

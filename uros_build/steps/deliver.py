@@ -96,7 +96,7 @@ def _record(plan: BuildPlan, state_path: Path, parts: Mapping[str, str], assembl
             fingerprint=fp.combine(parts),
             parts=dict(parts),
             output=str(plan.output),
-            output_files=fp.stat_folder(plan.output),
+            output_files=fp.stat_folder(plan.output, outputs.owned_entries(plan.output)),
             library_sha256=assembled.info.library.sha256,
             merge_key=assembled.merge_key,
             packages=assembled.info.packages,

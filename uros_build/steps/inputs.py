@@ -20,6 +20,7 @@ from uros_build.colcon.hosttools import HostFacts
 from uros_build.config.plan import BuildPlan
 from uros_build.errors import ConfigError
 from uros_build.output.buildinfo import read_build_info
+from uros_build.output.folders import owned_entries
 from uros_build.sources import packages as packages_mod
 from uros_build.sources.workspace import Workspace
 from uros_build.sources.wsfiles import CONFIG
@@ -200,7 +201,9 @@ def _output_intact(output: Path, state: fp.BuildState) -> bool:
         info = read_build_info(output)
     except ConfigError:
         return False
-    return fp.output_intact(state, output, info.library.file, info.library.sha256)
+    return fp.output_intact(
+        state, output, info.library.file, info.library.sha256, owned_entries(output)
+    )
 
 
 def flags_fingerprint(parts: Mapping[str, str]) -> str:
