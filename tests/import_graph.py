@@ -19,7 +19,10 @@ LAYERS: tuple[tuple[str, str], ...] = (
     ("sources", "what is built: the workspace, its files, distros, clones, packages, interfaces, meta"),
     ("colcon", "how it is built: colcon's command, host tools, fingerprints, install trees, host stage"),
     ("output", "what comes out: the archive, includes, build-info, output folders, exports, team cache"),
-    ("run", "what runs a built library: QEMU machines, the probe and app firmware, the agent session, the peer"),
+    (
+        "run",
+        "what runs a built library: QEMU machines, the probe and app firmware, the agent session, the peer",
+    ),
     ("config", "what the user asked: settings and their precedence, the build and source plans"),
     ("steps", "a build's steps, each over the frozen plan"),
     ("commands", "one module a command"),

@@ -201,9 +201,7 @@ def _output_intact(output: Path, state: fp.BuildState) -> bool:
         info = read_build_info(output)
     except ConfigError:
         return False
-    return fp.output_intact(
-        state, output, info.library.file, info.library.sha256, owned_entries(output)
-    )
+    return fp.output_intact(state, output, info.library.file, info.library.sha256, owned_entries(output))
 
 
 def flags_fingerprint(parts: Mapping[str, str]) -> str:
