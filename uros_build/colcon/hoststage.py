@@ -122,7 +122,7 @@ class Stage:
 
 
 def plan_stage(
-    state_dir: Path,
+    stages_dir: Path,
     packages: tuple[str, ...],
     meta: Mapping[str, Mapping[str, object]],
     tools: Sequence[str],
@@ -138,7 +138,7 @@ def plan_stage(
     folder_key = fp.digest_json(
         {"format": FORMAT, "packages": packages, "meta": entries, "tools": list(tools)}
     )
-    folder = state_dir / "shared" / folder_key[:16]
+    folder = stages_dir / folder_key[:16]
     key = fp.digest_json({"folder": folder_key, "sources": dict(sources), "dev_ws": dev, "at": str(folder)})
     return Stage(folder, packages, entries, key)
 

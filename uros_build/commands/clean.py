@@ -69,7 +69,7 @@ _STAGE_NAME = re.compile(r"[0-9a-f]{16}")
 def _clean_host_stages(ws: Workspace) -> int:
     """The host stages (.uros/shared/<key>: the packages that compile nothing, built once for every
     target), each under its lock; returns the bytes freed."""
-    shared = ws.state_dir / "shared"
+    shared = ws.stages_dir
     freed = 0
     for stage in sorted(shared.iterdir()) if shared.is_dir() else ():
         # only the folders uros names (hoststage.plan_stage: 16 hex digits of their key)

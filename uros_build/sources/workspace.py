@@ -184,6 +184,11 @@ class Workspace:
         return self.state_dir / "log"
 
     @property
+    def stages_dir(self) -> Path:
+        """The host stages (colcon/hoststage.py), one folder per stage key, shared by every target."""
+        return self.state_dir / "shared"
+
+    @property
     def user_meta(self) -> Path:
         return self.root / USER_META
 

@@ -148,7 +148,7 @@ def _stage_for(
     sources = {name: hoststage.package_sources(records, ws.source_dir, by_name[name]) for name in chosen}
     dev = ws.dev_built_from()
     tools = (facts.cmake, facts.cmake_version, facts.colcon, str(colcon.generator(env)), colcon.host_python())
-    return hoststage.plan_stage(ws.state_dir, chosen, plan.meta.names, tools, sources, dev)
+    return hoststage.plan_stage(ws.stages_dir, chosen, plan.meta.names, tools, sources, dev)
 
 
 def _expected_shares(plan: BuildPlan, stage: hoststage.Stage) -> tuple[str, ...]:
