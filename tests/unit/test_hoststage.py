@@ -61,7 +61,9 @@ def test_choose_keeps_only_packages_whose_configure_needs_no_target_package() ->
 
 
 def _stage(tmp_path: Path, meta: dict[str, dict[str, object]], sources: dict[str, str]) -> hoststage.Stage:
-    return hoststage.plan_stage(tmp_path / ".uros" / "shared", ("a", "b"), meta, ("cmake 3.25",), sources, "lock")
+    return hoststage.plan_stage(
+        tmp_path / ".uros" / "shared", ("a", "b"), meta, ("cmake 3.25",), sources, "lock"
+    )
 
 
 def test_the_stage_folder_is_named_by_what_builds_it_and_the_key_adds_the_sources(tmp_path: Path) -> None:
