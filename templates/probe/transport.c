@@ -1,6 +1,6 @@
-/* uros probe: the four callbacks of rmw_uros_set_custom_transport over UART1. The XRCE-DDS client
- * frames the stream itself (framing = true); these only move bytes. QEMU's UART holds one received
- * byte and stops reading the host side while it is full, so polling loses nothing. */
+/* uros probe: the four callbacks of rmw_uros_set_custom_transport over the machine's link UART. The
+ * XRCE-DDS client frames the stream itself (framing = true); these only move bytes. QEMU's UARTs stop
+ * reading the host side while their receive buffer is full, so polling loses nothing. */
 #include <stdbool.h>
 #include <uxr/client/transport.h>
 
@@ -8,7 +8,7 @@
 
 bool probe_open(struct uxrCustomTransport *transport) {
   (void)transport;
-  uart_enable(PROBE_LINK);
+  probe_link_init();
   return true;
 }
 
@@ -20,11 +20,7 @@ bool probe_close(struct uxrCustomTransport *transport) {
 size_t probe_write(struct uxrCustomTransport *transport, const uint8_t *data, size_t length, uint8_t *error) {
   (void)transport;
   (void)error;
-  for (size_t i = 0; i < length; i++) {
-    while (PROBE_LINK->STATE & 1u) {
-    }
-    PROBE_LINK->DATA = data[i];
-  }
+  for (size_t i = 0; i < length; i++) probe_link_put(data[i]);
   return length;
 }
 
@@ -34,13 +30,15 @@ size_t probe_read(struct uxrCustomTransport *transport, uint8_t *data, size_t le
   (void)error;
   size_t got = 0;
   uint32_t start = probe_millis();
-  while (!(PROBE_LINK->STATE & 2u)) {
+  int byte;
+  while ((byte = probe_link_get()) < 0) {
     if ((int32_t)(probe_millis() - start) >= timeout) return 0;
   }
+  data[got++] = (uint8_t)byte;
   uint32_t last = probe_millis();
   while (got < length && probe_millis() - last < 2u) {
-    if (PROBE_LINK->STATE & 2u) {
-      data[got++] = (uint8_t)PROBE_LINK->DATA;
+    if ((byte = probe_link_get()) >= 0) {
+      data[got++] = (uint8_t)byte;
       last = probe_millis();
     }
   }

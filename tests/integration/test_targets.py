@@ -59,6 +59,16 @@ EXPECTED: dict[str, tuple[str, tuple[str, ...], tuple[str, ...]]] = {
         ),
         (),
     ),
+    "cortex-m55": (
+        "arm",
+        (
+            "Tag_CPU_arch: v8.1-M.mainline",
+            "Tag_FP_arch: FPv5/FP-D16 for ARMv8",
+            "Tag_ABI_VFP_args: VFP registers",
+            "Tag_MVE_arch: MVE Integer and FP",
+        ),
+        ("Tag_ABI_HardFP_use",),
+    ),
     "rv32imc": (
         "riscv",
         ("Machine: RISC-V", "Flags: 0x1, RVC, soft-float ABI", 'Tag_RISCV_arch: "rv32i2p1_m2p0_c2p0'),

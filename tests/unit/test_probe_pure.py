@@ -7,7 +7,6 @@ from pathlib import Path
 
 import pytest
 
-from uros_build.commands import doctor
 from uros_build.commands import probe as probe_cmd
 from uros_build.errors import ConfigError
 from uros_build.run import machines as probe
@@ -26,34 +25,7 @@ def test_a_target_without_a_machine_says_so() -> None:
         probe.machine_for("esp32s3", probe.load_machines())
 
 
-@pytest.mark.parametrize(
-    ("data", "message"),
-    [
-        ({}, "machines"),
-        ({"machines": {"cortex-m7": {}}}, "machine"),
-        ({"machines": {"cortex-m7": {"machine": "mps2 an500; rm"}}}, "is not a QEMU machine name"),
-    ],
-)
-def test_bad_machine_tables(data: object, message: str) -> None:
-    with pytest.raises(ConfigError, match=message):
-        probe.parse_machines(data, "machines.yaml")
-
-
-def test_qemu_and_agent_argv() -> None:
-    argv = probe.qemu_argv(
-        probe.Machine("cortex-m7", "mps2-an500"), Path("/w/fw.elf"), Path("/w/console.log")
-    )
-    assert argv[:3] == ["qemu-system-arm", "-M", "mps2-an500"]
-    assert argv[argv.index("-semihosting-config") + 1] == "enable=on,target=native"
-    assert argv[8:14] == [
-        "-serial",
-        "file:/w/console.log",
-        "-chardev",
-        "pty,id=link",
-        "-serial",
-        "chardev:link",
-    ]
-    assert argv[-2:] == ["-kernel", "/w/fw.elf"]
+def test_the_agent_argv() -> None:
     assert probe.agent_argv("/a/MicroXRCEAgent", "/dev/pts/7") == [
         "/a/MicroXRCEAgent", "serial", "--dev", "/dev/pts/7", "-b", "115200", "-v6",
     ]  # fmt: skip
@@ -76,25 +48,11 @@ def test_verdicts_and_resources() -> None:
 
 def test_the_firmware_sources_ship_and_name_every_verdict() -> None:
     src = probe.firmware_sources()
-    assert {p.name for p in src.iterdir()} >= {
-        "CMakeLists.txt",
-        "main.c",
-        "board.c",
-        "transport.c",
-        "mps2.ld",
-    }
+    assert {p.name for p in src.iterdir()} >= {"CMakeLists.txt", "main.c", "transport.c", "probe.h"}
     main = (src / "main.c").read_text()
     for status in probe.VERDICTS:
-        if status not in (0, 70):
+        if status not in (0, 70, 71):
             assert f", {status}, " in main or f"return {status};" in main, status
-
-
-def test_doctor_reports_what_the_probe_needs() -> None:
-    checks = doctor.eval_probe_tools(None, None, False)
-    assert [c.status for c in checks] == [doctor.SKIP, doctor.SKIP]
-    checks = doctor.eval_probe_tools("/usr/bin/qemu-system-arm", "/a/MicroXRCEAgent", True)
-    assert [c.status for c in checks] == [doctor.OK, doctor.OK]
-    assert doctor.eval_probe_tools(None, None, True)[1].status == doctor.WARN
 
 
 def test_limits_from_the_console() -> None:

@@ -139,6 +139,7 @@ SHIPPED = {
     "cortex-m7": ("arm-none-eabi-", "-mfpu=fpv5-d16", "Tag_FP_arch", "FPv5/FP-D16 for ARMv8"),
     "cortex-m7-sp": ("arm-none-eabi-", "-mfpu=fpv5-sp-d16", "Tag_ABI_HardFP_use", "SP only"),
     "cortex-m33": ("arm-none-eabi-", "-mcpu=cortex-m33", "Tag_CPU_arch", "v8-M.mainline"),
+    "cortex-m55": ("arm-none-eabi-", "-mcpu=cortex-m55", "Tag_MVE_arch", "MVE Integer and FP"),
     "rv32imc": ("riscv64-unknown-elf-", "-march=rv32imc", None, None),
     "esp8266": ("xtensa-lx106-elf-", "-mlongcalls", None, None),
     "esp32": ("xtensa-esp32-elf-", "-mlongcalls", None, None),

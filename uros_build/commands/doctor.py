@@ -28,6 +28,7 @@ from uros_build.defaults import BUILD_INFO
 from uros_build.errors import ConfigError, MissingToolError, StepFailed, UrosError, VerifyError
 from uros_build.output import folders as outputs
 from uros_build.proc import Runner, new_run_log, user_log_dir
+from uros_build.run import machines
 from uros_build.sources.workspace import Workspace, check_extra_package
 from uros_build.sources.wsfiles import CONFIG, Lock, load_config, read_lock
 from uros_build.steps import inputs as inputs_step
@@ -90,18 +91,23 @@ def eval_ccache(path: str | None, version: str | None, trouble: str | None = Non
     return Check("ccache", OK, f"{path} {version or ''}".rstrip() + " (uros build compiles through it)")
 
 
-def eval_probe_tools(qemu: str | None, agent: str | None, agent_given: bool) -> list[Check]:
-    """What `uros probe` needs; neither is needed to build, so a missing one is a note, not a failure."""
-    checks = [
-        Check("qemu", OK, qemu)
-        if qemu
-        else Check(
-            "qemu",
-            SKIP,
-            "qemu-system-arm not found: `uros probe` cannot run",
-            "apt-get install qemu-system-arm",
-        )
-    ]
+def eval_probe_tools(
+    qemus: Mapping[str, str | None],
+    agent: str | None,
+    agent_given: bool,
+    machine_table: Mapping[str, machines.Machine],
+) -> list[Check]:
+    """What `uros probe` needs: each QEMU program (path or None) with the targets it lets the probe
+    boot (meta/probe/machines.yaml), and the agent; neither is needed to build, so a missing one is
+    a note, not a failure."""
+    checks = []
+    for program, path in qemus.items():
+        targets = ", ".join(sorted(t for t, m in machine_table.items() if m.board.qemu == program))
+        if path:
+            checks.append(Check(program, OK, f"{path} (uros probe runs: {targets})"))
+        else:
+            why = f"not found: `uros probe` cannot run {targets}"
+            checks.append(Check(program, SKIP, why, machines.qemu_hint(program)))
     if agent:
         checks.append(Check("agent", OK, agent))
     elif agent_given:
@@ -427,8 +433,9 @@ def doctor(workspace: Path | None, toolchain: str | None, as_json: bool) -> list
     trouble = hosttools.ccache_unusable(runner, ccache, os.environ) if ccache else None
     checks.append(eval_ccache(ccache, _version(runner, "ccache"), trouble))
     agent = resolve_outside(AGENT).value
+    qemus = {program: _which(runner, program) for program in machines.QEMU_PROGRAMS}
     checks += eval_probe_tools(
-        _which(runner, "qemu-system-arm"), _which(runner, agent) if agent else None, bool(agent)
+        qemus, _which(runner, agent) if agent else None, bool(agent), machines.load_machines()
     )
     where = ws.root if ws else Path.cwd()
     checks.append(eval_disk(shutil.disk_usage(where).free, where))

@@ -26,6 +26,7 @@ from uros_build.output.buildinfo import BuildInfo, read_build_info
 from uros_build.proc import Runner, new_run_log, user_log_dir
 from uros_build.run import machines as probe_mod
 from uros_build.run.firmware import build_firmware
+from uros_build.run.machines import qemu_hint
 from uros_build.run.session import run_session
 from uros_build.sources.workspace import workspace_of_output
 
@@ -119,12 +120,12 @@ def _probe(
     work.mkdir(parents=True, exist_ok=True)
     runner = Runner(new_run_log(work / "log", "probe", info.target), verbose=verbose)
     console.step(f"uros probe: {out} ({info.target}) in QEMU {machine.machine}")
+    if machine.note:
+        console.info(f"{machine.machine}: {machine.note}")
     console.info(f"log: {runner.log_path}")
-    qemu_program = runner.which(
-        "qemu-system-arm", "install qemu-system-arm (Debian: apt-get install qemu-system-arm)"
-    )
+    qemu_program = runner.which(machine.board.qemu, qemu_hint(machine.board.qemu))
     agent_program = _agent(agent, runner)
-    elf = build_firmware(runner, probe_mod.firmware_sources(), work, out, "uros_probe", verbose)
+    elf = build_firmware(runner, probe_mod.firmware_sources(), work, out, "uros_probe", verbose, machine)
     ran = run_session(runner, qemu_program, machine, elf, agent_program, work, timeout)
     status, seconds, text = ran.status, ran.seconds, ran.console
     console_log, agent_log = ran.console_log, ran.agent_log

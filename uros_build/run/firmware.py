@@ -9,16 +9,25 @@ from pathlib import Path
 
 from uros_build.errors import StepFailed
 from uros_build.proc import Runner
+from uros_build.run.machines import Machine, board_files
 
 
-def build_firmware(runner: Runner, sources: Path, work: Path, out: Path, name: str, verbose: bool) -> Path:
-    """Copy `sources` to work/src, configure and build it against `out`; the ELF called `name`."""
+def build_firmware(
+    runner: Runner, sources: Path, work: Path, out: Path, name: str, verbose: bool, machine: Machine
+) -> Path:
+    """Copy `sources` to work/src and the machine's board files (start-up, UART, memory map) to
+    work/src/board, configure and build it against `out`; the ELF called `name`."""
     cmake = runner.which("cmake")
     src, build = work / "src", work / "build"
     # afresh every time (it takes a second): another output of the target has another toolchain file
     shutil.rmtree(src, ignore_errors=True)
     shutil.rmtree(build, ignore_errors=True)
-    shutil.copytree(sources, src)
+    shutil.copytree(
+        sources, src, ignore=lambda folder, names: [n for n in names if (Path(folder) / n).is_dir()]
+    )
+    (src / "board").mkdir()
+    for file_name, text in board_files(machine).items():
+        (src / "board" / file_name).write_text(text, encoding="utf-8")
     runner.run(
         [cmake, "-S", str(src), "-B", str(build), "-DCMAKE_BUILD_TYPE=Release",
          f"-DCMAKE_TOOLCHAIN_FILE={out / 'toolchain.cmake'}", f"-DCMAKE_PREFIX_PATH={out}"],

@@ -2,8 +2,10 @@
 (meta/probe/machines.yaml), the QEMU and agent command lines, QEMU's pty announcement, and what
 the firmware's exit status means. The command (commands/probe.py) runs them.
 
-The firmware (templates/probe/) ends through Arm semihosting, so QEMU's own exit status is
-main()'s return value: no console parsing decides the verdict.
+The firmware (templates/probe/: portable main.c and transport.c, plus per machine an architecture's
+start-up and linker sections, a UART driver and the machine's numbers) ends through semihosting (Arm,
+RISC-V or Xtensa's simcall), so QEMU's own exit status is main()'s return value: no console parsing
+decides the verdict.
 """
 
 from __future__ import annotations
@@ -17,24 +19,139 @@ from typing import Any
 from uros_build import loader, resources
 from uros_build.errors import ConfigError
 
+QEMU_PROGRAMS = ("qemu-system-arm", "qemu-system-riscv32", "qemu-system-xtensa")
+ARCHES = ("arm",)  # folders under templates/probe/
+UARTS = ("cmsdk",)  # templates/probe/uart/<name>.c
+STARTUPS = ("unaligned-trap",)  # what a machine's start-up may do more (templates/probe/<arch>/board.c)
+_NAME = re.compile(r"[a-z0-9][a-z0-9.-]*")
+_ARG = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.,=-]*|-[A-Za-z0-9-]+")
+_SIZE = re.compile(r"(\d+)([KM]?)")
+
+
+@dataclass(frozen=True)
+class Region:
+    origin: int
+    length: int
+
+
+@dataclass(frozen=True)
+class Board:
+    """One QEMU machine as the probe firmware sees it (meta/probe/machines.yaml: boards)."""
+
+    name: str
+    qemu: str  # the QEMU program
+    machine: str  # its -M
+    cpu: str | None  # its -cpu, when the machine's default is not the core
+    qemu_args: tuple[str, ...]
+    arch: str  # templates/probe/<arch>/
+    uart: str  # templates/probe/uart/<uart>.c
+    link: int  # the UART the agent talks to
+    console: int | None  # the firmware's text; None: through semihosting (one-UART machines)
+    reg_shift: int
+    clock_hz: int
+    rom: Region
+    ram: Region
+    stack: int
+
 
 @dataclass(frozen=True)
 class Machine:
+    """A target's probe machine: the board, what its start-up does more, and what uros says of it."""
+
     target: str
-    machine: str  # qemu-system-arm -M
+    machine: str  # the QEMU -M
+    board: Board
+    startup: tuple[str, ...] = ()
+    note: str = ""
+
+
+def _size(data: Mapping[str, Any], key: str, where: str) -> int:
+    value = data.get(key)
+    if isinstance(value, int) and not isinstance(value, bool) and value >= 0:
+        return value
+    found = _SIZE.fullmatch(value) if isinstance(value, str) else None
+    if found is None:
+        raise ConfigError(f"{where}: {key}: {value!r} is not a number of bytes (e.g. 0x20000000, 4M, 64K)")
+    return int(found.group(1)) << {"": 0, "K": 10, "M": 20}[found.group(2)]
+
+
+def _region(data: Mapping[str, Any], key: str, where: str) -> Region:
+    item = loader.mapping(data.get(key), f"{where}: {key}", {"origin", "length"}, ("origin", "length"))
+    region = Region(_size(item, "origin", f"{where}: {key}"), _size(item, "length", f"{where}: {key}"))
+    if region.length == 0 or region.origin + region.length > 1 << 32:
+        raise ConfigError(f"{where}: {key}: {region.length} bytes at {region.origin:#x} do not fit 32 bits")
+    return region
+
+
+_BOARD_KEYS = {
+    "qemu", "machine", "cpu", "qemu_args", "arch", "uart", "console", "link", "reg_shift", "clock_hz",
+    "rom", "ram", "stack", "sources",
+}  # fmt: skip
+
+
+def parse_board(name: str, entry: Any, where: str) -> Board:
+    item = loader.mapping(entry, where, _BOARD_KEYS, ("qemu", "machine", "arch", "uart", "link", "clock_hz"))
+    machine = loader.string(item, "machine", where)
+    cpu = item.get("cpu")
+    for key, value in (("machine", machine), ("cpu", cpu)):
+        if value is not None and not (isinstance(value, str) and _NAME.fullmatch(value)):
+            raise ConfigError(f"{where}: {key}: {value!r} is not a QEMU {key} name")
+    args = loader.string_list(item, "qemu_args", where)
+    for arg in args:
+        if not _ARG.fullmatch(arg):
+            raise ConfigError(f"{where}: qemu_args: {arg!r} is not a plain QEMU argument")
+    console = item.get("console")
+    rom, ram = _region(item, "rom", where), _region(item, "ram", where)
+    stack = _size(item, "stack", where)
+    if not 0 < stack < ram.length:
+        raise ConfigError(f"{where}: stack: {stack} bytes do not fit the {ram.length} bytes of ram")
+    if rom.origin < ram.origin + ram.length and ram.origin < rom.origin + rom.length:
+        raise ConfigError(f"{where}: rom and ram overlap")
+    clock = loader.integer(item, "clock_hz", where)
+    if clock < 1000:
+        raise ConfigError(f"{where}: clock_hz: {clock} is less than 1 kHz (the firmware counts milliseconds)")
+    return Board(
+        name=name,
+        qemu=loader.one_of(item, "qemu", where, QEMU_PROGRAMS),
+        machine=machine,
+        cpu=cpu,
+        qemu_args=args,
+        arch=loader.one_of(item, "arch", where, ARCHES),
+        uart=loader.one_of(item, "uart", where, UARTS),
+        link=_size(item, "link", where),
+        console=None if console is None else _size(item, "console", where),
+        reg_shift=loader.integer(item, "reg_shift", where, 0),
+        clock_hz=clock,
+        rom=rom,
+        ram=ram,
+        stack=stack,
+    )
 
 
 def parse_machines(data: Any, source: str) -> dict[str, Machine]:
-    top = loader.mapping(data, source, required=("machines",))
+    top = loader.mapping(data, source, {"boards", "machines"}, required=("boards", "machines"))
+    boards = {
+        str(name): parse_board(str(name), entry, f"{source}: boards.{name}")
+        for name, entry in loader.mapping(top["boards"], f"{source}: boards").items()
+    }
     table = loader.mapping(top["machines"], f"{source}: machines")
     out = {}
     for target, entry in table.items():
         where = f"{source}: machines.{target}"
-        item = loader.mapping(entry, where, required=("machine",))
-        machine = loader.string(item, "machine", where)
-        if not re.fullmatch(r"[a-z0-9][a-z0-9.-]*", machine):
-            raise ConfigError(f"{where}: machine: {machine!r} is not a QEMU machine name")
-        out[str(target)] = Machine(str(target), machine)
+        item = loader.mapping(entry, where, {"board", "startup", "note"}, required=("board",))
+        board = loader.string(item, "board", where)
+        if board not in boards:
+            raise ConfigError(
+                f"{where}: board: {board!r} is not one of the boards ({', '.join(sorted(boards))})"
+            )
+        startup = loader.string_list(item, "startup", where)
+        for step in startup:
+            if step not in STARTUPS:
+                raise ConfigError(f"{where}: startup: {step!r} is not one of {', '.join(STARTUPS)}")
+        note = item.get("note", "")
+        if not isinstance(note, str):
+            raise ConfigError(f"{where}: note: must be a string, got {note!r}")
+        out[str(target)] = Machine(str(target), boards[board].machine, boards[board], startup, note)
     return out
 
 
@@ -47,29 +164,92 @@ def machine_for(target: str, machines: Mapping[str, Machine]) -> Machine:
     if target not in machines:
         raise ConfigError(
             f"uros probe: target {target} has no QEMU machine here (probed: {', '.join(sorted(machines))})",
-            "the probe boots Cortex-M3/M4/M7 firmware on QEMU's mps2 boards; test this target on its board",
+            "meta/probe/machines.yaml names the targets QEMU can boot; test this target on its board",
         )
     return machines[target]
 
 
 def firmware_sources() -> Path:
+    """The portable probe (main.c, transport.c, probe.h, CMakeLists.txt); board_files() adds a
+    machine's start-up, UART and linker script."""
     return resources.templates_dir() / "probe"
 
 
+def board_files(machine: Machine) -> dict[str, str]:
+    """What a firmware's `board/` folder holds for `machine`: the architecture's start-up and linker
+    sections, the UART model's driver, and the machine's numbers as a header and a MEMORY block
+    (file name -> text; pure: the templates are read, nothing is written)."""
+    board = machine.board
+    probe = firmware_sources()
+    files = {
+        p.name: p.read_text(encoding="utf-8") for p in sorted((probe / board.arch).iterdir()) if p.is_file()
+    }
+    files[f"uart_{board.uart}.c"] = (probe / "uart" / f"{board.uart}.c").read_text(encoding="utf-8")
+    files["probe_machine.h"] = machine_header(machine)
+    files["probe.ld"] = memory_script(board)
+    return files
+
+
+def machine_header(machine: Machine) -> str:
+    board = machine.board
+    lines = [
+        f"/* {board.name} for {machine.target}: generated by uros probe from meta/probe/machines.yaml. */",
+        "#ifndef UROS_PROBE_MACHINE_H",
+        "#define UROS_PROBE_MACHINE_H",
+        f'#define PROBE_MACHINE "{board.machine}"',
+        f"#define PROBE_CLOCK_HZ {board.clock_hz}u",
+        f"#define PROBE_LINK_BASE {board.link:#010x}u",
+        f"#define PROBE_UART_REG_SHIFT {board.reg_shift}",
+    ]
+    if board.console is None:
+        lines.append("#define PROBE_CONSOLE_SEMIHOSTING 1")
+    else:
+        lines.append(f"#define PROBE_CONSOLE_BASE {board.console:#010x}u")
+    lines += [f"#define PROBE_{step.upper().replace('-', '_')} 1" for step in machine.startup]
+    return "\n".join([*lines, "#endif", ""])
+
+
+def memory_script(board: Board) -> str:
+    """The machine's MEMORY block; the architecture's sections.ld places the sections in it."""
+    return (
+        f"/* {board.name}: generated by uros probe from meta/probe/machines.yaml. */\n"
+        "MEMORY {\n"
+        f"  ROM (rx) : ORIGIN = {board.rom.origin:#010x}, LENGTH = {board.rom.length:#x}\n"
+        f"  RAM (rwx) : ORIGIN = {board.ram.origin:#010x}, LENGTH = {board.ram.length:#x}\n"
+        "}\n"
+        f"probe_stack_size = {board.stack:#x};\n"
+        "INCLUDE sections.ld\n"
+    )
+
+
 def qemu_argv(machine: Machine, elf: Path, console_log: Path) -> list[str]:
-    """UART0 to a file (the console), UART1 to a new pseudo-terminal (the agent's end), and
-    semihosting so that the firmware's exit status is QEMU's."""
-    return [
-        "qemu-system-arm",
-        "-M", machine.machine,
-        "-nographic",
-        "-monitor", "none",
-        "-semihosting-config", "enable=on,target=native",
-        "-serial", f"file:{console_log}",
-        "-chardev", "pty,id=link",
-        "-serial", "chardev:link",
-        "-kernel", str(elf),
-    ]  # fmt: skip
+    """The link UART on a new pseudo-terminal (the agent's end), the console to a file (a second UART,
+    or semihosting's console on one-UART machines), and semihosting so that the firmware's exit
+    status is QEMU's."""
+    board = machine.board
+    argv = [board.qemu, "-M", board.machine, *(["-cpu", board.cpu] if board.cpu else []), *board.qemu_args]
+    argv += ["-nographic", "-monitor", "none"]
+    if board.console is None:
+        argv += [
+            "-chardev", f"file,id=console,path={console_log}",
+            "-semihosting-config", "enable=on,target=native,chardev=console",
+            "-chardev", "pty,id=link",
+            "-serial", "chardev:link",
+        ]  # fmt: skip
+    else:
+        argv += [
+            "-semihosting-config", "enable=on,target=native",
+            "-serial", f"file:{console_log}",
+            "-chardev", "pty,id=link",
+            "-serial", "chardev:link",
+        ]  # fmt: skip
+    return [*argv, "-kernel", str(elf)]
+
+
+def qemu_hint(program: str) -> str:
+    """How to install a QEMU program on Debian (riscv32 and xtensa come in qemu-system-misc)."""
+    package = "qemu-system-arm" if program == "qemu-system-arm" else "qemu-system-misc"
+    return f"install {program} (Debian: apt-get install {package})"
 
 
 def agent_argv(agent: str, pty: str) -> list[str]:
@@ -96,6 +276,7 @@ VERDICTS: Mapping[int, str] = {
     5: "samples lost: fewer came back through the agent than were published",
     6: "tearing down the entities failed",
     70: "the firmware crashed (hard fault)",
+    71: "an unaligned access did not trap: the machine does not check ARMv6-M's alignment (CCR.UNALIGN_TRP)",
 }
 
 

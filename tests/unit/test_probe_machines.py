@@ -1,0 +1,154 @@
+"""meta/probe/machines.yaml (issue 32, item 3): the boards and the targets on them load into frozen
+dataclasses and are checked on load; each machine's QEMU command line, its generated header and
+memory map, and what `uros doctor` says of the QEMU programs."""
+
+from __future__ import annotations
+
+import copy
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from uros_build.commands import doctor
+from uros_build.errors import ConfigError
+from uros_build.run import machines
+
+BOARD: dict[str, Any] = {
+    "qemu": "qemu-system-arm",
+    "machine": "mps2-an505",
+    "arch": "arm",
+    "uart": "cmsdk",
+    "console": 0x50200000,
+    "link": 0x50201000,
+    "clock_hz": 20000000,
+    "rom": {"origin": 0x10000000, "length": "4M"},
+    "ram": {"origin": 0x38000000, "length": "2M"},
+    "stack": "64K",
+}
+TABLE: dict[str, Any] = {"boards": {"an505": BOARD}, "machines": {"cortex-m33": {"board": "an505"}}}
+
+
+def test_the_shipped_table() -> None:
+    table = machines.load_machines()
+    assert {t: m.machine for t, m in table.items()} == {
+        "cortex-m7": "mps2-an500",
+        "cortex-m7-sp": "mps2-an500",
+        "cortex-m4f": "mps2-an386",
+        "cortex-m4": "mps2-an386",
+        "cortex-m3": "mps2-an385",
+        "cortex-m33": "mps2-an505",
+        "cortex-m55": "mps3-an547",
+        "cortex-m0plus": "mps2-an385",
+    }
+    m33 = table["cortex-m33"].board
+    assert (m33.console, m33.link, m33.rom.origin, m33.ram.length) == (
+        0x50200000,
+        0x50201000,
+        0x10000000,
+        2 << 20,
+    )
+    assert table["cortex-m55"].board.console == 0x59303000
+    m0plus = table["cortex-m0plus"]
+    assert m0plus.startup == ("unaligned-trap",) and "M0+ code on an M3 core" in m0plus.note
+    with pytest.raises(AttributeError):
+        m0plus.note = "x"  # type: ignore[misc]
+
+
+def test_every_machine_names_a_shipped_target_and_its_files_exist() -> None:
+    from uros_build.target.profiles import shipped_profiles
+
+    profiles = shipped_profiles()
+    for target, machine in machines.load_machines().items():
+        assert target in profiles, target
+        files = machines.board_files(machine)
+        assert {
+            "board.c",
+            "sections.ld",
+            f"uart_{machine.board.uart}.c",
+            "probe_machine.h",
+            "probe.ld",
+        } <= set(files)
+
+
+def _broken(path: tuple[str, ...], value: Any) -> dict[str, Any]:
+    data = copy.deepcopy(TABLE)
+    at = data
+    for key in path[:-1]:
+        at = at[key]
+    if value is None:
+        del at[path[-1]]
+    else:
+        at[path[-1]] = value
+    return data
+
+
+@pytest.mark.parametrize(
+    ("path", "value", "message"),
+    [
+        (("boards",), None, "boards: is required"),
+        (("boards", "an505", "machine"), "mps2 an505; rm", "is not a QEMU machine name"),
+        (("boards", "an505", "qemu"), "qemu-system-x86_64", "is not one of qemu-system-arm"),
+        (("boards", "an505", "arch"), "mips", "arch: 'mips' is not one of"),
+        (("boards", "an505", "uart"), "pl011", "uart: 'pl011' is not one of"),
+        (("boards", "an505", "link"), "UART1", "is not a number of bytes"),
+        (("boards", "an505", "rom"), {"origin": 0xFFFF0000, "length": "1M"}, "do not fit 32 bits"),
+        (("boards", "an505", "ram"), {"origin": 0x10100000, "length": "1M"}, "rom and ram overlap"),
+        (("boards", "an505", "stack"), "4M", "do not fit the"),
+        (("boards", "an505", "clock_hz"), 100, "less than 1 kHz"),
+        (("boards", "an505", "qemu_args"), ["-bios", "none;rm"], "not a plain QEMU argument"),
+        (("boards", "an505", "colour"), "red", "colour: unknown key"),
+        (("machines", "cortex-m33", "board"), "an521", "'an521' is not one of the boards"),
+        (("machines", "cortex-m33", "startup"), ["turbo"], "'turbo' is not one of unaligned-trap"),
+    ],
+)
+def test_a_bad_table_is_refused_in_one_line(path: tuple[str, ...], value: Any, message: str) -> None:
+    with pytest.raises(ConfigError, match=message) as caught:
+        machines.parse_machines(_broken(path, value), "machines.yaml")
+    assert "machines.yaml" in caught.value.message and "\n" not in caught.value.message
+
+
+def test_the_argv_of_a_two_uart_machine() -> None:
+    m33 = machines.parse_machines(TABLE, "t")["cortex-m33"]
+    argv = machines.qemu_argv(m33, Path("/w/fw.elf"), Path("/w/console.log"))
+    assert argv == [
+        "qemu-system-arm", "-M", "mps2-an505", "-nographic", "-monitor", "none",
+        "-semihosting-config", "enable=on,target=native",
+        "-serial", "file:/w/console.log", "-chardev", "pty,id=link", "-serial", "chardev:link",
+        "-kernel", "/w/fw.elf",
+    ]  # fmt: skip
+
+
+def test_the_argv_of_every_shipped_machine() -> None:
+    for target, machine in machines.load_machines().items():
+        argv = machines.qemu_argv(machine, Path("/w/fw.elf"), Path("/w/console.log"))
+        assert argv[:3] == [machine.board.qemu, "-M", machine.machine], target
+        assert argv[-2:] == ["-kernel", "/w/fw.elf"] and "pty,id=link" in argv, target
+        # the link is the last -serial: the agent's end
+        assert argv[len(argv) - 1 - argv[::-1].index("-serial") + 1] == "chardev:link", target
+
+
+def test_the_generated_header_and_memory_map() -> None:
+    table = machines.parse_machines(_broken(("machines", "cortex-m33", "startup"), ["unaligned-trap"]), "t")
+    header = machines.machine_header(table["cortex-m33"])
+    assert "#define PROBE_CLOCK_HZ 20000000u" in header
+    assert "#define PROBE_LINK_BASE 0x50201000u" in header
+    assert "#define PROBE_CONSOLE_BASE 0x50200000u" in header
+    assert "#define PROBE_UNALIGNED_TRAP 1" in header
+    script = machines.memory_script(table["cortex-m33"].board)
+    assert "ROM (rx) : ORIGIN = 0x10000000, LENGTH = 0x400000" in script
+    assert "RAM (rwx) : ORIGIN = 0x38000000, LENGTH = 0x200000" in script
+    assert "probe_stack_size = 0x10000;" in script and "INCLUDE sections.ld" in script
+
+
+def test_doctor_says_which_qemu_runs_which_targets() -> None:
+    table = machines.load_machines()
+    qemus = {"qemu-system-arm": "/usr/bin/qemu-system-arm", "qemu-system-riscv32": None}
+    checks = doctor.eval_probe_tools(qemus, None, False, table)
+    arm, riscv, agent = checks
+    assert arm.status == doctor.OK and "cortex-m33" in arm.detail and "cortex-m0plus" in arm.detail
+    assert riscv.status == doctor.SKIP and "qemu-system-misc" in riscv.fix
+    assert agent.status == doctor.SKIP
+    checks = doctor.eval_probe_tools({}, "/a/MicroXRCEAgent", True, table)
+    assert [c.status for c in checks] == [doctor.OK]
+    assert doctor.eval_probe_tools({}, None, True, table)[0].status == doctor.WARN
