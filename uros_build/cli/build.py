@@ -85,6 +85,21 @@ from uros_build.config.settings import BuildArgs
     "its components, sdkconfig.h and C flags (default: uros.yaml's idf_build).",
 )  # fmt: skip
 @click.option(
+    "--rtos", type=click.Choice(["freertos"]), metavar="freertos",
+    help="Compile micro-ROS against an RTOS: freertos, with --rtos-dir and --rtos-config "
+    "(default: uros.yaml's rtos:; docs/rtos.md).",
+)  # fmt: skip
+@click.option(
+    "--rtos-dir", type=PATH_ARG, metavar="KERNEL",
+    help="The FreeRTOS-Kernel folder (holds include/FreeRTOS.h and portable/).",
+)  # fmt: skip
+@click.option("--rtos-config", type=PATH_ARG, metavar="DIR", help="The folder holding your FreeRTOSConfig.h.")
+@click.option(
+    "--rtos-port", metavar="PORT",
+    help="The kernel's port folder under portable/ (e.g. GCC/ARM_CM4F), or an absolute folder "
+    "(default: the core's, meta/rtos/freertos.yaml).",
+)  # fmt: skip
+@click.option(
     "--cache", metavar="URL",
     help="A team cache of outputs: file:///DIR or http(s)://HOST/PATH (GET/PUT: nginx WebDAV, "
     "bazel-remote, Artifactory...). An output built elsewhere with the same build key is taken "
@@ -123,6 +138,10 @@ def build(
     compiler_prefix: str | None,
     cflags: tuple[str, ...],
     idf_build: Path | None,
+    rtos: str | None,
+    rtos_dir: Path | None,
+    rtos_config: Path | None,
+    rtos_port: str | None,
     cache: str | None,
     cache_upload: bool,
     ccache: bool | None,
@@ -150,6 +169,10 @@ def build(
             compiler_prefix=compiler_prefix,
             cflags=cflags,
             idf_build=idf_build,
+            rtos=rtos,
+            rtos_dir=rtos_dir,
+            rtos_config=rtos_config,
+            rtos_port=rtos_port,
             rebuild=rebuild,
             packages=packages,
             for_firmware=for_firmware,

@@ -5,6 +5,7 @@ hand-kept available_ros2_types file; this is the same, derived from what was bui
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import sys
 from pathlib import Path
@@ -53,6 +54,7 @@ def gather(out: Path) -> dict[str, Any]:
         },
         "include": {"dir": info.include.dir, "files": info.include.files},
         "transport": info.transport,
+        "rtos": dataclasses.asdict(info.rtos) if info.rtos else None,
         "options": {k: dict(v) for k, v in info.cmake_options.items()},
         "packages": rows,
         "types": list(contents.interface_types(out / info.include.dir)),
@@ -86,6 +88,15 @@ def render(data: dict[str, Any]) -> str:
             f"ccache     {hits} of {hits + misses} compiles of this build taken from the cache{remote_text}"
         )
     lines.append(f"transport  {data['transport'] or '-'}")
+    rtos = data["rtos"]
+    if rtos:
+        lines.append(
+            f"rtos       {rtos['name']}: kernel {rtos['kernel']}, port {rtos['port']}, "
+            f"config {rtos['config']} "
+            f"(headers sha256 {rtos['headers_sha256'][:16]})"
+        )
+    else:
+        lines.append("rtos       none (bare metal)")
     memory = contents.memory_options(data["options"])
     for i, (pkg, opts) in enumerate(memory.items()):
         values = ", ".join(f"{k}={v}" for k, v in opts.items())

@@ -13,6 +13,7 @@ import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import Any
 
 from uros_build import console, defaults
 from uros_build.config import settings as rows
@@ -48,6 +49,7 @@ from uros_build.target.profiles import (
     load_profile_file,
     shipped_profiles,
 )
+from uros_build.target.rtos import RtosHeaders, read_freertos
 
 # ---------------------------------------------------------------------------------------------
 # the workspace: one default for every command
@@ -234,6 +236,17 @@ def meta_for(
     )
 
 
+def meta_option(meta: meta_mod.Meta, package: str, option: str) -> str | None:
+    """The value the merged meta gives ``package``'s CMake option ``option`` (-D), or None."""
+    args = meta.names.get(package, {}).get("cmake-args", ())
+    found = None
+    for arg in args if isinstance(args, tuple) else ():
+        name, sep, value = arg.removeprefix("-D").partition("=")
+        if arg.startswith("-D") and sep and name.partition(":")[0] == option:
+            found = value  # the last one wins, as on CMake's command line
+    return found
+
+
 def meta_transport(meta: meta_mod.Meta) -> str | None:
     """The XRCE-DDS transport the merged meta selects (recorded in build-info.json)."""
     args = meta.names.get("rmw_microxrcedds", {}).get("cmake-args", ())
@@ -277,6 +290,7 @@ class BuildPlan:
     workspace_packages: tuple[PackageInfo, ...] = ()  # every package colcon will find in the workspace
     warnings: tuple[str, ...] = ()  # inputs that are valid but likely not what the user meant
     idf: IdfProject | None = None  # the ESP-IDF project micro-ROS is compiled against
+    rtos: RtosHeaders | None = None  # the RTOS micro-ROS is compiled against (--rtos)
     rebuild: bool = False
     selection: Selection | None = None  # --packages/--for-firmware/uros.yaml packages: (None: all)
     force: bool = False  # --force: the output may be another target's, or hold the user's files
@@ -351,6 +365,61 @@ def idf_project(chosen: Chosen[Path | None], target: Target) -> IdfProject | Non
             "build for a target (uros build --toolchain esp32s3 --idf-build DIR) or a profile (--profile)",
         )
     return espidf.read_idf_build(folder, profile.idf_target, profile.name, flag)
+
+
+def rtos_headers(settings: Resolved, target: Target, idf: IdfProject | None) -> RtosHeaders | None:
+    """The RTOS settings.py chose (--rtos, --rtos-dir, --rtos-config, --rtos-port, else uros.yaml's
+    rtos keys), read and checked against the target's core (target/rtos.py)."""
+    rtos = settings[rows.RTOS]
+    folders: tuple[rows.Setting[Any], ...] = (rows.RTOS_DIR, rows.RTOS_CONFIG, rows.RTOS_PORT)
+    where = {row.name: settings.chosen[row.name].source for row in (rows.RTOS, *folders)}
+    if rtos.value is None:
+        for row in folders:
+            # uros.yaml's folders without rtos: are only unused; the command line's are a slip
+            if settings.chosen[row.name].source == row.flag:
+                raise ConfigError(
+                    f"{row.flag} without --rtos", f"add --rtos freertos (or rtos: freertos in {CONFIG})"
+                )
+        return None
+    profile = target_profile(target)
+    if profile is None:
+        raise ConfigError(
+            f"{rtos.source} {rtos.value} with your own toolchain file {target.key}: uros adds no flags to it",
+            "build for a target (uros build --toolchain cortex-m7 --rtos freertos ...) or a profile "
+            "(--profile), or put the RTOS's include folders in your toolchain file",
+        )
+    if idf is not None:
+        raise ConfigError(
+            f"{rtos.source} {rtos.value} with --idf-build: an ESP-IDF project brings its own FreeRTOS",
+            "leave --rtos out: --idf-build already compiles micro-ROS against ESP-IDF's FreeRTOS headers",
+        )
+    return read_freertos(
+        settings.value(rows.RTOS_DIR),
+        settings.value(rows.RTOS_CONFIG),
+        settings.value(rows.RTOS_PORT),
+        profile,
+        where,
+    )
+
+
+_CMAKE_TRUE = ("ON", "TRUE", "1", "YES", "Y")
+
+
+def check_multithread(
+    meta: meta_mod.Meta, target: Target, idf: IdfProject | None, rtos: RtosHeaders | None
+) -> None:
+    """UCLIENT_PROFILE_MULTITHREAD on a profile's bare-metal target: the XRCE-DDS client's
+    multithread.c stops with `#error XRCE multithreading not supported for this platform` deep in
+    the build (it knows FreeRTOS, Zephyr and POSIX mutexes only): said before anything runs."""
+    value = meta_option(meta, "microxrcedds_client", "UCLIENT_PROFILE_MULTITHREAD")
+    if value is None or value.upper() not in _CMAKE_TRUE:
+        return
+    if rtos is None and idf is None and isinstance(target, ProfileTarget):
+        raise ConfigError(
+            f"microxrcedds_client.UCLIENT_PROFILE_MULTITHREAD={value} on {target.key} without an RTOS: "
+            "the client's mutexes are an RTOS's",
+            "add --rtos freertos --rtos-dir KERNEL --rtos-config DIR (docs/rtos.md), or leave the option out",
+        )
 
 
 # ESP-IDF's newlib defines the 64-bit __atomic_*_8 routines from 5.3 on (components/newlib/stdatomic.c:
@@ -445,8 +514,10 @@ def plan_build(args: BuildArgs, env: Mapping[str, str] | None = None) -> BuildPl
     jobs, up_to = get(rows.JOBS), get(rows.PACKAGES_UP_TO)
     idf = idf_project(settings[rows.IDF_BUILD], target)
     target = idf_platform(target, idf)
+    rtos = rtos_headers(settings, target, idf)
     distro_preset = distro.preset if distro else None
     meta = meta_for(get(rows.PRESET), target, transport, user_metas, list(sets), distro_preset)
+    check_multithread(meta, target, idf, rtos)
     if jobs is not None and jobs < 1:
         raise ConfigError(f"-j/--jobs {jobs}: must be 1 or more", "omit it to let colcon choose")
     packages = packages_mod.discover(ws.source_dir)
@@ -486,6 +557,7 @@ def plan_build(args: BuildArgs, env: Mapping[str, str] | None = None) -> BuildPl
         workspace_packages=tuple(packages),
         warnings=tuple(warnings),
         idf=idf,
+        rtos=rtos,
         rebuild=get(rows.REBUILD),
         selection=selection,
         force=force,

@@ -85,6 +85,16 @@ def _idf_build_of(cfg: WorkspaceConfig, root: Path) -> tuple[Path | None, str] |
     return (root / cfg.idf_build, "idf_build") if cfg.idf_build else None
 
 
+def _rtos_folder(key: str) -> Callable[[WorkspaceConfig, Path], tuple[Path | None, str] | None]:
+    """uros.yaml's rtos_dir / rtos_config: a folder relative to the workspace (or absolute)."""
+
+    def read(cfg: WorkspaceConfig, root: Path) -> tuple[Path | None, str] | None:
+        value = getattr(cfg, key)
+        return (root / Path(value).expanduser(), key) if value else None
+
+    return read
+
+
 def _seconds(text: str) -> float:
     """A wait in seconds; one that is no number, not above 0 or a day or more: the default (a
     typo in a CI variable must not make the team cache wait forever or never)."""
@@ -177,6 +187,25 @@ IDF_BUILD: Setting[Path | None] = Setting(
     "relative to the workspace)",
     from_config=_idf_build_of,
 )  # fmt: skip
+RTOS: Setting[str | None] = Setting(
+    "rtos", "--rtos", "rtos", None, None, "none (bare metal)",
+    "the RTOS micro-ROS is compiled against: freertos (needs rtos_dir and rtos_config; docs/rtos.md)",
+)  # fmt: skip
+RTOS_DIR: Setting[Path | None] = Setting(
+    "rtos_dir", "--rtos-dir", "rtos_dir", None, None, "none",
+    "the RTOS kernel's folder (FreeRTOS-Kernel: holds include/FreeRTOS.h and portable/; uros.yaml's: "
+    "relative to the workspace)",
+    from_config=_rtos_folder("rtos_dir"),
+)  # fmt: skip
+RTOS_CONFIG: Setting[Path | None] = Setting(
+    "rtos_config", "--rtos-config", "rtos_config", None, None, "none",
+    "the folder holding your FreeRTOSConfig.h (uros.yaml's: relative to the workspace)",
+    from_config=_rtos_folder("rtos_config"),
+)  # fmt: skip
+RTOS_PORT: Setting[str | None] = Setting(
+    "rtos_port", "--rtos-port", "rtos_port", None, None, "the core's (meta/rtos/freertos.yaml)",
+    "the kernel's port folder under portable/ (GCC/ARM_CM4F), or an absolute folder",
+)  # fmt: skip
 CACHE: Setting[str | None] = Setting(
     "cache", "--cache", "cache", None, None, "none",
     "the team cache of outputs: file:///DIR or http(s)://...; none: no cache for this build",
@@ -231,7 +260,8 @@ AGENT: Setting[str | None] = Setting(
 # The table, in the order `uros build -v` prints it and docs/settings.md lists it.
 SETTINGS: tuple[Setting[Any], ...] = (
     WORKSPACE, TARGETS, PROFILE, COMPILER_PREFIX, CFLAGS, OUTPUT, DISTRO, TRANSPORT, PRESET, METAS, SETS,
-    PACKAGES, FOR_FIRMWARE, PACKAGES_UP_TO, JOBS, IDF_BUILD, CACHE, CACHE_TIMEOUT, CACHE_UPLOAD,
+    PACKAGES, FOR_FIRMWARE, PACKAGES_UP_TO, JOBS, IDF_BUILD, RTOS, RTOS_DIR, RTOS_CONFIG, RTOS_PORT,
+    CACHE, CACHE_TIMEOUT, CACHE_UPLOAD,
     CCACHE, FORCE, REBUILD, VERBOSE, HOST_STAGE, COMPILER_SEED, GEN_CACHE, GEN_CACHE_DIR, AGENT,
 )  # fmt: skip
 
@@ -415,6 +445,10 @@ class BuildArgs:
     for_firmware: Path | None = None  # --for-firmware: read what it wants from its sources
     toolchain_from: str = "--toolchain"  # where toolchain came from (uros.yaml's target), for messages
     idf_build: Path | None = None  # an ESP-IDF project's build folder to compile micro-ROS against
+    rtos: str | None = None  # --rtos freertos: the RTOS micro-ROS is compiled against
+    rtos_dir: Path | None = None  # its kernel's folder
+    rtos_config: Path | None = None  # the folder of FreeRTOSConfig.h
+    rtos_port: str | None = None  # the port folder, when not the core's
     cache: str | None = None  # --cache URL: a team cache of outputs (default: uros.yaml's cache:)
     cache_upload: bool = False  # --cache-upload: write this build's output to the cache
     ccache: bool | None = None  # --ccache/--no-ccache (None: ccache when it is installed)

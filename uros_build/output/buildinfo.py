@@ -76,6 +76,17 @@ class IdfInfo:
 
 
 @dataclass(frozen=True)
+class RtosInfo:
+    """The RTOS micro-ROS was compiled against (`uros build --rtos`; docs/rtos.md)."""
+
+    name: str  # "freertos"
+    kernel: str  # the kernel's folder (holds include/FreeRTOS.h)
+    port: str  # the port folder(s) under the kernel's portable/ (GCC/ARM_CM7/r0p1), or absolute
+    config: str  # the folder holding FreeRTOSConfig.h
+    headers_sha256: str  # the kernel's include/*.h, the port's *.h and FreeRTOSConfig.h (target/rtos.py)
+
+
+@dataclass(frozen=True)
 class BuildInfo:
     generated_by: str
     target: str
@@ -96,6 +107,8 @@ class BuildInfo:
     host_stage_packages: tuple[str, ...] = ()
     idf_target: str | None = None
     idf: IdfInfo | None = None
+    # the RTOS micro-ROS was compiled against; None (written as null): none, bare metal
+    rtos: RtosInfo | None = None
     # the CMake options (-D) of each package's cmake-args in the colcon.meta this build used
     cmake_options: Mapping[str, Mapping[str, str]] = field(default_factory=dict)
     # package -> {"repository", "commit"}: the clone it was built from and that clone's HEAD then
@@ -201,6 +214,7 @@ def parse_build_info(data: Any, source: str) -> BuildInfo:
         host_stage_packages=_tuple(top, "host_stage_packages", source),
         idf_target=_optional(top, "idf_target", source),
         idf=_idf(top.get("idf"), f"{source}: idf"),
+        rtos=_rtos(top.get("rtos"), f"{source}: rtos"),
         cmake_options=_nested_strings(top.get("cmake_options"), f"{source}: cmake_options"),
         sources=_nested_strings(top.get("sources"), f"{source}: sources"),
         build_key=str(top.get("build_key", "")),
@@ -243,6 +257,14 @@ def _idf(data: Any, where: str) -> IdfInfo | None:
         c_flags=_tuple(idf, "c_flags", where),
         cxx_flags=_tuple(idf, "cxx_flags", where),
     )
+
+
+def _rtos(data: Any, where: str) -> RtosInfo | None:
+    if data is None:
+        return None
+    keys = ("name", "kernel", "port", "config", "headers_sha256")
+    rtos = loader.mapping(data, where, required=keys)
+    return RtosInfo(*(loader.string(rtos, key, where) for key in keys))
 
 
 def read_build_info(out: Path, flag: str = "--from") -> BuildInfo:

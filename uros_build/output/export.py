@@ -14,7 +14,8 @@ from uros_build import __version__, templating
 from uros_build.defaults import BUILD_INFO
 from uros_build.errors import ConfigError
 from uros_build.output import folders
-from uros_build.output.buildinfo import BuildInfo
+from uros_build.output.buildinfo import BuildInfo, RtosInfo
+from uros_build.target import rtos as rtos_mod
 
 CMAKE_FILES = ("microrosConfig.cmake", "microrosConfigVersion.cmake", "microros.cmake")
 
@@ -76,14 +77,20 @@ def abi_flags(cpu_flags: tuple[str, ...]) -> dict[str, str]:
     return found
 
 
-def cmake_package_files(target: str, cpu_flags: tuple[str, ...]) -> dict[str, str]:
-    """File name -> text of the CMake package (pure)."""
+def cmake_package_files(
+    target: str, cpu_flags: tuple[str, ...], rtos: RtosInfo | None = None
+) -> dict[str, str]:
+    """File name -> text of the CMake package (pure). ``rtos``: the RTOS the library was compiled
+    against, which the package asks the firmware for at configure time."""
     ctx = {
         "version": __version__,
         "target": target,
         "cpu_flags": list(cpu_flags),
         "abi": abi_flags(cpu_flags),
         "package_version": __version__,
+        "rtos": rtos,
+        # the define the library's headers were compiled with: the firmware's compile gets it too
+        "rtos_define": rtos_mod.DEFINES.get(rtos.name, "") if rtos else "",
     }
     return {name: templating.render(f"{name}.j2", **ctx) for name in CMAKE_FILES}
 
@@ -183,7 +190,7 @@ def _write(out: Path, files: dict[str, str]) -> list[Path]:
 
 
 def write_cmake_package(out: Path, info: BuildInfo) -> list[Path]:
-    return _write(out, cmake_package_files(info.target, info.flags.cpu))
+    return _write(out, cmake_package_files(info.target, info.flags.cpu, info.rtos))
 
 
 def write_make_fragment(out: Path, info: BuildInfo) -> list[Path]:

@@ -22,6 +22,7 @@ from uros_build.sources import distros as distros_mod
 from uros_build.sources.distros import Mirror, Source
 from uros_build.sources.meta import split_set
 from uros_build.target.profiles import TRANSPORTS
+from uros_build.target.rtos import NAMES as RTOS_NAMES
 
 CONFIG = defaults.WORKSPACE_MARKER  # "uros.yaml"
 LOCK = "uros.lock"
@@ -53,6 +54,13 @@ class WorkspaceConfig:
     # An ESP-IDF project's build folder (after `idf.py reconfigure`), relative to the workspace
     # or absolute: micro-ROS is compiled against its components, sdkconfig.h and C flags.
     idf_build: str | None = None
+    # The RTOS micro-ROS is compiled against (docs/rtos.md): `freertos`, its kernel's folder and
+    # the folder of FreeRTOSConfig.h (relative to the workspace or absolute), the port when not
+    # the core's.
+    rtos: str | None = None
+    rtos_dir: str | None = None
+    rtos_config: str | None = None
+    rtos_port: str | None = None
     # A team cache of outputs (file:///DIR or http(s)://...): `uros build` takes a matching output
     # from it instead of building; only `uros build --cache-upload` writes to it.
     cache: str | None = None
@@ -91,8 +99,14 @@ def parse_config(data: Any, source: str) -> WorkspaceConfig:
         set=sets,
         packages=_package_names(loader.string_list(top, "packages", source), f"{source}: packages"),
         idf_build=loader.string(top, "idf_build", source) if top.get("idf_build") is not None else None,
+        rtos=loader.one_of(top, "rtos", source, RTOS_NAMES) if top.get("rtos") is not None else None,
+        **{k: _optional_string(top, k, source) for k in ("rtos_dir", "rtos_config", "rtos_port")},
         cache=loader.string(top, "cache", source) if top.get("cache") is not None else None,
     )
+
+
+def _optional_string(top: Mapping[str, Any], key: str, source: str) -> str | None:
+    return loader.string(top, key, source) if top.get(key) is not None else None
 
 
 _PACKAGE_NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.-]*")
@@ -127,6 +141,10 @@ def config_text(cfg: WorkspaceConfig) -> str:
         "target": cfg.target,
         "transport": cfg.transport,
         "idf_build": cfg.idf_build,
+        "rtos": cfg.rtos,
+        "rtos_dir": cfg.rtos_dir,
+        "rtos_config": cfg.rtos_config,
+        "rtos_port": cfg.rtos_port,
         "cache": cfg.cache,
     }
     data.update({k: v for k, v in optional.items() if v is not None})

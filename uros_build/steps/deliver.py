@@ -237,6 +237,7 @@ def _build_info(
         host_stage_packages=setup.shared,
         idf_target=target.idf_target,
         idf=target.idf,
+        rtos=target.rtos,
         cmake_options=contents.cmake_options(plan.meta),
         sources=_sources(plan, built),
         build_key=inputs.key,

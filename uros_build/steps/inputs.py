@@ -55,6 +55,10 @@ def build_key(ctx: Context, toolchain_file: Path, parts: Mapping[str, str]) -> s
             "profile": fp.digest(profile_text),
             "compiler": fp.digest(facts.gcc_version, driver),
             "packages": parts["packages"],
+            # the RTOS headers by content (the toolchain text has their folders as placeholders)
+            "rtos": fp.digest_json(
+                [plan.rtos.name, list(plan.rtos.port), plan.rtos.headers_sha256] if plan.rtos else None
+            ),
             "uros": fp.digest(__version__, *(p.read_bytes() for p in sorted(code.rglob("*.py")))),
         }
     )
@@ -109,6 +113,8 @@ def content_parts(plan: BuildPlan, sources_digest: str) -> dict[str, str]:
         "profile": fp.digest(repr(plan.profile)),
         # the ESP-IDF project's version, target, include folders, flags and sdkconfig.h hash
         "ESP-IDF project": fp.digest(repr(plan.idf)),
+        # the RTOS's folders, port and headers (kernel, port, FreeRTOSConfig.h) by content
+        "RTOS": fp.digest(repr(plan.rtos)),
         "packages": fp.digest_json([list(plan.requested), list(skipped)]),
         "output": fp.digest(str(plan.output)),
     }

@@ -31,6 +31,12 @@ def open_run(plan: BuildPlan) -> Runner:
             f"ESP-IDF {idf.version_text} project {idf.build_dir} ({idf.target}): {idf.components} "
             f"components, {len(idf.include_dirs)} include folders, sdkconfig.h {idf.sdkconfig_sha256[:12]}"
         )
+    if plan.rtos is not None:
+        rtos = plan.rtos
+        console.info(
+            f"RTOS {rtos.name}: kernel {rtos.kernel}, port {' '.join(rtos.port)}, config {rtos.config} "
+            f"(headers {rtos.headers_sha256[:12]})"
+        )
     _say_selection(plan)
     return runner
 

@@ -19,7 +19,7 @@ from uros_build.colcon.hosttools import HostFacts
 from uros_build.colcon.installtree import forget_configured_flags
 from uros_build.config.plan import BuildPlan, ProfileTarget, ToolchainFileTarget, meta_transport
 from uros_build.files import write_if_changed
-from uros_build.output.buildinfo import Compiler, Flags, IdfInfo
+from uros_build.output.buildinfo import Compiler, Flags, IdfInfo, RtosInfo
 from uros_build.proc import Runner
 from uros_build.target import abi
 from uros_build.target.profiles import TargetProfile
@@ -44,6 +44,7 @@ class Described:
     flags: Flags = field(default_factory=Flags)
     idf_target: str | None = None
     idf: IdfInfo | None = None
+    rtos: RtosInfo | None = None
 
 
 class TargetKind(Protocol):
@@ -130,10 +131,12 @@ class Profile:
     def profile(self) -> TargetProfile:
         return self.target.profile
 
-    def toolchain_request(self, root: str, clock_header: str | None = None) -> ToolchainRequest:
+    def toolchain_request(
+        self, root: str, clock_header: str | None = None, portable: bool = False
+    ) -> ToolchainRequest:
         """The micro-ROS toolchain file's inputs, ``root`` standing for the workspace (the real one,
         or a placeholder) and ``clock_header`` for the clock header's path (by default where the
-        build writes it, under ``root``)."""
+        build writes it, under ``root``); ``portable``: the RTOS's folders as placeholders too."""
         profile, plan = self.profile, self.plan
         if clock_header is None:
             clock_header = str(
@@ -149,6 +152,7 @@ class Profile:
             prefix_map=root,
             idf=self.plan.idf,
             transport=meta_transport(self.plan.meta),
+            rtos=plan.rtos.portable() if plan.rtos is not None and portable else plan.rtos,
         )
 
     def write_toolchain(self) -> Path:
@@ -162,7 +166,7 @@ class Profile:
 
     def portable_toolchain(self, toolchain_file: Path) -> str:
         # rendered again with a placeholder for the workspace, quoted as a plain path is
-        return render_toolchain(self.toolchain_request("/workspace"))
+        return render_toolchain(self.toolchain_request("/workspace", portable=True))
 
     def bintools(self) -> BinTools:
         tools = tool_paths(self.profile, self.facts.tool_dir)
@@ -199,6 +203,7 @@ class Profile:
                 micro_ros_only=tuple(microros_flags(micro_ros)),
             ),
             idf_target=profile.idf_target or None,
+            rtos=RtosInfo(**self.plan.rtos.record()) if self.plan.rtos is not None else None,
         )
 
 

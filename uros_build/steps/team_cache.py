@@ -97,7 +97,7 @@ def _check_cached(ctx: Context, staging: Path, key: str) -> BuildInfo:
         raise CacheUnusable(f"the entry {key[:16]} has no {info.include.dir}/ folder")
     # The files a firmware's CMake runs are written by this uros for this target: an entry's must
     # be exactly those (a server's copy could add execute_process lines).
-    expected = export.cmake_package_files(info.target, info.flags.cpu)
+    expected = export.cmake_package_files(info.target, info.flags.cpu, info.rtos)
     firmware_toolchain = ctx.kind.firmware_toolchain()
     if firmware_toolchain is not None:
         expected["toolchain.cmake"] = firmware_toolchain

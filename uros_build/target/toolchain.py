@@ -9,6 +9,7 @@ from pathlib import Path
 from uros_build import __version__, templating
 from uros_build.target.espidf import IdfProject
 from uros_build.target.profiles import TargetProfile
+from uros_build.target.rtos import RtosHeaders
 
 CLOCK_HEADER_NAME = "uros_clock_gettime.h"
 
@@ -51,6 +52,9 @@ class ToolchainRequest:
     idf: IdfProject | None = None
     # The XRCE-DDS transport the build's colcon.meta selects (None: the profile's).
     transport: str | None = None
+    # The RTOS micro-ROS is compiled against (`uros build --rtos`): its define and include
+    # folders, for micro-ROS only (never in the firmware's file).
+    rtos: RtosHeaders | None = None
 
 
 # The XRCE-DDS client's transports that run over IP, where its PLATFORM_NAME picks the socket API.
@@ -77,6 +81,10 @@ def microros_flags(req: ToolchainRequest) -> list[str]:
         flags.append("-D__attribute__(x)=")
     if mr.declare_clock_gettime and req.clock_header:
         flags += ["-include", req.clock_header]
+    if req.rtos is not None:
+        # the XRCE-DDS client's multithread profile keys its FreeRTOS mutexes on this define and
+        # includes FreeRTOS.h/semphr.h (target/rtos.py)
+        flags += [f"-D{req.rtos.define}", *(f"-I{folder}" for folder in req.rtos.include_dirs)]
     if req.prefix_map and (req.gcc_major is None or req.gcc_major >= _PREFIX_MAP_SINCE_GCC):
         # -ffile-prefix-map implies -fmacro-prefix-map (__FILE__) and -fdebug-prefix-map
         # (https://gcc.gnu.org/onlinedocs/gcc/Overall-Options.html#index-ffile-prefix-map).
