@@ -87,7 +87,7 @@ def test_listings_have_headers() -> None:
     assert lines[0].split() == ["TARGET", "COMPILER", "TRANSPORT", "DESCRIPTION"]
     assert lines[1].startswith("cortex-m0plus ")
     lines = runner.invoke(cli, ["distros"]).output.splitlines()
-    assert lines[0].split() == ["DISTRO", "STATUS", "DEV", "REPOS", "MCU", "REPOS"]
+    assert lines[0].split() == ["DISTRO", "STATUS", "DEV", "REPOS", "MCU", "REPOS", "STAND-INS"]
     assert any(line.split()[0] == "humble" for line in lines[1:])
 
 

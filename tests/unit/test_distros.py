@@ -283,8 +283,13 @@ def test_mirror_config_unknown_placeholder_names_file_and_rule() -> None:
     [
         ({"rule": []}, r"uros.yaml: mirror: rule: unknown key \(known: overrides, rules\)"),
         ({"rules": "https://a/{repo}=/m/{repo}"}, "uros.yaml: mirror: rules: must be a list of strings"),
-        ({"overrides": ["a/b=@x"]}, "uros.yaml: mirror: overrides: must be a mapping of names to strings"),
-        ({"overrides": {"a/b": 2}}, "uros.yaml: mirror: overrides: must be a mapping of names to strings"),
+        ({"overrides": ["a/b=@x"]}, "uros.yaml: mirror: overrides: expected a mapping"),
+        (
+            {"overrides": {"a/b": 2}},
+            r"uros.yaml: mirror: overrides.a/b: expected \{use: URL\[@VERSION\], why",
+        ),
+        ({"overrides": {"a/b": {"use": "@x"}}}, "uros.yaml: mirror: overrides.a/b: why: is required"),
+        ({"overrides": {"a/b": {"use": "@x", "why": "w", "as": 1}}}, "overrides.a/b: as: unknown key"),
         ([], "uros.yaml: mirror: expected a mapping"),
     ],
 )
@@ -304,3 +309,89 @@ def test_insteadof_for_build_time_clones() -> None:
     mirror = Mirror((MirrorRule("https://github.com/{owner}/{repo}", "/m/{owner}+{repo}/repo"),))
     cfg = distros.insteadof(["https://github.com/yaml/libyaml.git"], mirror)
     assert cfg == {"url./m/yaml+libyaml/repo.insteadOf": "https://github.com/yaml/libyaml.git"}
+
+
+# -- declared stand-ins (issue 33 item 5: jazzy built from a mirror that lacks some jazzy branches) --
+
+
+def test_override_with_a_reason_round_trips() -> None:
+    data = {"overrides": {"ros2/rcl": {"use": "@9.2.0", "why": "no jazzy branch"}, "a/b": "/x@ros2"}}
+    mirror = distros.load_mirror_config(data, "uros.yaml")
+    rcl, plain = mirror.overrides
+    assert (rcl.key, rcl.url, rcl.version, rcl.reason) == ("ros2/rcl", None, "9.2.0", "no jazzy branch")
+    assert (plain.use, plain.reason) == ("/x@ros2", "")
+    assert distros.mirror_to_config(mirror) == {"rules": [], **data}
+
+
+def test_an_override_url_goes_through_the_mirror_rules() -> None:
+    """A declared stand-in names the upstream fork; with a mirror it is cloned from the mirror."""
+    rule = distros.parse_rule("https://github.com/{owner}/{repo}=/m/{owner}+{repo}")
+    fork = distros.parse_override(
+        "uros/rosidl_typesupport=https://github.com/fictionlab/rosidl_typesupport.git@jazzy"
+    )
+    repo = Repo("uros/rosidl_typesupport", "https://github.com/micro-ROS/rosidl_typesupport.git", "jazzy")
+    source = distros.resolve(repo, Mirror((rule,), (fork,)))
+    assert (source.url, source.version, source.stand_in) == (
+        "/m/fictionlab+rosidl_typesupport",
+        "jazzy",
+        fork,
+    )
+    plain = distros.resolve(
+        Repo("ros2/rmw", "https://github.com/ros2/rmw.git", "jazzy"), Mirror((rule,), (fork,))
+    )
+    assert (plain.url, plain.stand_in) == ("/m/ros2+rmw", None)
+    assert distros.describe_stand_in("mcu_ws/x", source) == (
+        "mcu_ws/x: jazzy from /m/fictionlab+rosidl_typesupport instead of jazzy "
+        "(no reason given: say why in uros.yaml, mirror.overrides.<repo>.why)"
+    )
+
+
+def _stand_in_distro(stand_ins: Any) -> distros.Distro:
+    repos = (Repo("ros2/rcl", "https://github.com/ros2/rcl.git", "jazzy"),)
+    return distros.parse_distro({"name": "jazzy", "stand_ins": stand_ins}, "distro.yaml", "jazzy", (), repos)
+
+
+def test_distro_declares_stand_ins_with_reasons() -> None:
+    d = _stand_in_distro({"ros2/rcl": {"use": "@9.2.0", "why": "no jazzy branch"}})
+    assert [(o.key, o.use, o.reason) for o in d.stand_ins] == [("ros2/rcl", "@9.2.0", "no jazzy branch")]
+
+
+@pytest.mark.parametrize(
+    ("stand_ins", "expected"),
+    [
+        (
+            {"ros2/rcl": "@9.2.0"},
+            r"distro.yaml: stand_ins.ros2/rcl: expected \{use: URL\[@VERSION\], why: REASON\}, got",
+        ),
+        ({"ros2/rcl": {"use": "@9.2.0"}}, "distro.yaml: stand_ins.ros2/rcl: why: is required but missing"),
+        (
+            {"ros2/rlc": {"use": "@9", "why": "w"}},
+            "stand_ins.ros2/rlc: names no repository of this distro .*ros2/rcl",
+        ),
+        (["ros2/rcl"], "distro.yaml: stand_ins: expected a mapping"),
+    ],
+)
+def test_bad_stand_ins_name_the_file_and_key(stand_ins: Any, expected: str) -> None:
+    with pytest.raises(ConfigError, match=expected):
+        _stand_in_distro(stand_ins)
+
+
+def test_jazzy_declares_its_stand_ins_and_keeps_its_jazzy_branches() -> None:
+    jazzy = distros.load_distro("jazzy")
+    assert {o.key for o in jazzy.stand_ins} == {
+        "ament/googletest",
+        "ros2/rcl",
+        "ros2/rosidl_core",
+        "ros2/rosidl_dynamic_typesupport",
+        "uros/rclc",
+        "uros/rosidl_typesupport",
+        "uros/micro_ros_msgs",
+        "uros/micro_ros_utilities",
+        "uros/rmw_microxrcedds",
+        "uros/rosidl_typesupport_microxrcedds",
+    }
+    assert all(o.reason for o in jazzy.stand_ins)
+    # the manifest itself names the real branches: a stand-in is used only on request
+    for repo in (*jazzy.dev, *jazzy.mcu):
+        assert repo.version == ("ros2" if repo.path.startswith("eProsima/") else "jazzy"), repo
+    assert not any(distros.load_distro(name).stand_ins for name in ("humble", "kilted"))

@@ -156,6 +156,7 @@ mirror:
   overrides:
     ament/googletest: '@ros2'
     uros/tracetools: /srv/mirror/ros2+ros2_tracing/repo@humble
+    ros2/rcl: {use: '@9.2.0', why: the mirror has no jazzy branch}
 extra_packages:
   - ../my_interfaces
 targets: [cortex-m7, rp2040]
@@ -171,7 +172,8 @@ def test_sample_uros_yaml_validates() -> None:
     data = yaml.safe_load(SAMPLE_UROS_YAML)
     assert _errors("uros.schema.json", data) == []
     cfg = wsfiles.parse_config(data, "uros.yaml")  # and uros reads it
-    assert cfg.distro == "humble" and len(cfg.mirror.rules) == 1 and len(cfg.mirror.overrides) == 2
+    assert cfg.distro == "humble" and len(cfg.mirror.rules) == 1 and len(cfg.mirror.overrides) == 3
+    assert cfg.mirror.overrides[2].reason == "the mirror has no jazzy branch"
     assert cfg.targets == ("cortex-m7", "rp2040") and cfg.transport == "udp" and len(cfg.set) == 1
     assert cfg.idf_build == "../my-idf-project/build"
     # what create-firmware writes validates too
@@ -199,7 +201,8 @@ def test_uros_schema_equals_the_workspace_config() -> None:
         ({"distro": "humble", "platform": "freertos"}, "'freertos' is not one of ['generate_lib']"),
         ({"distro": "humble", "mirror": {"rules": ["https://github.com/x"]}}, "does not match"),
         ({"distro": "humble", "mirror": {"rule": []}}, "'rule' was unexpected"),
-        ({"distro": "humble", "mirror": {"overrides": {"a/b": 2}}}, "2 is not of type 'string'"),
+        ({"distro": "humble", "mirror": {"overrides": {"a/b": 2}}}, "2 is not valid under any"),
+        ({"distro": "humble", "mirror": {"overrides": {"a/b": {"use": "@x"}}}}, "is not valid under any"),
         ({"distro": "humble", "extra_packages": "../pkg"}, "'../pkg' is not of type 'array'"),
         ({"distro": "humble", "transport": "can"}, "'can' is not one of"),
         ({"distro": "humble", "set": ["RMW_UXRCE_MAX_NODES=2"]}, "does not match"),

@@ -22,6 +22,7 @@ from uros_build.cli.common import Group
 from uros_build.cli.data import (
     EXPORT_COMMANDS,
     distros,
+    distros_show,
     export,
     export_arduino,
     interface,
@@ -64,6 +65,7 @@ _REGISTRY: tuple[tuple[click.Group, click.Command], ...] = (
     (cli, targets),
     (targets, targets_show),
     (cli, distros),
+    (distros, distros_show),
     (cli, toolchain),
     (toolchain, toolchain_render),
     (cli, meta),

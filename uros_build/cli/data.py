@@ -18,6 +18,7 @@ from uros_build.cli.common import (
     TRANSPORT,
     VERBOSE,
     Group,
+    complete_distros,
     complete_targets,
     output_option,
     table,
@@ -47,12 +48,25 @@ def targets_show(name: str) -> None:
     click.echo(listings.target_profile_text(name), nl=False)
 
 
-@click.command()
+@click.group(cls=Group, invoke_without_command=True, subcommand_metavar="[show NAME]")
 @JSON
-def distros(as_json: bool) -> None:
-    """List the micro-ROS distro manifests (meta/distros/)."""
-    columns = (("name", "DISTRO"), ("status", "STATUS"), ("dev_repositories", "DEV REPOS"))
-    table(listings.distros_table(), as_json, (*columns, ("mcu_repositories", "MCU REPOS")))
+@click.pass_context
+def distros(ctx: click.Context, as_json: bool) -> None:
+    """List the micro-ROS distro manifests (meta/distros/; `uros distros show NAME` lists one's
+    repositories and the stand-ins it was built with here)."""
+    if ctx.invoked_subcommand is None:
+        columns = (("name", "DISTRO"), ("status", "STATUS"), ("dev_repositories", "DEV REPOS"))
+        more = (("mcu_repositories", "MCU REPOS"), ("stand_in_count", "STAND-INS"))
+        table(listings.distros_table(), as_json, (*columns, *more))
+
+
+@click.command("show")
+@click.argument("name", shell_complete=complete_distros)
+@JSON
+def distros_show(name: str, as_json: bool) -> None:
+    """Print the repositories of distro NAME and, for each declared stand-in, what stands in and why."""
+    columns = (("path", "REPOSITORY"), ("version", "VERSION"), ("stand_in", "STAND-IN (--stand-ins)"))
+    table(listings.distro_repositories(name), as_json, (*columns, ("why", "WHY")))
 
 
 @click.group(cls=Group)

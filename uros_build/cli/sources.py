@@ -48,6 +48,11 @@ def _git_jobs(what: str) -> Decorator:
     help="One repository from elsewhere (REPO: workspace path like uros/rclc, or owner/repo).",
 )  # fmt: skip
 @click.option("--config", type=PATH_ARG, help="A uros.yaml with a mirror: section (rules, overrides).")
+@click.option(
+    "--stand-ins", is_flag=True,
+    help="Use the stand-ins the distro declares for branches a mirror lacks (`uros distros`); each is "
+    "printed with its reason and recorded in uros.yaml and uros.lock.",
+)  # fmt: skip
 @click.option("--locked", is_flag=True, help="Clone exactly the commits in <workspace>/uros.lock.")
 @click.option("--lock-file", type=PATH_ARG, help="Clone exactly the commits in this lock file.")
 @click.option(
@@ -69,6 +74,7 @@ def create_firmware(
     mirrors: tuple[str, ...],
     overrides: tuple[str, ...],
     config: Path | None,
+    stand_ins: bool,
     locked: bool,
     lock_file: Path | None,
     extra_packages: tuple[Path, ...],
@@ -88,6 +94,7 @@ def create_firmware(
             mirrors,
             overrides,
             config,
+            stand_ins,
             locked,
             lock_file,
             extra_packages,

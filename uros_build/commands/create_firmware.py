@@ -6,14 +6,14 @@ parallel, write uros.lock, uros.yaml and colcon.meta, build the host tools once.
 from __future__ import annotations
 
 import shutil
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import replace
 from pathlib import Path
 
 from uros_build import console
 from uros_build.colcon import hosttools
-from uros_build.config.sourceplan import CreateArgs, CreatePlan, plan_create
+from uros_build.config.sourceplan import CreateArgs, CreatePlan, plan_create, print_stand_ins
 from uros_build.errors import StepFailed, UrosError
 from uros_build.proc import Runner, new_run_log, user_log_dir
 from uros_build.sources import clones
@@ -23,9 +23,9 @@ from uros_build.sources.workspace import PENDING, USER_META, Workspace, sync_tre
 from uros_build.sources.wsfiles import CONFIG, DEV_WS, LOCK, MCU_WS, Lock, WorkspaceConfig, save_config
 
 
-def _clone_all(
-    runner: Runner, git: str, root: Path, sources: Mapping[str, Source], jobs: int
-) -> dict[str, str]:
+def _clone_all(runner: Runner, git: str, plan: CreatePlan, jobs: int) -> dict[str, str]:
+    root, sources = plan.root, plan.sources
+
     def one(item: tuple[str, Source]) -> tuple[str, str]:
         path, source = item
         dest = root / path
@@ -34,7 +34,14 @@ def _clone_all(
             for argv in clones.clone_argv(git, source, dest):
                 runner.run(argv, step=f"clone {path}", quiet=True, label=label)
         except StepFailed as exc:
-            fix = f"override it: --mirror-override {source.repo.path}=URL@VERSION (log: {runner.log_path})"
+            declared = next((o for o in plan.distro.stand_ins if o.matches(source.repo)), None)
+            fix = (
+                f"pass --stand-ins: the {plan.distro.name} manifest declares {declared.use} for it "
+                f"({declared.reason})"
+                if declared is not None and source.stand_in is None
+                else f"override it: --mirror-override {source.repo.path}=URL@VERSION"
+            )
+            fix += f" (log: {runner.log_path})"
             raise clones.source_failed("cloning", path, source, exc, fix) from exc
         head = runner.query([git, "-C", str(dest), "rev-parse", "HEAD"], step=f"read {path}")
         return path, head.strip()
@@ -96,12 +103,13 @@ def create_firmware(args: CreateArgs) -> Path:
         console.warn(
             f"the {distro.name} manifest was written from upstream facts and not built by uros's authors"
         )
+    print_stand_ins(distro, plan.mirror, plan.sources)
     pending = root / PENDING
     pending.parent.mkdir(parents=True, exist_ok=True)
     unfinished = {p: "0" * 40 for p in plan.sources}
     pending.write_text(Lock.from_clones(distro.name, plan.sources, unfinished).to_json(), "utf-8")
     try:
-        commits = _clone_all(runner, git, root, plan.sources, args.jobs)
+        commits = _clone_all(runner, git, plan, args.jobs)
         (root / LOCK).write_text(Lock.from_clones(distro.name, plan.sources, commits).to_json(), "utf-8")
         for ws, ignored in ((MCU_WS, distro.colcon_ignore), (DEV_WS, distro.dev_colcon_ignore)):
             for missing in clones.mark_ignored(root, ws, ignored):

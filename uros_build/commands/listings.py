@@ -57,8 +57,30 @@ def distros_table() -> list[dict[str, Any]]:
                 "status": d.status,
                 "dev_repositories": len(d.dev),
                 "mcu_repositories": len(d.mcu),
+                "stand_in_count": len(d.stand_ins),
+                "stand_ins": [{"repository": o.key, "use": o.use, "why": o.reason} for o in d.stand_ins],
             }
         )
+    return rows
+
+
+def distro_repositories(name: str) -> list[dict[str, Any]]:
+    """`uros distros show NAME`: each repository (dev_ws/..., mcu_ws/...), the manifest's version,
+    and the declared stand-in for it (what `create-firmware --stand-ins` clones instead, and why)."""
+    d = distros_mod.load_distro(name, "NAME")
+    rows = []
+    for ws, repos in (("dev_ws", d.dev), ("mcu_ws", d.mcu)):
+        for repo in repos:
+            o = next((s for s in d.stand_ins if s.matches(repo)), None)
+            rows.append(
+                {
+                    "path": f"{ws}/{repo.path}",
+                    "url": repo.url,
+                    "version": repo.version,
+                    "stand_in": o.use if o else "-",
+                    "why": o.reason if o else "",
+                }
+            )
     return rows
 
 

@@ -12,13 +12,13 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 from uros_build import console
-from uros_build.config.sourceplan import UpdateArgs, UpdatePlan, plan_update
+from uros_build.config.sourceplan import UpdateArgs, UpdatePlan, plan_update, print_stand_ins
 from uros_build.errors import ConfigError, StepFailed, UrosError
 from uros_build.files import write_if_changed
 from uros_build.proc import Runner, new_run_log
 from uros_build.sources import clones, distros
 from uros_build.sources.workspace import Workspace
-from uros_build.sources.wsfiles import CONFIG, DEV_WS, LOCK, MCU_WS, Lock, LockedRepo, with_distro
+from uros_build.sources.wsfiles import CONFIG, DEV_WS, LOCK, MCU_WS, Lock, with_distro
 
 
 @dataclass(frozen=True)
@@ -84,13 +84,7 @@ def _count(runner: Runner, git: str, plan: UpdatePlan, path: str, old: str, new:
 
 
 def _new_lock(plan: UpdatePlan, commits: Mapping[str, str]) -> Lock:
-    return Lock(
-        plan.distro.name,
-        {
-            path: LockedRepo(s.repo.url, s.repo.version, s.url, commits[path])
-            for path, s in plan.sources.items()
-        },
-    )
+    return Lock.from_clones(plan.distro.name, plan.sources, commits)
 
 
 def update(args: UpdateArgs) -> tuple[Move, ...]:
@@ -102,6 +96,7 @@ def update(args: UpdateArgs) -> tuple[Move, ...]:
     when = f" committed before {args.before}" if args.before else ""
     console.step(f"uros update: {root} to the newest commits{when} of {target}")
     console.info(f"log: {runner.log_path}")
+    print_stand_ins(plan.distro, plan.config.mirror, plan.sources)
     git = runner.which("git")
     clones.check_untouched(
         runner, git, root, old_lock, (*plan.kept, *plan.removed), "uros update moves only clean clones"

@@ -10,7 +10,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
-from uros_build import defaults, loader
+from uros_build import console, defaults, loader
 from uros_build.config.settings import DISTRO, resolve_one, resolve_workspace
 from uros_build.errors import ConfigError
 from uros_build.sources import distros as distros_mod
@@ -45,6 +45,7 @@ class CreateArgs:
     mirrors: tuple[str, ...] = ()
     overrides: tuple[str, ...] = ()
     config: Path | None = None
+    stand_ins: bool = False  # apply the distro's declared stand-ins (distro.yaml stand_ins:)
     locked: bool = False
     lock_file: Path | None = None
     extra_packages: tuple[Path, ...] = ()
@@ -79,7 +80,34 @@ def plan_sources(distro: Distro, mirror: Mirror, locked: Mapping[str, str] | Non
     return sources
 
 
-def _mirror_from(args: CreateArgs, existing: WorkspaceConfig | None) -> Mirror:
+def print_stand_ins(plan_distro: Distro, mirror: Mirror, sources: Mapping[str, Source]) -> None:
+    """Say which clones are stand-ins, and why, before any is cloned or moved."""
+    lines, unused = stand_in_report(plan_distro, mirror, sources)
+    if lines:
+        console.step(f"{len(lines)} of {len(sources)} repositories from stand-ins (not the manifest's):")
+    for line in lines:
+        console.info(f"  stand-in {line}")
+    for warning in unused:
+        console.warn(warning)
+
+
+def stand_in_report(
+    distro: Distro, mirror: Mirror, sources: Mapping[str, Source]
+) -> tuple[list[str], list[str]]:
+    """(one line per clone an override stands in for, with its reason; a warning per override that
+    names no repository of the distro). Pure; create-firmware and update print them, so a stand-in
+    is never silent and a mistyped override is not taken for one that worked."""
+    lines = [distros_mod.describe_stand_in(p, s) for p, s in sorted(sources.items()) if s.stand_in]
+    repos = (*distro.dev, *distro.mcu)
+    unused = [
+        f"mirror override {o.key}={o.use} names no repository of {distro.name}: it changes nothing"
+        for o in mirror.overrides
+        if not any(o.matches(r, prefix) for r in repos for prefix in (f"{DEV_WS}/", f"{MCU_WS}/"))
+    ]
+    return lines, unused
+
+
+def _mirror_from(args: CreateArgs, existing: WorkspaceConfig | None, distro: Distro) -> Mirror:
     parts: list[Mirror] = []
     if existing is not None:
         parts.append(existing.mirror)
@@ -92,7 +120,24 @@ def _mirror_from(args: CreateArgs, existing: WorkspaceConfig | None) -> Mirror:
             tuple(distros_mod.parse_override(s) for s in args.overrides),
         )
     )
-    return distros_mod.combine(*parts)
+    mirror = distros_mod.combine(*parts)
+    if args.stand_ins:
+        mirror = _with_stand_ins(mirror, distro)
+    return mirror
+
+
+def _with_stand_ins(mirror: Mirror, distro: Distro) -> Mirror:
+    """The distro's declared stand-ins added to the user's mirror, except for repositories the user
+    overrides already (file or flags): those win, and uros.yaml then holds one override each."""
+    if not distro.stand_ins:
+        raise ConfigError(
+            f"--stand-ins: the {distro.name} manifest declares no stand-ins",
+            "`uros distros` lists the distros that declare some; drop --stand-ins",
+        )
+    repos = (*distro.dev, *distro.mcu)
+    own = {r for r in repos for o in mirror.overrides if o.matches(r)}
+    declared = tuple(o for o in distro.stand_ins if not any(o.matches(r) for r in own))
+    return Mirror(mirror.rules, (*mirror.overrides, *declared))
 
 
 def _check_sources(sources: Mapping[str, Source], where: str = "--mirror") -> None:
@@ -271,7 +316,7 @@ def plan_create(args: CreateArgs) -> CreatePlan:
         _check_lock_covers(lock, distro, f"{lock_flag} {lock_path}")
         locked = lock.commits()
     existed, existing, previous = _existing(root, args.force)
-    mirror = _mirror_from(args, existing)
+    mirror = _mirror_from(args, existing, distro)
     sources = plan_sources(distro, mirror, locked)
     _check_sources(sources)
     _check_destinations(root, sources, previous)

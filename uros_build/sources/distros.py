@@ -19,7 +19,15 @@ from uros_build import loader, resources
 from uros_build.errors import ConfigError, did_you_mean
 from uros_build.sources import meta
 
-_DISTRO_KEYS = {"name", "status", "preset", "colcon_ignore", "dev_colcon_ignore", "build_time_clones"}
+_DISTRO_KEYS = {
+    "name",
+    "status",
+    "preset",
+    "colcon_ignore",
+    "dev_colcon_ignore",
+    "build_time_clones",
+    "stand_ins",
+}
 # built-here: built end to end by uros's authors (the distro.yaml says where it is recorded);
 # manifest-only: written from upstream facts, never built (create-firmware warns); buildable-here
 # lies between them.
@@ -44,6 +52,9 @@ class Distro:
     colcon_ignore: tuple[str, ...]
     dev_colcon_ignore: tuple[str, ...]
     build_time_clones: tuple[str, ...]
+    # what stood in for repositories whose branch a mirror lacked when this distro was built here:
+    # applied only on request (`create-firmware --stand-ins`), each printed with its reason
+    stand_ins: tuple[Override, ...] = ()
 
 
 def parse_repos(data: Any, source: str) -> tuple[Repo, ...]:
@@ -85,6 +96,8 @@ def parse_distro(info: Any, source: str, folder: str, dev: tuple[Repo, ...], mcu
             f"{source}: preset: {preset!r} is not a shipped preset (known: {', '.join(meta.presets())})"
         )
     clones = loader.mapping_list(top, "build_time_clones", source, {"url", "by"}, required=("url",))
+    stand_ins = parse_overrides(top.get("stand_ins"), f"{source}: stand_ins", require_reason=True)
+    check_overrides_match(stand_ins, (*dev, *mcu), f"{source}: stand_ins")
     return Distro(
         name=name,
         status=loader.one_of(top, "status", source, STATUSES, "manifest-only"),
@@ -96,6 +109,7 @@ def parse_distro(info: Any, source: str, folder: str, dev: tuple[Repo, ...], mcu
         build_time_clones=tuple(
             loader.string(c, "url", f"{source}: build_time_clones[{i}]") for i, c in enumerate(clones)
         ),
+        stand_ins=stand_ins,
     )
 
 
@@ -139,6 +153,15 @@ class Override:
     key: str  # a workspace path (uros/tracetools) or owner/repo of the upstream URL
     url: str | None
     version: str | None
+    reason: str = ""  # why it stands in (a declared stand-in always says; a bare flag may not)
+
+    @property
+    def use(self) -> str:
+        """``URL[@VERSION]`` or ``@VERSION``, as written."""
+        return (self.url or "") + (f"@{self.version}" if self.version else "")
+
+    def matches(self, repo: Repo, prefix: str = "") -> bool:
+        return self.key in (repo.path, f"{prefix}{repo.path}", owner_repo(repo.url))
 
 
 @dataclass(frozen=True)
@@ -177,7 +200,7 @@ def parse_rule(spec: str, flag: str = "--mirror") -> MirrorRule:
     return MirrorRule(pattern, target)
 
 
-def parse_override(spec: str, flag: str = "--mirror-override") -> Override:
+def parse_override(spec: str, flag: str = "--mirror-override", reason: str = "") -> Override:
     key, eq, value = spec.partition("=")
     if not eq or not key or not value:
         raise ConfigError(
@@ -189,7 +212,49 @@ def parse_override(spec: str, flag: str = "--mirror-override") -> Override:
     at = value.rfind("@")
     if at >= 0 and "/" not in value[at + 1 :] and ":" not in value[at + 1 :]:
         url, version = value[:at], value[at + 1 :]
-    return Override(key, url or None, version or None)
+    return Override(key, url or None, version or None, reason)
+
+
+_OVERRIDE_KEYS = {"use", "why"}
+
+
+def parse_overrides(data: Any, where: str, require_reason: bool = False) -> tuple[Override, ...]:
+    """``REPO: URL[@VERSION]`` lines, or ``REPO: {use: URL[@VERSION], why: REASON}`` to say why it
+    stands in (``require_reason``: only the second form, as in a distro's declared stand-ins)."""
+    entries = loader.mapping(data, where)
+    out = []
+    for key, value in entries.items():
+        item = f"{where}.{key}"
+        if isinstance(value, str) and not require_reason:
+            out.append(parse_override(f"{key}={value}", where))
+            continue
+        if isinstance(value, str) or not isinstance(value, Mapping):
+            raise ConfigError(
+                f"{item}: expected {{use: URL[@VERSION], why: REASON}}"
+                + ("" if require_reason else " or URL[@VERSION]")
+                + f", got {value!r}",
+                "for example  ros2/rcl: {use: '@9.2.0', why: 'the mirror has no jazzy branch'}",
+            )
+        fields = loader.mapping(value, item, _OVERRIDE_KEYS, required=("use", "why"))
+        out.append(
+            parse_override(
+                f"{key}={loader.string(fields, 'use', item)}", item, loader.string(fields, "why", item)
+            )
+        )
+    return tuple(out)
+
+
+def check_overrides_match(overrides: Iterable[Override], repos: Iterable[Repo], where: str) -> None:
+    """Each override names a repository of the distro: a typo must not leave the real branch in
+    place while the user believes a stand-in was used."""
+    known = tuple(repos)
+    for o in overrides:
+        if not any(o.matches(r) for r in known):
+            names = sorted({r.path for r in known} | {owner_repo(r.url) or r.path for r in known})
+            raise ConfigError(
+                f"{where}.{o.key}: names no repository of this distro{did_you_mean(o.key, names)}",
+                "use a workspace path (uros/rclc) or owner/repo of an upstream URL in the .repos files",
+            )
 
 
 def owner_repo(url: str) -> str | None:
@@ -202,10 +267,9 @@ def load_mirror_config(data: Any, source: str) -> Mirror:
     where = f"{source}: mirror"
     top = loader.mapping(data, where, {"rules", "overrides"})
     rules = loader.string_list(top, "rules", where)
-    overrides = loader.string_map(top, "overrides", where)
     return Mirror(
         tuple(parse_rule(r, f"{where}.rules") for r in rules),
-        tuple(parse_override(f"{k}={v}", f"{where}.overrides") for k, v in overrides.items()),
+        parse_overrides(top.get("overrides"), f"{where}: overrides"),
     )
 
 
@@ -222,7 +286,7 @@ def combine(*mirrors: Mirror) -> Mirror:
 def mirror_to_config(m: Mirror) -> dict[str, Any]:
     return {
         "rules": [f"{r.pattern}={r.target}" for r in m.rules],
-        "overrides": {o.key: (o.url or "") + (f"@{o.version}" if o.version else "") for o in m.overrides},
+        "overrides": {o.key: {"use": o.use, "why": o.reason} if o.reason else o.use for o in m.overrides},
     }
 
 
@@ -231,6 +295,7 @@ class Source:
     repo: Repo
     url: str  # what git clones
     version: str
+    stand_in: Override | None = None  # the override that replaced the manifest's URL or version
 
     @property
     def is_commit(self) -> bool:
@@ -246,15 +311,23 @@ def rewrite_url(url: str, mirror: Mirror) -> str:
 
 
 def resolve(repo: Repo, mirror: Mirror, locked: Mapping[str, str] | None = None, prefix: str = "") -> Source:
-    override = next(
-        (o for o in mirror.overrides if o.key in (repo.path, f"{prefix}{repo.path}", owner_repo(repo.url))),
-        None,
-    )
-    url = override.url if override and override.url else rewrite_url(repo.url, mirror)
+    override = next((o for o in mirror.overrides if o.matches(repo, prefix)), None)
+    # an override's own URL goes through the mirror rules too, so a declared stand-in can name the
+    # upstream fork (https://github.com/fictionlab/...) and still be cloned from the mirror
+    url = rewrite_url(override.url if override and override.url else repo.url, mirror)
     version = override.version if override and override.version else repo.version
     if locked is not None:
         version = locked.get(f"{prefix}{repo.path}", version)
-    return Source(repo, url, version)
+    return Source(repo, url, version, override)
+
+
+def describe_stand_in(path: str, source: Source) -> str:
+    """One line saying what stood in for the manifest's repository, and why (never silent)."""
+    o = source.stand_in
+    if o is None:
+        return f"{path}: {source.repo.version} from {source.url}"
+    why = o.reason or "no reason given: say why in uros.yaml, mirror.overrides.<repo>.why"
+    return f"{path}: {source.version} from {source.url} instead of {source.repo.version} ({why})"
 
 
 def is_local(url: str) -> bool:

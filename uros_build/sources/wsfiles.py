@@ -242,6 +242,33 @@ class LockedRepo:
     version: str  # the manifest's branch/tag
     source: str  # what was cloned (after mirror rules)
     commit: str
+    # a stand-in's branch/tag (an override replaced the manifest's) and why: the lock says plainly
+    # which clones are not the manifest's own
+    stand_in: str = ""
+    why: str = ""
+
+    @classmethod
+    def of(cls, source: Source, commit: str) -> LockedRepo:
+        o = source.stand_in
+        return cls(
+            source.repo.url,
+            source.repo.version,
+            source.url,
+            commit,
+            stand_in=source.version if o is not None else "",
+            why=o.reason if o is not None else "",
+        )
+
+    def to_dict(self) -> dict[str, Any]:
+        data: dict[str, Any] = {
+            "url": self.url,
+            "version": self.version,
+            "source": self.source,
+            "commit": self.commit,
+        }
+        if self.stand_in:
+            data["stand_in"] = {"version": self.stand_in, "why": self.why}
+        return data
 
 
 @dataclass(frozen=True)
@@ -253,7 +280,7 @@ class Lock:
     def from_clones(cls, distro: str, sources: Mapping[str, Source], commits: Mapping[str, str]) -> Lock:
         return cls(
             distro,
-            {p: LockedRepo(s.repo.url, s.repo.version, s.url, commits[p]) for p, s in sources.items()},
+            {p: LockedRepo.of(s, commits[p]) for p, s in sources.items()},
         )
 
     def commits(self) -> dict[str, str]:
@@ -263,10 +290,7 @@ class Lock:
         data = {
             "generated_by": f"uros {__version__} {command}",
             "distro": self.distro,
-            "repositories": {
-                path: {"url": r.url, "version": r.version, "source": r.source, "commit": r.commit}
-                for path, r in sorted(self.repositories.items())
-            },
+            "repositories": {path: r.to_dict() for path, r in sorted(self.repositories.items())},
         }
         return json.dumps(data, indent=2, sort_keys=True) + "\n"
 
@@ -298,11 +322,14 @@ def parse_lock(data: Any, source: str) -> Lock:
         where = f"{source}: repositories.{path}"
         check_clone_path(str(path), f"{source}: repositories")
         item = loader.mapping(entry, where, required=("commit",))
+        stand_in = loader.mapping(item.get("stand_in"), f"{where}.stand_in", {"version", "why"})
         out[str(path)] = LockedRepo(
             url=str(item.get("url", "")),
             version=str(item.get("version", "")),
             source=str(item.get("source", "")),
             commit=loader.string(item, "commit", where),
+            stand_in=str(stand_in.get("version", "")),
+            why=str(stand_in.get("why", "")),
         )
     return Lock(str(top.get("distro", "")), out)
 
