@@ -309,11 +309,19 @@ class Runner:
             self._failed(step, proc.returncode, err.splitlines() or out.splitlines(), hint, cwd)
         return out
 
-    def start(self, argv: Sequence[str], *, step: str, output: Path, hint: str | None = None) -> Background:
+    def start(
+        self,
+        argv: Sequence[str],
+        *,
+        step: str,
+        output: Path,
+        hint: str | None = None,
+        env: Mapping[str, str] | None = None,
+    ) -> Background:
         """Start ``argv`` in the background, its output (stdout and stderr) into the file ``output``
-        (a program uros talks to while another runs: QEMU, the agent). Stopped like every tool:
-        with uros, or by :meth:`Background.stop`."""
-        env = self._marked(messages_in_c(os.environ))
+        (a program uros talks to while another runs: QEMU, the agent, a host ROS 2 peer), in ``env``
+        (default: uros's own). Stopped like every tool: with uros, or by :meth:`Background.stop`."""
+        env = self._marked(messages_in_c(env if env is not None else os.environ))
         argv = self._prepare(argv, hint, None, env, "")
         self.log(f"(in the background; its output: {output})")
         with output.open("w", encoding="utf-8") as sink:

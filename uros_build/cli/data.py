@@ -180,6 +180,10 @@ def export_arduino(output: Path, sources: tuple[Path, ...]) -> None:
     "--timeout", type=float, default=60.0, show_default=True, help="Seconds the firmware may take in QEMU."
 )
 @click.option("--json", "as_json", is_flag=True, help="The result as JSON on stdout.")
+@click.option(
+    "--peer", type=PATH_ARG,
+    help="A host ROS 2 program (Python, rclpy) run beside the firmware over DDS; its exit status counts.",
+)  # fmt: skip
 @VERBOSE
 def probe(
     output: Path | None,
@@ -188,10 +192,11 @@ def probe(
     agent: str | None,
     timeout: float,
     as_json: bool,
+    peer: Path | None,
     verbose: bool,
 ) -> None:
     """Run a built library: boot a probe firmware in QEMU against a real Micro XRCE-DDS Agent."""
-    probe_cmd.probe(output, workspace, toolchain, agent, timeout, as_json, verbose)
+    probe_cmd.probe(output, workspace, toolchain, agent, timeout, as_json, verbose, peer)
 
 
 @click.group(cls=Group)

@@ -13,22 +13,25 @@ import json
 import math
 import os
 import sys
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 from uros_build import console
 from uros_build.colcon.fingerprint import digest
 from uros_build.config.plan import finish_killed_swaps, folder_key, resolve_output
-from uros_build.config.settings import AGENT, resolve_outside
+from uros_build.config.settings import AGENT, ROS2_VENV, resolve_outside
 from uros_build.errors import ConfigError, MissingToolError, VerifyError
 from uros_build.files import locked
 from uros_build.output.buildinfo import BuildInfo, read_build_info
 from uros_build.proc import Runner, new_run_log, user_log_dir
 from uros_build.run import machines as probe_mod
+from uros_build.run import netns, peerenv
 from uros_build.run.firmware import build_firmware
 from uros_build.run.machines import qemu_hint
-from uros_build.run.session import run_session
-from uros_build.sources.workspace import workspace_of_output
+from uros_build.run.peer import peer_verdict
+from uros_build.run.session import PeerRun, run_session
+from uros_build.sources.packages import discover
+from uros_build.sources.workspace import Workspace, workspace_of_output
 
 _AGENT_HINT = (
     "pass --agent PATH (or set UROS_AGENT) to a MicroXRCEAgent: eProsima Micro-XRCE-DDS-Agent v2.3.0 "
@@ -51,6 +54,8 @@ class ProbeReport:
     console_log: str
     agent_log: str
     run_log: str
+    peer_status: int | None = None  # --peer: the peer's exit status (None: none ran, or it did not finish)
+    peer_log: str | None = None
 
 
 def _agent(given: str | None, runner: Runner) -> str:
@@ -70,8 +75,11 @@ def probe(
     timeout: float,
     as_json: bool,
     verbose: bool = False,
+    peer: Path | None = None,
 ) -> ProbeReport:
     check_timeout(timeout)
+    if peer is not None:
+        check_peer(peer, os.geteuid())
     finish_killed_swaps(output, workspace)
     out = resolve_output(output, workspace, toolchain).resolve()
     info = read_build_info(out, "OUTPUT")
@@ -84,7 +92,27 @@ def probe(
     # firmware and console log) and blamed a good library ("no agent answered", "an entity could not
     # be created"); the second waits, and says for whom.
     with locked(base / "probe" / "locks" / info.target, info.target, command="uros probe"):
-        return _probe(out, info, machine, base, agent, timeout, as_json, verbose)
+        return _probe(out, info, machine, base, agent, timeout, as_json, verbose, peer)
+
+
+def check_peer(script: Path, euid: int) -> None:
+    """--peer names a Python file, and uros can make the namespace it runs in (root)."""
+    if not script.is_file():
+        raise ConfigError(
+            f"--peer {script}: no such file", "pass a Python script using rclpy (docs/probe.md)"
+        )
+    netns.check_root(euid, f"uros probe --peer {script}")
+
+
+def _peer_run(runner: Runner, script: Path, out: Path, info: BuildInfo, work: Path) -> PeerRun:
+    """The peer's ROS 2 environment (run/peerenv.py), with the workspace's interface packages."""
+    ws: Workspace | None = workspace_of_output(out, info.target)
+    source = ws.source_dir if ws is not None else None
+    own = None
+    if ws is not None and ws.extra_dir.is_dir():
+        own = [p.name for p in discover(ws.extra_dir)]
+    root = resolve_outside(ROS2_VENV).value.expanduser()
+    return peerenv.prepare(runner, script.resolve(), root, source, own, info.packages, work / "peer.log")
 
 
 def check_timeout(timeout: float) -> None:
@@ -115,6 +143,7 @@ def _probe(
     timeout: float,
     as_json: bool,
     verbose: bool,
+    peer: Path | None = None,
 ) -> ProbeReport:
     work = base / "probe" / f"{info.target}-{digest(str(out))[:10]}"
     work.mkdir(parents=True, exist_ok=True)
@@ -125,8 +154,9 @@ def _probe(
     console.info(f"log: {runner.log_path}")
     qemu_program = runner.which(machine.board.qemu, qemu_hint(machine.board.qemu))
     agent_program = _agent(agent, runner)
+    peer_run = _peer_run(runner, peer, out, info, work) if peer is not None else None
     elf = build_firmware(runner, probe_mod.firmware_sources(), work, out, "uros_probe", verbose, machine)
-    ran = run_session(runner, qemu_program, machine, elf, agent_program, work, timeout)
+    ran = run_session(runner, qemu_program, machine, elf, agent_program, work, timeout, peer=peer_run)
     status, seconds, text = ran.status, ran.seconds, ran.console
     console_log, agent_log = ran.console_log, ran.agent_log
     used = probe_mod.resources_used(text)
@@ -143,7 +173,11 @@ def _probe(
         console_log=str(console_log),
         agent_log=str(agent_log),
         run_log=str(runner.log_path),
+        peer_status=ran.peer_status,
+        peer_log=str(ran.peer_log) if ran.peer_log else None,
     )
+    if peer_run is not None:
+        return _peer_report(report, info.target, machine.machine, as_json)
     if as_json:
         sys.stdout.write(json.dumps(asdict(report), indent=2, sort_keys=True) + "\n")
     if status != 0:
@@ -158,4 +192,23 @@ def _probe(
     )
     if limits:
         console.info(probe_mod.describe_limits(limits))
+    return report
+
+
+def _peer_report(report: ProbeReport, target: str, machine: str, as_json: bool) -> ProbeReport:
+    """The firmware's verdict and the peer's together; both logs named in the line."""
+    judged = peer_verdict(report.status, report.verdict, report.peer_status)
+    report = replace(report, verdict=judged.text)
+    if as_json:
+        sys.stdout.write(json.dumps(asdict(report), indent=2, sort_keys=True) + "\n")
+    logs = f"the firmware's console: {report.console_log}; the peer's log: {report.peer_log}"
+    if not judged.passed:
+        raise VerifyError(
+            f"uros probe {target} ({machine}) with a peer: {judged.text}",
+            f"{logs}; the agent's log: {report.agent_log}",
+        )
+    console.step(
+        f"probe passed: {target} in QEMU {machine} and a ROS 2 peer on the host, over DDS "
+        f"({report.seconds:.1f} s); {logs}"
+    )
     return report

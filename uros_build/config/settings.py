@@ -110,6 +110,11 @@ def _user_cache(env: Mapping[str, str]) -> Path:
     return Path(env.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")) / "uros" / "gen"
 
 
+def _ros2_cache(env: Mapping[str, str]) -> Path:
+    """uros/ros2 in the XDG cache folder (~/.cache): the peer's ROS 2 environments."""
+    return Path(env.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")) / "uros" / "ros2"
+
+
 _TARGETED = ("build", "clean", "doctor", "info", "size", "probe")
 
 WORKSPACE: Setting[Path | None] = Setting(
@@ -256,6 +261,13 @@ AGENT: Setting[str | None] = Setting(
     "agent", "--agent", None, "UROS_AGENT", None, "none", "the MicroXRCEAgent program `uros probe` runs",
     commands=("probe", "doctor"),
 )  # fmt: skip
+ROS2_VENV: Setting[Path] = Setting(
+    "ros2_venv", None, None, "UROS_ROS2_VENV", Path("~/.cache/uros/ros2"),
+    "$XDG_CACHE_HOME/uros/ros2 (~/.cache/uros/ros2)",
+    "where `uros probe --peer` keeps its ROS 2 environment (a venv of PyPI's ros-* wheels, one per set "
+    "of pinned versions) and the host builds of the workspace's interface packages",
+    commands=("probe",), from_env=_path, default_from_env=_ros2_cache,
+)  # fmt: skip
 
 # The table, in the order `uros build -v` prints it and docs/settings.md lists it.
 SETTINGS: tuple[Setting[Any], ...] = (
@@ -263,6 +275,7 @@ SETTINGS: tuple[Setting[Any], ...] = (
     PACKAGES, FOR_FIRMWARE, PACKAGES_UP_TO, JOBS, IDF_BUILD, RTOS, RTOS_DIR, RTOS_CONFIG, RTOS_PORT,
     CACHE, CACHE_TIMEOUT, CACHE_UPLOAD,
     CCACHE, FORCE, REBUILD, VERBOSE, HOST_STAGE, COMPILER_SEED, GEN_CACHE, GEN_CACHE_DIR, AGENT,
+    ROS2_VENV,
 )  # fmt: skip
 
 

@@ -1,0 +1,337 @@
+"""The ROS 2 environment of a host peer (`uros probe --peer`): a Python venv made once from PyPI's
+ros-* wheels (meta/probe/ros2-peer.yaml: the packages and their pinned versions), cached under a
+key of those versions, plus the workspace's own interface packages (those in the library that the
+wheels lack, e.g. a user's CmdVel.msg) built for the host with plain CMake against the venv, cached
+by their content. No ROS install, no colcon, no sourcing: the peer runs with the venv's Python and
+the environment :func:`peer_env` gives it.
+
+Two defects of the wheels are mended (docs/probe.md, "A ROS 2 peer"): their dependency lists are
+incomplete (the data file names what CMake needs), and their exported CMake targets
+(``<pkg>::<pkg>__rosidl_generator_py``) keep the manylinux builder's Python and numpy include
+folders (``/opt/python/cp311-cp311/...``), which CMake refuses as "non-existent path" when an
+interface package is generated against them: :func:`fix_wheel_cmake` points them at the venv's.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import shutil
+import sys
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from uros_build import console, loader, resources
+from uros_build.colcon.fingerprint import digest, digest_json
+from uros_build.errors import ConfigError, StepFailed
+from uros_build.files import locked
+from uros_build.proc import Runner
+from uros_build.run.session import PeerRun
+from uros_build.sources.packages import PackageInfo, discover
+
+READY = "uros-ros2-env.json"  # written last: the folder is complete
+PARTIAL = "uros-ros2-env.partial"  # written first: the folder is uros's, and unfinished
+# the text transform of the wheels' CMake files; a change of it makes new venvs
+FIX_VERSION = 1
+INTERFACE_GROUP = "rosidl_interface_packages"
+
+PIP_HINT = (
+    "pip needs PyPI (or a mirror: PIP_INDEX_URL) to make the ROS 2 peer environment once; offline, "
+    "point UROS_ROS2_VENV at a folder where `uros probe --peer` made it before"
+)
+
+
+@dataclass(frozen=True)
+class PeerEnvSpec:
+    distro: str  # what ROS 2 the wheels are
+    packages: tuple[str, ...]  # pip requirements, each NAME==VERSION
+
+
+_PINNED = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]*==[A-Za-z0-9][A-Za-z0-9.+!-]*")
+
+
+def parse_spec(data: Any, source: str) -> PeerEnvSpec:
+    top = loader.mapping(data, source, required=("distro", "packages"))
+    distro = loader.string(top, "distro", source)
+    if not re.fullmatch(r"[a-z][a-z0-9]*", distro):
+        raise ConfigError(f"{source}: distro: {distro!r} is not a ROS 2 distro name")
+    packages = loader.string_list(top, "packages", source)
+    if not packages:
+        raise ConfigError(f"{source}: packages: empty", "name rclpy's wheel at least (ros-rclpy==VERSION)")
+    for item in packages:
+        if not _PINNED.fullmatch(item):
+            raise ConfigError(
+                f"{source}: packages: {item!r} is not pinned",
+                "write NAME==VERSION: the environment is cached under a key of these versions",
+            )
+    return PeerEnvSpec(distro, packages)
+
+
+def load_spec() -> PeerEnvSpec:
+    path = resources.meta_dir() / "probe" / "ros2-peer.yaml"
+    return parse_spec(loader.load_yaml(path, str(path)), str(path))
+
+
+def python_version() -> str:
+    return f"{sys.version_info.major}.{sys.version_info.minor}"
+
+
+def venv_key(spec: PeerEnvSpec, python: str) -> str:
+    """What makes one venv differ from another: the pinned packages, the Python (the wheels are
+    per CPython version) and the CMake mend."""
+    return digest_json({"packages": sorted(spec.packages), "python": python, "fix": FIX_VERSION})[:16]
+
+
+def venv_path(root: Path, spec: PeerEnvSpec, python: str) -> Path:
+    return root / f"{spec.distro}-py{python}-{venv_key(spec, python)}"
+
+
+# The manylinux image's CPython (/opt/python/cp311-cp311) and the numpy inside it
+_NUMPY_INCLUDE = re.compile(
+    r"/opt/python/cp\d+-cp\d+/lib/python3\.\d+/site-packages/numpy/(?:_?core)/include"
+)
+_PYTHON_INCLUDE = re.compile(r"/opt/python/cp\d+-cp\d+/include/python3\.\d+")
+
+
+def fix_wheel_cmake(text: str, python_include: str, numpy_include: str) -> str:
+    """A wheel's exported CMake file with the builder's include folders replaced by this venv's
+    (pure; numpy's first: its path starts like Python's)."""
+    text = _NUMPY_INCLUDE.sub(lambda _m: numpy_include, text)
+    return _PYTHON_INCLUDE.sub(lambda _m: python_include, text)
+
+
+def ensure_venv(runner: Runner, spec: PeerEnvSpec, root: Path) -> Path:
+    """The venv of ``spec`` under ``root``: made now (pip, then the CMake mend), or as made before."""
+    python = python_version()
+    venv = venv_path(root, spec, python)
+    if (venv / READY).is_file():
+        console.info(f"ROS 2 peer environment: {venv} (made before)")
+        return venv
+    with locked(root / "locks" / venv.name, "the ROS 2 peer environment", command="uros probe"):
+        if (venv / READY).is_file():
+            return venv
+        _begin(venv)
+        console.step(f"making the ROS 2 peer environment ({spec.distro} wheels from PyPI): {venv}")
+        runner.run([sys.executable, "-m", "venv", str(venv)], step="make the ROS 2 peer venv")
+        try:
+            runner.run(
+                [str(venv / "bin" / "python3"), "-m", "pip", "install", "--disable-pip-version-check",
+                 *spec.packages],
+                step="pip install the ROS 2 wheels",
+            )  # fmt: skip
+        except StepFailed as exc:
+            raise StepFailed(
+                f"uros probe --peer: pip could not install {spec.packages[0]} and the other ROS 2 wheels "
+                f"({exc.cause})",
+                PIP_HINT,
+            ) from None
+        patched = mend_exported_cmake(runner, venv)
+        runner.log(f"mended the builder's include folders in {len(patched)} exported CMake files")
+        _finish(venv, {"distro": spec.distro, "packages": list(spec.packages), "python": python})
+    return venv
+
+
+def _begin(folder: Path) -> None:
+    """A cached folder made afresh: what an interrupted run of uros left (its PARTIAL marker says
+    so) removed, anything else refused; marked PARTIAL until :func:`_finish`."""
+    if folder.exists() and not (folder / PARTIAL).is_file():
+        raise ConfigError(
+            f"{folder}: exists, and uros did not make it",
+            "move it away (uros does not remove what it did not write), "
+            "or set UROS_ROS2_VENV to another folder",
+        )
+    shutil.rmtree(folder, ignore_errors=True)
+    folder.mkdir(parents=True)
+    (folder / PARTIAL).write_text("made by uros probe --peer; unfinished\n", encoding="utf-8")
+
+
+def _finish(folder: Path, record: Mapping[str, Any]) -> None:
+    (folder / READY).write_text(json.dumps(record, indent=2, sort_keys=True) + "\n", encoding="utf-8")
+    (folder / PARTIAL).unlink()
+
+
+def mend_exported_cmake(runner: Runner, venv: Path) -> list[Path]:
+    """Apply :func:`fix_wheel_cmake` to the venv's exported CMake files; the files changed."""
+    paths = runner.query(
+        [str(venv / "bin" / "python3"), "-c",
+         "import sysconfig, numpy; print(sysconfig.get_paths()['include']); print(numpy.get_include())"],
+        step="ask the peer venv's Python for its include folders",
+    ).split("\n")  # fmt: skip
+    python_include, numpy_include = paths[0].strip(), paths[1].strip()
+    changed = []
+    for path in sorted(venv.glob("share/*/cmake/*.cmake")):
+        text = path.read_text(encoding="utf-8", errors="surrogateescape")
+        fixed = fix_wheel_cmake(text, python_include, numpy_include)
+        if fixed != text:
+            path.write_text(fixed, encoding="utf-8", errors="surrogateescape")
+            changed.append(path)
+    return changed
+
+
+# ---------------------------------------------------------------------------------------------
+# the workspace's interface packages, built for the host
+
+
+def packages_in(venv: Path) -> set[str]:
+    """The ROS packages the venv holds (an ament prefix: share/<pkg>/package.xml)."""
+    share = venv / "share"
+    return {p.name for p in share.iterdir() if (p / "package.xml").is_file()} if share.is_dir() else set()
+
+
+def interface_packages(
+    found: Iterable[PackageInfo], in_library: Iterable[str], have: set[str], own: Iterable[str] | None = None
+) -> list[PackageInfo]:
+    """The library's interface packages that the venv lacks, each after those of them it depends
+    on (pure). ``own`` (the workspace's extra packages) keeps it to those and what they need: the
+    upstream ones the wheels lack (example_interfaces, micro_ros_msgs) cost minutes to build and a
+    peer rarely imports them; None: every one."""
+    library = set(in_library)
+    wanted = {
+        p.name: p for p in found if INTERFACE_GROUP in p.groups and p.name in library and p.name not in have
+    }
+    roots = sorted(wanted) if own is None else sorted(set(own) & wanted.keys())
+    ordered: list[PackageInfo] = []
+    done: set[str] = set()
+
+    def visit(name: str, path: tuple[str, ...]) -> None:
+        if name in done or name in path:
+            return
+        for dep in sorted(wanted[name].build_deps & wanted.keys()):
+            visit(dep, (*path, name))
+        done.add(name)
+        ordered.append(wanted[name])
+
+    for name in roots:
+        visit(name, ())
+    return ordered
+
+
+def package_files(path: Path) -> dict[str, bytes]:
+    """A package's files by relative path (what its host build depends on)."""
+    out = {}
+    for file in sorted(path.rglob("*")):
+        rel = file.relative_to(path)
+        if file.is_file() and not any(part.startswith(".") for part in rel.parts):
+            out[rel.as_posix()] = file.read_bytes()
+    return out
+
+
+def interfaces_key(venv_name: str, packages: Mapping[str, Mapping[str, bytes]]) -> str:
+    """The host build's key: the venv and every file of every package (pure)."""
+    parts: list[str | bytes] = [venv_name]
+    for name in sorted(packages):
+        parts.append(name)
+        for rel in sorted(packages[name]):
+            parts += [rel, packages[name][rel]]
+    return digest(*parts)[:16]
+
+
+def cmake_configure_argv(cmake: str, package: Path, build: Path, prefix: Path, venv: Path) -> list[str]:
+    """The package's own CMakeLists.txt (ament_cmake + rosidl_generate_interfaces), unchanged,
+    against the venv (an ament prefix) and the packages built before it (pure)."""
+    return [
+        cmake, "-S", str(package), "-B", str(build), "-DCMAKE_BUILD_TYPE=Release",
+        f"-DCMAKE_PREFIX_PATH={prefix};{venv}", f"-DCMAKE_INSTALL_PREFIX={prefix}",
+        f"-DPython3_EXECUTABLE={venv / 'bin' / 'python3'}", "-DBUILD_TESTING=OFF",
+    ]  # fmt: skip
+
+
+def build_env(env: Mapping[str, str], venv: Path, prefix: Path) -> dict[str, str]:
+    """The venv's Python first on PATH (it runs the rosidl generators), and the ament index of
+    the venv and the prefix (typesupports are found through it) (pure)."""
+    out = dict(env)
+    out["PATH"] = os.pathsep.join(p for p in (str(venv / "bin"), env.get("PATH", "")) if p)
+    out["AMENT_PREFIX_PATH"] = os.pathsep.join((str(prefix), str(venv)))
+    out.pop("PYTHONPATH", None)  # uros's own must not reach the generators
+    return out
+
+
+def build_interfaces(
+    runner: Runner, venv: Path, packages: list[PackageInfo], root: Path, jobs: int = 2
+) -> Path | None:
+    """Build and install ``packages`` for the host into a prefix cached by their content; the
+    prefix, or None when there is nothing to build."""
+    if not packages:
+        return None
+    files = {p.name: package_files(p.path) for p in packages}
+    prefix = root / "interfaces" / f"{venv.name}-{interfaces_key(venv.name, files)}"
+    names = ", ".join(p.name for p in packages)
+    if (prefix / READY).is_file():
+        console.info(f"interface packages for the host: {names} in {prefix} (built before)")
+        return prefix
+    with locked(
+        root / "locks" / prefix.name, "the host build of the interface packages", command="uros probe"
+    ):
+        if (prefix / READY).is_file():
+            return prefix
+        _begin(prefix)
+        console.step(f"building the interface packages for the host: {names}")
+        cmake = runner.which("cmake")
+        env = build_env(os.environ, venv, prefix)
+        for package in packages:
+            build = prefix / "build" / package.name
+            runner.run(cmake_configure_argv(cmake, package.path, build, prefix, venv), env=env,
+                       step=f"configure {package.name} for the host")  # fmt: skip
+            runner.run(
+                [cmake, "--build", str(build), "-j", str(jobs)],
+                env=env,
+                step=f"build {package.name} for the host",
+            )
+            runner.run([cmake, "--install", str(build)], env=env, step=f"install {package.name} for the host")
+        shutil.rmtree(prefix / "build")
+        _finish(prefix, {"packages": sorted(files), "venv": venv.name})
+    return prefix
+
+
+# ---------------------------------------------------------------------------------------------
+# the peer's process
+
+
+def peer_argv(venv: Path, script: Path) -> list[str]:
+    return [str(venv / "bin" / "python3"), "-u", str(script)]
+
+
+def peer_env(env: Mapping[str, str], venv: Path, prefix: Path | None, python: str) -> dict[str, str]:
+    """What the peer runs with: the venv's programs, the host-built interface packages' Python
+    modules and type-support libraries, Fast DDS as the middleware (pure). The wheels' bootstrapper
+    (a .pth the venv's Python runs) adds the venv's own libraries to LD_LIBRARY_PATH itself."""
+    out = dict(env)
+    out["PATH"] = os.pathsep.join(p for p in (str(venv / "bin"), env.get("PATH", "")) if p)
+    out["RMW_IMPLEMENTATION"] = "rmw_fastrtps_cpp"
+    out["PYTHONUNBUFFERED"] = "1"
+    out.pop("PYTHONPATH", None)
+    out.pop("VIRTUAL_ENV", None)
+    ament = [str(venv)]
+    if prefix is not None:
+        out["PYTHONPATH"] = str(prefix / "lib" / f"python{python}" / "site-packages")
+        libs = [str(prefix / "lib"), *(p for p in env.get("LD_LIBRARY_PATH", "").split(os.pathsep) if p)]
+        out["LD_LIBRARY_PATH"] = os.pathsep.join(libs)
+        ament.insert(0, str(prefix))
+    out["AMENT_PREFIX_PATH"] = os.pathsep.join(ament)
+    return out
+
+
+def prepare(
+    runner: Runner,
+    script: Path,
+    root: Path,
+    source_dir: Path | None,
+    own: Iterable[str] | None,
+    library: Iterable[str],
+    log: Path,
+) -> PeerRun:
+    """The peer's run: the venv (made or as before), the interface packages of the library that it
+    lacks built for the host (from ``source_dir``, the workspace's sources; None: an output outside
+    a workspace, the wheels' packages only), the argv and the environment."""
+    venv = ensure_venv(runner, load_spec(), root)
+    prefix = None
+    if source_dir is not None:
+        wanted = interface_packages(discover(source_dir), library, packages_in(venv), own)
+        prefix = build_interfaces(runner, venv, wanted, root)
+    else:
+        console.info("the output is not in a workspace: the peer has the wheels' interface packages only")
+    env = peer_env(os.environ, venv, prefix, python_version())
+    return PeerRun(tuple(peer_argv(venv, script)), env, log)
