@@ -184,6 +184,11 @@ def export_arduino(output: Path, sources: tuple[Path, ...]) -> None:
     "--peer", type=PATH_ARG,
     help="A host ROS 2 program (Python, rclpy) run beside the firmware over DDS; its exit status counts.",
 )  # fmt: skip
+@click.option(
+    "--freertos", metavar="KERNEL",
+    help="Run the probe firmware on FreeRTOS with this FreeRTOS-Kernel checkout (a library built "
+    "with --rtos freertos runs on FreeRTOS without it).",
+)  # fmt: skip
 @VERBOSE
 def probe(
     output: Path | None,
@@ -193,10 +198,11 @@ def probe(
     timeout: float,
     as_json: bool,
     peer: Path | None,
+    freertos: str | None,
     verbose: bool,
 ) -> None:
     """Run a built library: boot a probe firmware in QEMU against a real Micro XRCE-DDS Agent."""
-    probe_cmd.probe(output, workspace, toolchain, agent, timeout, as_json, verbose, peer)
+    probe_cmd.probe(output, workspace, toolchain, agent, timeout, as_json, verbose, peer, freertos)
 
 
 @click.group(cls=Group)

@@ -19,11 +19,12 @@ from pathlib import Path
 from uros_build import console
 from uros_build.colcon.fingerprint import digest
 from uros_build.config.plan import finish_killed_swaps, folder_key, resolve_output
-from uros_build.config.settings import AGENT, ROS2_VENV, resolve_outside
+from uros_build.config.settings import AGENT, FREERTOS, ROS2_VENV, resolve_outside
 from uros_build.errors import ConfigError, MissingToolError, VerifyError
 from uros_build.files import locked
 from uros_build.output.buildinfo import BuildInfo, read_build_info
 from uros_build.proc import Runner, new_run_log, user_log_dir
+from uros_build.run import freertos as freertos_mod
 from uros_build.run import machines as probe_mod
 from uros_build.run import netns, peerenv
 from uros_build.run.firmware import build_firmware
@@ -51,6 +52,7 @@ class ProbeReport:
     heap_bytes: int | None
     stack_bytes: int | None
     limits: dict[str, int]  # nodes/publishers/subscriptions: as many as RMW_UXRCE_MAX_* were created
+    rtos: str | None  # "freertos": the firmware ran its stages in a FreeRTOS task; None: bare metal
     console_log: str
     agent_log: str
     run_log: str
@@ -76,6 +78,7 @@ def probe(
     as_json: bool,
     verbose: bool = False,
     peer: Path | None = None,
+    freertos: str | None = None,
 ) -> ProbeReport:
     check_timeout(timeout)
     if peer is not None:
@@ -86,13 +89,14 @@ def probe(
     if output is not None and toolchain is not None:
         check_toolchain_matches(toolchain, folder_key(toolchain), out, info.target)
     machine = probe_mod.machine_for(info.target, probe_mod.load_machines())
+    rtos = _freertos(info, freertos)
     ws = workspace_of_output(out, info.target)
     base = ws.state_dir if ws is not None else user_log_dir().parent
     # One probe of a target at a time: two at once shared the work folder (one deleted the other's
     # firmware and console log) and blamed a good library ("no agent answered", "an entity could not
     # be created"); the second waits, and says for whom.
     with locked(base / "probe" / "locks" / info.target, info.target, command="uros probe"):
-        return _probe(out, info, machine, base, agent, timeout, as_json, verbose, peer)
+        return _probe(out, info, machine, base, agent, timeout, as_json, verbose, peer, rtos)
 
 
 def check_peer(script: Path, euid: int) -> None:
@@ -113,6 +117,15 @@ def _peer_run(runner: Runner, script: Path, out: Path, info: BuildInfo, work: Pa
         own = [p.name for p in discover(ws.extra_dir)]
     root = resolve_outside(ROS2_VENV).value.expanduser()
     return peerenv.prepare(runner, script.resolve(), root, source, own, info.packages, work / "peer.log")
+
+
+def _freertos(info: BuildInfo, given: str | None) -> freertos_mod.FreeRtos | None:
+    """The FreeRTOS kernel the probe runs on (the library's, or --freertos), or None: bare metal."""
+    library_rtos = getattr(info, "rtos", None)  # build-info.json's rtos (uros build --rtos)
+    if library_rtos is not None and not isinstance(library_rtos, dict):
+        library_rtos = {k: getattr(library_rtos, k) for k in ("name", "kernel", "port", "config")}
+    env = resolve_outside(FREERTOS, None).value  # $UROS_FREERTOS: a gone kernel's stand-in only
+    return freertos_mod.choose(info.target, library_rtos, given, env)
 
 
 def check_timeout(timeout: float) -> None:
@@ -143,19 +156,29 @@ def _probe(
     timeout: float,
     as_json: bool,
     verbose: bool,
-    peer: Path | None = None,
+    peer: Path | None,
+    rtos: freertos_mod.FreeRtos | None,
 ) -> ProbeReport:
     work = base / "probe" / f"{info.target}-{digest(str(out))[:10]}"
     work.mkdir(parents=True, exist_ok=True)
     runner = Runner(new_run_log(work / "log", "probe", info.target), verbose=verbose)
-    console.step(f"uros probe: {out} ({info.target}) in QEMU {machine.machine}")
+    on = f" on FreeRTOS ({rtos.why})" if rtos else ""
+    console.step(f"uros probe: {out} ({info.target}) in QEMU {machine.machine}{on}")
     if machine.note:
         console.info(f"{machine.machine}: {machine.note}")
     console.info(f"log: {runner.log_path}")
+    if rtos is not None:
+        console.info(f"FreeRTOS kernel {rtos.kernel}, port {rtos.port.relative_to(rtos.kernel)}, heap_4")
+        mismatch = freertos_mod.config_differs(rtos)
+        if mismatch:
+            console.warn(mismatch)
     qemu_program = runner.which(machine.board.qemu, qemu_hint(machine.board.qemu))
     agent_program = _agent(agent, runner)
     peer_run = _peer_run(runner, peer, out, info, work) if peer is not None else None
-    elf = build_firmware(runner, probe_mod.firmware_sources(), work, out, "uros_probe", verbose, machine)
+    elf = build_firmware(
+        runner, probe_mod.firmware_sources(), work, out, "uros_probe", verbose, machine,
+        defines=freertos_mod.cmake_defines(rtos), folders=freertos_mod.firmware_folders(rtos),
+    )  # fmt: skip
     ran = run_session(runner, qemu_program, machine, elf, agent_program, work, timeout, peer=peer_run)
     status, seconds, text = ran.status, ran.seconds, ran.console
     console_log, agent_log = ran.console_log, ran.agent_log
@@ -170,6 +193,7 @@ def _probe(
         heap_bytes=used[0] if used else None,
         stack_bytes=used[1] if used else None,
         limits={kind: limit for kind, (limit, _) in limits.items()},
+        rtos="freertos" if rtos else None,
         console_log=str(console_log),
         agent_log=str(agent_log),
         run_log=str(runner.log_path),
@@ -181,15 +205,19 @@ def _probe(
     if as_json:
         sys.stdout.write(json.dumps(asdict(report), indent=2, sort_keys=True) + "\n")
     if status != 0:
+        stage = freertos_mod.two_tasks(text) if status == 9 else None
+        measured = f": {stage[1]}" if stage else ""
         raise VerifyError(
-            f"uros probe {info.target} ({machine.machine}): {report.verdict}",
+            f"uros probe {info.target} ({machine.machine}{on}): {report.verdict}{measured}",
             f"the firmware's console: {console_log}; the agent's log: {agent_log}",
         )
     memory = f"; heap {used[0]:,} B, stack {used[1]:,} B" if used else ""
     console.step(
-        f"probe passed: {info.target} in QEMU {machine.machine} talked to the agent: session, node, "
+        f"probe passed: {info.target} in QEMU {machine.machine}{on} talked to the agent: session, node, "
         f"publisher, subscription, every sample back ({seconds:.1f} s{memory})"
     )
+    if rtos is not None:
+        console.info(freertos_mod.describe_run(text))
     if limits:
         console.info(probe_mod.describe_limits(limits))
     return report

@@ -269,6 +269,13 @@ ROS2_VENV: Setting[Path] = Setting(
     commands=("probe",), from_env=_path, default_from_env=_ros2_cache,
 )  # fmt: skip
 
+FREERTOS: Setting[str | None] = Setting(
+    "freertos", "--freertos", None, "UROS_FREERTOS", None, "none",
+    "a FreeRTOS-Kernel checkout: `uros probe --freertos DIR` runs the probe firmware on FreeRTOS; "
+    "$UROS_FREERTOS names the kernel only when a FreeRTOS library's own is gone",
+    commands=("probe",),
+)  # fmt: skip
+
 # The table, in the order `uros build -v` prints it and docs/settings.md lists it.
 SETTINGS: tuple[Setting[Any], ...] = (
     WORKSPACE, TARGETS, PROFILE, COMPILER_PREFIX, CFLAGS, OUTPUT, DISTRO, TRANSPORT, PRESET, METAS, SETS,
@@ -276,6 +283,7 @@ SETTINGS: tuple[Setting[Any], ...] = (
     CACHE, CACHE_TIMEOUT, CACHE_UPLOAD,
     CCACHE, FORCE, REBUILD, VERBOSE, HOST_STAGE, COMPILER_SEED, GEN_CACHE, GEN_CACHE_DIR, AGENT,
     ROS2_VENV,
+    FREERTOS,
 )  # fmt: skip
 
 

@@ -5,6 +5,7 @@ folder. The probe firmware is one; `uros probe --app` builds another from the sa
 from __future__ import annotations
 
 import shutil
+from collections.abc import Sequence
 from pathlib import Path
 
 from uros_build.errors import StepFailed
@@ -13,24 +14,37 @@ from uros_build.run.machines import Machine, board_files
 
 
 def build_firmware(
-    runner: Runner, sources: Path, work: Path, out: Path, name: str, verbose: bool, machine: Machine
+    runner: Runner,
+    sources: Path,
+    work: Path,
+    out: Path,
+    name: str,
+    verbose: bool,
+    machine: Machine,
+    defines: Sequence[str] = (),
+    folders: Sequence[str] = (),
 ) -> Path:
-    """Copy `sources` to work/src and the machine's board files (start-up, UART, memory map) to
-    work/src/board, configure and build it against `out`; the ELF called `name`."""
+    """Copy `sources` (its files, and the sub-folders named in `folders`: the FreeRTOS variant's) to
+    work/src and the machine's board files (start-up, UART, memory map) to work/src/board, configure
+    and build it against `out` (with `defines`, -DNAME=VALUE); the ELF called `name`."""
     cmake = runner.which("cmake")
     src, build = work / "src", work / "build"
     # afresh every time (it takes a second): another output of the target has another toolchain file
     shutil.rmtree(src, ignore_errors=True)
     shutil.rmtree(build, ignore_errors=True)
     shutil.copytree(
-        sources, src, ignore=lambda folder, names: [n for n in names if (Path(folder) / n).is_dir()]
+        sources,
+        src,
+        ignore=lambda folder, names: [
+            n for n in names if (Path(folder) / n).is_dir() and Path(folder) == sources and n not in folders
+        ],
     )
     (src / "board").mkdir()
     for file_name, text in board_files(machine).items():
         (src / "board" / file_name).write_text(text, encoding="utf-8")
     runner.run(
         [cmake, "-S", str(src), "-B", str(build), "-DCMAKE_BUILD_TYPE=Release",
-         f"-DCMAKE_TOOLCHAIN_FILE={out / 'toolchain.cmake'}", f"-DCMAKE_PREFIX_PATH={out}"],
+         f"-DCMAKE_TOOLCHAIN_FILE={out / 'toolchain.cmake'}", f"-DCMAKE_PREFIX_PATH={out}", *defines],
         step=f"configure the {name} firmware", quiet=not verbose,
     )  # fmt: skip
     runner.run([cmake, "--build", str(build)], step=f"build the {name} firmware", quiet=not verbose)

@@ -275,8 +275,13 @@ VERDICTS: Mapping[int, str] = {
     4: "an entity (node, publisher, subscription) could not be created: check RMW_UXRCE_MAX_* in colcon.meta",
     5: "samples lost: fewer came back through the agent than were published",
     6: "tearing down the entities failed",
+    9: "two tasks publishing at once lost or tore samples (FreeRTOS: a library without "
+    "microxrcedds_client.UCLIENT_PROFILE_MULTITHREAD=ON must not be called from two tasks)",
     70: "the firmware crashed (hard fault)",
     71: "an unaligned access did not trap: the machine does not check ARMv6-M's alignment (CCR.UNALIGN_TRP)",
+    72: "a FreeRTOS task overflowed its stack",
+    73: "a FreeRTOS assertion failed (see the console)",
+    74: "FreeRTOS did not start (allocator, task or scheduler: see the console)",
 }
 
 

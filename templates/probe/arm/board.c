@@ -40,12 +40,14 @@ void probe_console_put(uint8_t byte) {
 }
 #endif
 
-/* ---- time ---- */
+/* ---- time ----
+ * Weak, like the SVCall/PendSV/SysTick vectors and the heap and stack figures: the FreeRTOS variant
+ * (templates/probe/freertos/rtos.c) takes the clock from the kernel's tick and gives its own figures. */
 static volatile uint32_t ticks_ms;
 __attribute__((weak)) void probe_systick(void) { ticks_ms++; }
-uint32_t probe_millis(void) { return ticks_ms; }
+__attribute__((weak)) uint32_t probe_millis(void) { return ticks_ms; }
 
-int clock_gettime(clockid_t clock, struct timespec *when) {
+__attribute__((weak)) int clock_gettime(clockid_t clock, struct timespec *when) {
   (void)clock;
   uint32_t now = ticks_ms;
   when->tv_sec = (time_t)(now / 1000u);
@@ -73,10 +75,10 @@ void *_sbrk(ptrdiff_t grow) {
   heap_top += grow;
   return old;
 }
-size_t probe_heap_used(void) { return (size_t)(heap_top - &probe_heap_start); }
+__attribute__((weak)) size_t probe_heap_used(void) { return (size_t)(heap_top - &probe_heap_start); }
 
 #define STACK_PAINT 0xA5u
-size_t probe_stack_used(void) {
+__attribute__((weak)) size_t probe_stack_used(void) {
   const uint8_t *p = &probe_heap_end;
   while (p < &probe_stack_top && *p == STACK_PAINT) p++;
   return (size_t)(&probe_stack_top - p);

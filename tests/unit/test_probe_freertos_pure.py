@@ -1,0 +1,164 @@
+"""The probe on FreeRTOS, its pure pieces (run/freertos.py): the kernel's port for each core, when the
+FreeRTOS variant is chosen and with which kernel, the configure definitions, the shipped firmware
+files, and what the console's FreeRTOS lines say. The firmware itself runs in
+tests/integration/test_probe_freertos.py."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from uros_build.errors import ConfigError
+from uros_build.run import freertos
+from uros_build.run import machines as probe
+from uros_build.target.profiles import shipped_profiles
+
+
+def fake_kernel(root: Path, ports: tuple[str, ...] = ("portable/GCC/ARM_CM7/r0p1",)) -> Path:
+    """A folder shaped like a FreeRTOS-Kernel checkout (no kernel code: these tests only look)."""
+    (root / "include").mkdir(parents=True)
+    (root / "tasks.c").write_text("/* fake */\n")
+    (root / "include" / "FreeRTOS.h").write_text("/* fake */\n")
+    for port in ports:
+        (root / port).mkdir(parents=True)
+        (root / port / "port.c").write_text("/* fake */\n")
+    return root
+
+
+@pytest.mark.parametrize(
+    ("target", "port"),
+    [
+        ("cortex-m7", "portable/GCC/ARM_CM7/r0p1"),
+        ("cortex-m4f", "portable/GCC/ARM_CM4F"),
+        ("cortex-m4", "portable/GCC/ARM_CM3"),  # no FPU: the M3's port
+        ("cortex-m3", "portable/GCC/ARM_CM3"),
+    ],
+)
+def test_the_port_of_each_probed_core(target: str, port: str) -> None:
+    assert freertos.port_for(target) == port
+
+
+def test_every_probed_target_has_a_port() -> None:
+    assert set(probe.load_machines()) <= set(freertos.PORTS)
+
+
+def test_every_port_names_a_target_uros_has_a_profile_for() -> None:
+    names = set(shipped_profiles())
+    assert {t for t in freertos.PORTS if t not in names} <= {"cortex-m55"}  # cores may add it
+
+
+def test_a_core_without_a_port_says_so() -> None:
+    with pytest.raises(ConfigError, match="FreeRTOS has no port here for target esp32s3"):
+        freertos.port_for("esp32s3")
+
+
+def test_a_bare_metal_library_stays_bare_metal_even_with_UROS_FREERTOS(tmp_path: Path) -> None:
+    kernel = fake_kernel(tmp_path / "k")
+    assert freertos.choose("cortex-m7", None, None, str(kernel)) is None
+
+
+def test_freertos_flag_runs_any_library_on_freertos(tmp_path: Path) -> None:
+    kernel = fake_kernel(tmp_path / "k")
+    rtos = freertos.choose("cortex-m7", None, str(kernel), None)
+    assert rtos == freertos.FreeRtos(kernel, kernel / "portable/GCC/ARM_CM7/r0p1", "--freertos", None)
+    assert freertos.cmake_defines(rtos) == [
+        f"-DUROS_FREERTOS_KERNEL={kernel}",
+        f"-DUROS_FREERTOS_PORT={kernel}/portable/GCC/ARM_CM7/r0p1",
+    ]
+    assert freertos.cmake_defines(None) == []
+
+
+def test_a_freertos_library_runs_on_its_own_kernel(tmp_path: Path) -> None:
+    own = fake_kernel(tmp_path / "own")
+    other = fake_kernel(tmp_path / "other")
+    library = {"name": "freertos", "kernel": str(own), "port": "", "config": str(tmp_path / "cfg")}
+    rtos = freertos.choose("cortex-m7", library, None, str(other))
+    assert rtos is not None
+    assert (rtos.kernel, rtos.why, rtos.library_config) == (
+        own,
+        "the library was built for FreeRTOS",
+        tmp_path / "cfg",
+    )
+    # --freertos overrides the library's kernel; $UROS_FREERTOS stands in only for a kernel that is gone
+    assert freertos.choose("cortex-m7", library, str(other), None).kernel == other  # type: ignore[union-attr]
+    gone = dict(library, kernel=str(tmp_path / "gone"))
+    assert freertos.choose("cortex-m7", gone, None, str(other)).kernel == other  # type: ignore[union-attr]
+    with pytest.raises(ConfigError, match=r"the library.s FreeRTOS kernel .*gone is gone"):
+        freertos.choose("cortex-m7", gone, None, None)
+
+
+@pytest.mark.parametrize(
+    ("library", "flag", "message"),
+    [
+        ({"name": "zephyr"}, None, "the library was built for 'zephyr'; the probe runs FreeRTOS only"),
+        (None, "nowhere", "--freertos nowhere: not a FreeRTOS-Kernel checkout \\(no tasks.c\\)"),
+    ],
+)
+def test_what_the_probe_refuses(library: dict[str, str] | None, flag: str | None, message: str) -> None:
+    with pytest.raises(ConfigError, match=message):
+        freertos.choose("cortex-m7", library, flag, None)
+
+
+def test_a_kernel_without_the_cores_port_is_refused(tmp_path: Path) -> None:
+    kernel = fake_kernel(tmp_path / "k")  # only the M7's port
+    with pytest.raises(ConfigError, match=r"no portable/GCC/ARM_CM4F/port\.c"):
+        freertos.choose("cortex-m4f", None, str(kernel), None)
+
+
+def test_the_library_config_is_compared_with_the_probes(tmp_path: Path) -> None:
+    kernel = fake_kernel(tmp_path / "k")
+    same = tmp_path / "same"
+    same.mkdir()
+    (same / "FreeRTOSConfig.h").write_bytes(freertos.probe_config().read_bytes())
+    other = tmp_path / "other"
+    other.mkdir()
+    (other / "FreeRTOSConfig.h").write_text("#define configUSE_TRACE_FACILITY 1\n")
+    port = kernel / freertos.port_for("cortex-m7")
+    assert freertos.config_differs(freertos.FreeRtos(kernel, port, "", None)) is None
+    assert freertos.config_differs(freertos.FreeRtos(kernel, port, "", same)) is None
+    warning = freertos.config_differs(freertos.FreeRtos(kernel, port, "", other))
+    assert warning is not None and "must agree on what sizes the kernel's objects" in warning
+
+
+def test_the_shipped_freertos_firmware_files() -> None:
+    sources = probe.firmware_sources()
+    cmake = (sources / "CMakeLists.txt").read_text()
+    assert "include(freertos/freertos.cmake)" in cmake
+    for name in ("FreeRTOSConfig.h", "rtos.c", "two_tasks.c", "freertos.cmake"):
+        assert (sources / "freertos" / name).is_file()
+    config = freertos.probe_config().read_text()
+    # what the client's multithread profile and the vector table need of the kernel
+    for line in (
+        "#define configUSE_RECURSIVE_MUTEXES 1",
+        "#define configSUPPORT_STATIC_ALLOCATION 1",
+        "#define vPortSVCHandler probe_svcall",
+        "#define xPortPendSVHandler probe_pendsv",
+    ):
+        assert line in config
+    rtos = (sources / "freertos" / "rtos.c").read_text()
+    assert "rcutils_set_default_allocator(&allocator)" in rtos and "pvPortMalloc" in rtos
+    board = (sources / "arm" / "board.c").read_text()
+    assert "probe_svcall, probe_idle, 0, probe_pendsv, probe_systick" in board
+    for weak in ("uint32_t probe_millis(void)", "int clock_gettime(", "size_t probe_heap_used(void)"):
+        assert f"__attribute__((weak)) {weak}" in board, weak
+
+
+CONSOLE = """uros-probe: PASS
+uros-probe: two tasks: a published 20 (0 failed), 20 intact, 0 torn, 0 twice; ...
+uros-probe: stage two_tasks pass 2 tasks x 20 samples on 2 publishers, 40 of 40 arrived intact in 928 ms (multithread profile on)
+uros-probe: freertos heap 34832 of 262144 B used at most, probe task stack 2216 of 16384 B
+"""
+
+
+def test_what_the_console_says_of_the_freertos_run() -> None:
+    assert freertos.kernel_use(CONSOLE) == (34832, 262144, 2216, 16384)
+    assert freertos.two_tasks(CONSOLE) == (
+        "pass",
+        "2 tasks x 20 samples on 2 publishers, 40 of 40 arrived intact in 928 ms (multithread profile on)",
+    )
+    assert freertos.describe_run(CONSOLE).startswith(
+        "FreeRTOS: heap_4 34,832 of 262,144 B used at most, probe task stack 2,216 of 16,384 B; two_tasks pass: 2 tasks"
+    )
+    assert freertos.describe_run("") == "FreeRTOS: the firmware reported nothing more"
+    assert "UCLIENT_PROFILE_MULTITHREAD=ON" in probe.verdict(9)
