@@ -17,6 +17,10 @@ from uros_build.errors import StepFailed
 from uros_build.proc import Background, Runner
 from uros_build.run import machines, netns
 
+# How long the agent outlives the firmware while a peer runs: the firmware's last samples (sent
+# just before its exit) are still on their way through the agent to the peer.
+AGENT_GRACE = 2.0
+
 
 @dataclass(frozen=True)
 class PeerRun:
@@ -112,10 +116,12 @@ def run_session(
             )
         status = qemu.wait(timeout)
         runner.log(f"the firmware ended after {time.monotonic() - started:.1f} s")
+        if peer_proc is not None:  # what the firmware sent last still reaches the peer
+            peer_status = peer_proc.wait(min(AGENT_GRACE, max(0.1, timeout - (time.monotonic() - started))))
         # the agent goes with the firmware: it would wait for the pty to come back, and another run's
         # QEMU may be given the same /dev/pts number
         agent_proc.stop()
-        if peer_proc is not None:  # the peer gets what is left of the same time
+        if peer_proc is not None and peer_status is None:  # the peer gets what is left of the same time
             peer_status = peer_proc.wait(max(0.1, timeout - (time.monotonic() - started)))
             runner.log(f"the peer ended after {time.monotonic() - started:.1f} s")
     finally:
