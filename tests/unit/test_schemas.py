@@ -15,7 +15,7 @@ from profile_data import minimal_profile
 from uros_build import resources
 from uros_build.errors import ConfigError
 from uros_build.sources import distros, wsfiles
-from uros_build.target.profiles import ElfFacts, MicroRosFlags, TargetProfile, parse_profile
+from uros_build.target.profiles import Chip, ElfFacts, MicroRosFlags, TargetProfile, parse_profile
 
 
 def _schema(name: str) -> dict[str, Any]:
@@ -63,8 +63,13 @@ _TYPES = {
 
 @pytest.mark.parametrize(
     ("cls", "pointer"),
-    [(TargetProfile, ()), (MicroRosFlags, ("$defs", "MicroRosFlags")), (ElfFacts, ("$defs", "ElfFacts"))],
-    ids=["TargetProfile", "MicroRosFlags", "ElfFacts"],
+    [
+        (TargetProfile, ()),
+        (MicroRosFlags, ("$defs", "MicroRosFlags")),
+        (ElfFacts, ("$defs", "ElfFacts")),
+        (Chip, ("$defs", "Chip")),
+    ],
+    ids=["TargetProfile", "MicroRosFlags", "ElfFacts", "Chip"],
 )
 def test_profile_schema_equals_the_dataclasses(cls: Any, pointer: tuple[str, ...]) -> None:
     node = _schema("profile.schema.json")
@@ -117,6 +122,9 @@ def test_profile_with_an_unknown_key_fails_the_schema() -> None:
         {"defines": ["FOO BAR"]},
         {"defines": ["A=1\nB"]},
         {"micro_ros": {"defines": ["-DX"]}},
+        {"chip": {"name": "RP2040", "ram": "264 kilobytes"}},
+        {"chip": {"name": "RP2040", "flash": 2048}},
+        {"chip": {"name": "RP2040", "size": "2M"}},
     ],
 )
 def test_schema_and_loader_reject_the_same_values(change: dict[str, Any]) -> None:

@@ -255,6 +255,13 @@ def info(output: Path | None, toolchain: str | None, workspace: Path | None, as_
 @click.option("--elf", type=PATH_ARG, help="The firmware ELF linked against the library (with --map).")
 @click.option("--map", "map_file", type=PATH_ARG, help="The firmware's GNU ld map file (-Wl,-Map=app.map).")
 @click.option("--objects", is_flag=True, help="Also list every object of the library.")
+@click.option(
+    "--ram",
+    metavar="SIZE",
+    help="The chip's RAM (e.g. 256K, 1M; K and M are 1024-based): does the library fit, with the heap "
+    "and stack `uros probe` measured? Exit 5 when not (default: the chip the target's profile names).",
+)
+@click.option("--flash", metavar="SIZE", help="The chip's flash, as --ram (e.g. 2M).")
 @JSON
 def size(
     library: Path | None,
@@ -263,8 +270,11 @@ def size(
     elf: Path | None,
     map_file: Path | None,
     objects: bool,
+    ram: str | None,
+    flash: str | None,
     as_json: bool,
 ) -> None:
-    """text/data/bss of libmicroros.a per package (LIBRARY: the .a or its output folder), and with
-    the firmware's map file what each package costs once linked (after --gc-sections)."""
-    size_cmd.show_size(library, workspace, toolchain, elf, map_file, objects, as_json)
+    """text/data/bss of libmicroros.a per package (LIBRARY: the .a or its output folder), with the
+    firmware's map file what each package costs once linked (after --gc-sections), and with --ram/--flash
+    (or the chip the target's profile names) whether it fits."""
+    size_cmd.show_size(library, workspace, toolchain, elf, map_file, objects, as_json, ram, flash)

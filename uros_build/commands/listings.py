@@ -97,6 +97,8 @@ def options_table() -> list[dict[str, Any]]:
             "type": o.type,
             "choices": list(o.choices),
             "cost": o.cost,
+            # the static pools it sizes: `uros size` reads their bytes from a library (nm)
+            "pools": list(o.pools),
         }
         for o in options_mod.known_options()
     ]

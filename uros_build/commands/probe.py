@@ -17,19 +17,19 @@ from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 from uros_build import console
-from uros_build.colcon.fingerprint import digest
 from uros_build.config.plan import finish_killed_swaps, folder_key, resolve_output
 from uros_build.config.settings import AGENT, FREERTOS, ROS2_VENV, resolve_outside
 from uros_build.errors import ConfigError, MissingToolError, VerifyError
 from uros_build.files import locked
 from uros_build.output.buildinfo import BuildInfo, read_build_info
-from uros_build.proc import Runner, new_run_log, user_log_dir
+from uros_build.proc import Runner, new_run_log
 from uros_build.run import freertos as freertos_mod
 from uros_build.run import machines as probe_mod
 from uros_build.run import netns, peerenv
 from uros_build.run.firmware import build_firmware
 from uros_build.run.machines import qemu_hint
 from uros_build.run.peer import peer_verdict
+from uros_build.run.report import probe_base, probe_work, write_report
 from uros_build.run.session import PeerRun, run_session
 from uros_build.sources.packages import discover
 from uros_build.sources.workspace import Workspace, workspace_of_output
@@ -90,8 +90,7 @@ def probe(
         check_toolchain_matches(toolchain, folder_key(toolchain), out, info.target)
     machine = probe_mod.machine_for(info.target, probe_mod.load_machines())
     rtos = _freertos(info, freertos)
-    ws = workspace_of_output(out, info.target)
-    base = ws.state_dir if ws is not None else user_log_dir().parent
+    base = probe_base(out, info.target)
     # One probe of a target at a time: two at once shared the work folder (one deleted the other's
     # firmware and console log) and blamed a good library ("no agent answered", "an entity could not
     # be created"); the second waits, and says for whom.
@@ -159,7 +158,7 @@ def _probe(
     peer: Path | None,
     rtos: freertos_mod.FreeRtos | None,
 ) -> ProbeReport:
-    work = base / "probe" / f"{info.target}-{digest(str(out))[:10]}"
+    work = probe_work(base, info.target, out)
     work.mkdir(parents=True, exist_ok=True)
     runner = Runner(new_run_log(work / "log", "probe", info.target), verbose=verbose)
     on = f" on FreeRTOS ({rtos.why})" if rtos else ""
@@ -200,6 +199,8 @@ def _probe(
         peer_status=ran.peer_status,
         peer_log=str(ran.peer_log) if ran.peer_log else None,
     )
+    # kept for `uros size`, which counts a passed run's heap and stack against a chip's RAM
+    write_report(work, asdict(report), info.library.sha256)
     if peer_run is not None:
         return _peer_report(report, info.target, machine.machine, as_json)
     if as_json:

@@ -1,5 +1,8 @@
 """`uros size`: text/data/bss of libmicroros.a per package, and with a firmware's ELF and GNU ld
-map file, what each package really costs once linked (after --gc-sections)."""
+map file, what each package really costs once linked (after --gc-sections). With a budget (--ram,
+--flash, or the chip a target's profile names): does it fit, counting the heap and stack the last
+`uros probe` of this library measured, and which colcon.meta options cost most RAM (exit 5 when it
+does not fit: a CI gate)."""
 
 from __future__ import annotations
 
@@ -10,13 +13,17 @@ from typing import Any
 
 from uros_build import loader
 from uros_build.config.plan import finish_killed_swaps, resolve_output
-from uros_build.errors import ConfigError
-from uros_build.output import sizes
+from uros_build.errors import ConfigError, VerifyError
+from uros_build.output import budget, sizes, symbols
 from uros_build.output.buildinfo import BuildInfo, read_build_info
 from uros_build.output.folders import is_uros_output
 from uros_build.output.sizes import Sizes
 from uros_build.proc import Runner, new_run_log, user_log_dir
+from uros_build.run.report import Measured, read_measured
+from uros_build.sources.options import known_options
 from uros_build.sources.workspace import Workspace, workspace_of_output
+from uros_build.target.memsize import show_bytes
+from uros_build.target.profiles import Chip, find_profile
 
 
 def size_tool(info: BuildInfo | None) -> str:
@@ -196,7 +203,10 @@ def show_size(
     map_file: Path | None,
     objects: bool,
     as_json: bool,
+    ram: str | None = None,
+    flash: str | None = None,
 ) -> None:
+    ram_budget, flash_budget = budget.budget_value(ram, "--ram"), budget.budget_value(flash, "--flash")
     if elf is not None and map_file is None:
         raise ConfigError("--elf without --map", "link with -Wl,-Map=app.map and pass --map app.map too")
     for path, flag in ((elf, "--elf"), (map_file, "--map")):
@@ -210,4 +220,141 @@ def show_size(
         )
     runner = Runner(new_run_log(user_log_dir(), "size"))
     data = measure(runner, lib.resolve(), info, elf, map_file, objects)
-    sys.stdout.write(json.dumps(data, indent=2, sort_keys=True) + "\n" if as_json else render(data))
+    chip = profile_chip(info)
+    ram_budget = ram_budget if ram_budget is not None else chip.ram_bytes
+    flash_budget = flash_budget if flash_budget is not None else chip.flash_bytes
+    fits, line = True, ""
+    if ram_budget is not None or flash_budget is not None:
+        data["budget"], fits, line = check_budget(
+            runner, lib.resolve(), info, data, ram_budget, flash_budget, chip, ram is None and flash is None
+        )
+    if as_json:
+        sys.stdout.write(json.dumps(data, indent=2, sort_keys=True) + "\n")
+    else:
+        # the verdict is the last line: on standard output when it fits, as the error when not
+        sys.stdout.write(render(data) + (render_budget(data["budget"]) if "budget" in data else ""))
+        if fits and line:
+            sys.stdout.write(line + "\n")
+    if not fits:
+        costs = data["budget"]["options"]
+        raise VerifyError(
+            line,
+            "the options that cost most RAM: "
+            + ", ".join(f"{c['package']}.{c['option']}={c['value']} {c['bytes']:,} B" for c in costs[:3])
+            if costs and "ram" in data["budget"]["over"]
+            else "build fewer packages (--packages), or link with --gc-sections and pass --map",
+        )
+
+
+def profile_chip(info: BuildInfo | None) -> Chip:
+    """The chip the library's shipped profile names (none for the user's own profile or toolchain
+    file: build-info.json records only a profile's file name)."""
+    if info is None or info.profile != f"{info.target}.yaml":
+        return Chip()
+    try:
+        return find_profile(info.target, alternative="").chip
+    except ConfigError:
+        return Chip()
+
+
+def _linked_by_probe(map_file: str, library: str) -> Sizes:
+    members, _ = sizes.linked_members(sizes.parse_map(loader.read_text(Path(map_file), "probe map")), library)
+    return sum(members.values(), Sizes())
+
+
+def check_budget(
+    runner: Runner,
+    library: Path,
+    info: BuildInfo | None,
+    data: dict[str, Any],
+    ram: int | None,
+    flash: int | None,
+    chip: Chip,
+    from_chip: bool,
+) -> tuple[dict[str, Any], bool, str]:
+    """The budget's part of `uros size`: what the firmware needs against ``ram``/``flash``, the
+    probe's heap and stack when a passed run of this very library measured them, the options that
+    cost most RAM (their pools' sizes from the library's symbols)."""
+    found: Measured | str = (
+        read_measured(library.parent, info.target, info.library.sha256)
+        if info is not None
+        else "not measured: run uros probe"
+    )
+    measured = found if isinstance(found, Measured) else None
+    rest = None
+    if data["linked_total"] is not None:
+        library_sizes, source = Sizes(**data["linked_total"]), "linked into your firmware (--map)"
+        rest = Sizes(**data["rest_of_firmware"]) if data["rest_of_firmware"] is not None else None
+    elif measured is not None and measured.map_file is not None:
+        library_sizes = _linked_by_probe(measured.map_file, library.name)
+        source = "linked by the probe firmware (a node, a publisher, a subscription)"
+    else:
+        library_sizes = Sizes(**data["total"])
+        source = "the whole archive: a firmware links less (pass --map, or run uros probe)"
+    need = budget.Need(
+        library_sizes, rest, measured.heap if measured else None, measured.stack if measured else None
+    )
+    fits, line = budget.verdict(need, ram, flash, None if measured else str(found))
+    nm_sizes = budget.symbol_sizes(symbols.read_nm(runner, "nm", library))
+    cmake_options = info.cmake_options if info is not None else {}
+    transport = cmake_options.get("rmw_microxrcedds", {}).get("RMW_UXRCE_TRANSPORT") or (
+        info.transport if info is not None else None
+    )
+    costs = budget.option_costs(known_options(), cmake_options, transport, nm_sizes)
+    result = {
+        "ram": ram,
+        "flash": flash,
+        "chip": chip.name if from_chip and chip.known else None,
+        "library": {**library_sizes.as_dict(), "counted": source},
+        "rest_of_firmware": rest.as_dict() if rest is not None else None,
+        "heap": need.heap,
+        "stack": need.stack,
+        "probe": {"report": measured.report, "map": measured.map_file} if measured else str(found),
+        "need": {"static_ram": need.static_ram, "ram": need.ram, "flash": need.flash},
+        "over": budget.over_by(need, ram, flash),
+        "fits": fits,
+        "verdict": line,
+        "options": [
+            {
+                "package": c.package,
+                "option": c.option,
+                "value": c.value,
+                "bytes": c.bytes,
+                "pools": list(c.pools),
+            }
+            for c in costs
+        ],
+    }
+    return result, fits, line
+
+
+def render_budget(b: dict[str, Any]) -> str:
+    lib = b["library"]
+    given = [
+        f"RAM {show_bytes(b['ram'])}" if b["ram"] else "",
+        f"flash {show_bytes(b['flash'])}" if b["flash"] else "",
+    ]
+    lines = [
+        f"budget: {', '.join(g for g in given if g)}"
+        + (f" (the {b['chip']} of the target's profile)" if b["chip"] else "")
+    ]
+    ram = f"  RAM:   {lib['data'] + lib['bss']:,} B static (data+bss, {lib['counted']})"
+    if b["rest_of_firmware"] is not None:
+        rest = b["rest_of_firmware"]
+        ram += f" + {rest['data'] + rest['bss']:,} B the rest of your firmware"
+    if b["heap"] is not None:
+        ram += f" + heap {b['heap']:,} B + stack {b['stack']:,} B (uros probe) = {b['need']['ram']:,} B"
+    else:
+        ram += f"; heap and stack {b['probe']}"
+    lines.append(ram)
+    flash = f"  flash: {lib['text'] + lib['data']:,} B (text+rodata+data)"
+    if b["rest_of_firmware"] is not None:
+        flash += f", {b['need']['flash']:,} B with the rest of your firmware"
+    lines.append(flash)
+    if b["options"]:
+        lines.append("  options that cost most RAM: " + ", ".join(budget_option(c) for c in b["options"][:3]))
+    return "\n".join(lines) + "\n"
+
+
+def budget_option(c: dict[str, Any]) -> str:
+    return f"{c['package']}.{c['option']}={c['value']} {c['bytes']:,} B ({', '.join(c['pools'])})"

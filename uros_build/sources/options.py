@@ -30,6 +30,11 @@ class KnownOption:
     choices: tuple[str, ...] = ()
     power_of_two: bool = False
     minimum: int = 0  # int options are counts, sizes and times: none is negative unless it says
+    # the library's static arrays (symbols) whose size the option sets: `uros size` reads their
+    # size from the library as the option's RAM cost
+    pools: tuple[str, ...] = ()
+    # an MTU option sizes its pools only in a library built for this transport ("": any)
+    transport: str = ""
 
     def problem(self, value: str) -> str | None:
         """Why ``value`` cannot be right for this option, or None."""
@@ -58,7 +63,7 @@ def parse_options(data: object, source: str) -> tuple[KnownOption, ...]:
             item = loader.mapping(
                 entry,
                 item_where,
-                {"default", "cost", "type", "choices", "power_of_two", "minimum"},
+                {"default", "cost", "type", "choices", "power_of_two", "minimum", "pools", "transport"},
                 ("default", "cost"),
             )
             default = item["default"]
@@ -73,6 +78,8 @@ def parse_options(data: object, source: str) -> tuple[KnownOption, ...]:
                 choices=loader.string_list(item, "choices", item_where),
                 power_of_two=loader.boolean(item, "power_of_two", item_where),
                 minimum=loader.integer(item, "minimum", item_where, 0),
+                pools=loader.string_list(item, "pools", item_where),
+                transport=loader.string(item, "transport", item_where) if "transport" in item else "",
             )
             if option.default and option.problem(option.default):
                 raise ConfigError(

@@ -20,6 +20,7 @@ from typing import Any
 
 from uros_build import loader, resources, templating
 from uros_build.errors import ConfigError, did_you_mean
+from uros_build.target.memsize import SIZE_HELP, parse_bytes
 
 TRANSPORTS = resources.transports()
 
@@ -64,6 +65,33 @@ class ElfFacts:
 
 
 @dataclass(frozen=True)
+class Chip:
+    """The one chip a profile is for, where it names one (the RP2040, an ESP32-S3): what
+    ``uros size`` measures a library against when no --ram/--flash is given."""
+
+    # The chip's name as its maker writes it (RP2040, ESP32-S3).
+    name: str = ""
+    # On-chip SRAM, e.g. "264K" (K, KB, M, MB: 1024-based). The C library, the RTOS and, on an
+    # ESP32, ESP-IDF's own drivers take some of it too.
+    ram: str = ""
+    # The flash the firmware runs from, e.g. "2M": on chips without flash of their own, the flash
+    # of the common board or module the comment names.
+    flash: str = ""
+
+    @property
+    def known(self) -> bool:
+        return bool(self.ram or self.flash)
+
+    @property
+    def ram_bytes(self) -> int | None:
+        return parse_bytes(self.ram) if self.ram else None
+
+    @property
+    def flash_bytes(self) -> int | None:
+        return parse_bytes(self.flash) if self.flash else None
+
+
+@dataclass(frozen=True)
 class TargetProfile:
     name: str
     description: str
@@ -96,6 +124,9 @@ class TargetProfile:
     # ESP-IDF's IDF_TARGET (esp32s3, ...): the exported ESP-IDF component refuses other chips,
     # since an ESP32 and an ESP32-S3 object cannot be told apart by their ELF facts.
     idf_target: str = ""
+    # The one chip the profile is for, where it names one (rp2040, esp32s3): its RAM and flash are
+    # what `uros size` measures the library against when no --ram/--flash is given.
+    chip: Chip = Chip()
     source: str = ""  # the file it was loaded from, for messages
 
     def tool(self, name: str) -> str:
@@ -124,6 +155,8 @@ def _convert(data: Mapping[str, Any], key: str, source: str, annotation: str) ->
         return _build(MicroRosFlags, source, data[key], prefix=f"{key}.")
     if annotation == "ElfFacts":
         return _build(ElfFacts, source, data[key], prefix=f"{key}.")
+    if annotation == "Chip":
+        return _build(Chip, source, data[key], prefix=f"{key}.")
     raise AssertionError(f"no converter for {annotation}")  # a programming error, not input
 
 
@@ -259,6 +292,10 @@ def _validate(profile: TargetProfile, source: Path | str) -> TargetProfile:
             "micro_ros.xrce_platform",
             f"{profile.micro_ros.xrce_platform!r} is not a word like 'LwIP'",
         )
+    for key in ("ram", "flash"):
+        value = getattr(profile.chip, key)
+        if value and parse_bytes(value) is None:
+            raise _fail(source, f"chip.{key}", f"{value!r} is not a size: {SIZE_HELP}")
     if profile.elf.xtensa_abi not in ("", "0", "1"):
         raise _fail(source, "elf.xtensa_abi", f"{profile.elf.xtensa_abi!r} is not 0 (windowed) or 1 (call0)")
     return replace(profile, source=str(source))

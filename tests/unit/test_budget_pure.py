@@ -1,0 +1,144 @@
+"""`uros size --ram/--flash`'s pure parts: sizes with units, the RAM symbols of nm's text, the options
+ranked by the pools they size, the verdict's arithmetic, the probe report's reading, a profile's chip."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+from profile_data import minimal_profile
+
+from uros_build.commands.listings import options_table
+from uros_build.errors import ConfigError
+from uros_build.output import budget
+from uros_build.output.sizes import Sizes
+from uros_build.run.report import MAP, REPORT, Measured, measured
+from uros_build.sources.options import known_options
+from uros_build.target.memsize import parse_bytes, show_bytes
+from uros_build.target.profiles import find_profile, parse_profile
+
+
+@pytest.mark.parametrize(
+    ("text", "number"),
+    [
+        ("264K", 264 * 1024),
+        ("264kb", 264 * 1024),
+        ("512KiB", 512 * 1024),
+        ("2M", 2 * 1024 * 1024),
+        ("2 MB", 2 * 1024 * 1024),
+        ("65536", 65536),
+        ("100B", 100),
+        ("0", None),
+        ("0K", None),
+        ("12X", None),
+        ("-1", None),
+        ("1.5M", None),
+        ("", None),
+        ("2G", None),
+    ],
+)
+def test_sizes_with_units_are_1024_based(text: str, number: int | None) -> None:
+    assert parse_bytes(text) == number
+
+
+def test_a_size_is_shown_as_a_datasheet_would() -> None:
+    assert (
+        show_bytes(270336) == "264 KB" and show_bytes(2 * 1024**2) == "2 MB" and show_bytes(1000) == "1,000 B"
+    )
+
+
+def test_a_bad_budget_is_one_line_naming_the_flag() -> None:
+    assert budget.budget_value(None, "--ram") is None and budget.budget_value("16K", "--ram") == 16384
+    with pytest.raises(ConfigError) as caught:
+        budget.budget_value("64X", "--flash")
+    assert caught.value.message.startswith("--flash 64X: not a size") and "\n" not in caught.value.message
+
+
+# nm -g --format=posix of the real Humble library (cortex-m7, generate_lib's preset: MAX_HISTORY 4,
+# MTU 512, one publisher), cut to the pools and a member with the same names undefined
+NM = """\
+libmicroros.a[librmw_microxrcedds__types.c.obj]:
+custom_clients B 000001f8 c8
+custom_publishers B 00000000 d8
+custom_sessions B 0 15a8
+custom_static_buffers B 0 2100
+custom_init_options B 0 84
+rmw_uxrce_init_service_memory T 00000001 2c
+libmicroros.a[libmicroxrcedds_client__custom_transport.c.obj]:
+custom_sessions U
+custom_static_buffers U
+"""
+
+
+def test_ram_symbols_and_their_sizes_from_nm() -> None:
+    found = budget.symbol_sizes(NM)
+    assert found["custom_sessions"] == 5544 and found["custom_static_buffers"] == 8448
+    assert "rmw_uxrce_init_service_memory" not in found  # code, not RAM
+
+
+def test_the_options_that_cost_most_ram_come_first_with_the_values_in_force() -> None:
+    built = {"rmw_microxrcedds": {"RMW_UXRCE_MAX_HISTORY": "4", "RMW_UXRCE_MAX_PUBLISHERS": "1"}}
+    costs = budget.option_costs(known_options(), built, "custom", budget.symbol_sizes(NM))
+    names = [(c.option, c.value, c.bytes) for c in costs]
+    assert names[:4] == [
+        ("UCLIENT_CUSTOM_TRANSPORT_MTU", "512", 5544 + 8448),  # upstream's default: not in the meta
+        ("RMW_UXRCE_STREAM_HISTORY", "4", 5544 + 8448),  # equal bytes: by package, then name
+        ("RMW_UXRCE_MAX_HISTORY", "4", 8448),
+        ("RMW_UXRCE_MAX_SESSIONS", "1", 5544 + 132),  # the sessions and their init options
+    ]
+    assert ("RMW_UXRCE_MAX_PUBLISHERS", "1", 216) in names
+    # the MTU of another transport sizes nothing in this library; an absent pool is not "free"
+    assert not {"UCLIENT_UDP_TRANSPORT_MTU", "RMW_UXRCE_MAX_NODES"} & {c.option for c in costs}
+    listed = {row["option"]: row for row in options_table()}  # `uros meta options --json`
+    assert listed["RMW_UXRCE_MAX_HISTORY"]["pools"] == ["custom_static_buffers"]
+    udp = budget.option_costs(known_options(), built, "udp", budget.symbol_sizes(NM))
+    assert "UCLIENT_UDP_TRANSPORT_MTU" in {c.option for c in udp}
+
+
+def test_need_adds_the_library_the_rest_and_what_the_probe_measured() -> None:
+    need = budget.Need(Sizes(40_000, 300, 16_000), Sizes(1000, 20, 80), heap=2920, stack=2112)
+    assert need.static_ram == 300 + 16_000 + 20 + 80
+    assert need.ram == need.static_ram + 2920 + 2112
+    assert need.flash == 40_000 + 300 + 1000 + 20
+
+
+def test_the_verdict_says_by_how_much() -> None:
+    need = budget.Need(Sizes(40_000, 300, 16_000), heap=2920, stack=2112)  # RAM 21,332, flash 40,300
+    fits, line = budget.verdict(need, 64 * 1024, 128 * 1024, None)
+    assert fits and line == "fits: RAM 21,332 of 65,536 B (33%), flash 40,300 of 131,072 B (31%)"
+    fits, line = budget.verdict(need, 16 * 1024, None, None)
+    assert not fits
+    assert line == (
+        "does not fit: RAM needs 21,332 B: 4,948 B over 16 KB (16,384 B), flash 40,300 B (no budget: --flash N)"
+    )
+    assert budget.over_by(need, 16 * 1024, 32 * 1024) == {"ram": 4948, "flash": 40_300 - 32_768}
+    static = budget.Need(Sizes(40_000, 300, 16_000))
+    fits, line = budget.verdict(static, 20_000, None, "not measured: run uros probe")
+    assert fits and line.endswith("(static RAM only; heap and stack not measured: run uros probe)")
+
+
+def _report(**change: object) -> str:
+    data = {"status": 0, "verdict": "pass", "heap_bytes": 2920, "stack_bytes": 2112, "library_sha256": "aa"}
+    return json.dumps({**data, "map_sha256": "mm", **change})
+
+
+def test_only_a_passed_probe_of_this_very_library_is_counted() -> None:
+    work = Path("/ws/.uros/probe/cortex-m7-0123456789")
+    assert measured(None, "aa", None, work) == "not measured: run uros probe"
+    assert measured(_report(), "bb", "mm", work).startswith("not measured for this library")
+    failed = measured(_report(status=3, verdict="no session", heap_bytes=None), "aa", "mm", work)
+    assert failed == "not measured: the last probe did not pass (no session; run uros probe)"
+    assert measured("{cut", "aa", None, work).startswith("not measured: the probe's report.json")
+    got = measured(_report(), "aa", "mm", work)
+    assert got == Measured(2920, 2112, str(work / REPORT), str(work / MAP))
+    # a map file another build replaced is not that run's: heap and stack still count, its map not
+    assert measured(_report(), "aa", "other", work) == Measured(2920, 2112, str(work / REPORT), None)
+
+
+def test_a_profile_names_its_chip_and_a_bad_size_names_the_key() -> None:
+    rp2040 = find_profile("rp2040").chip
+    assert (rp2040.name, rp2040.ram_bytes, rp2040.flash_bytes) == ("RP2040", 264 * 1024, 2 * 1024**2)
+    assert not find_profile("cortex-m7").chip.known  # a core, many chips: no default
+    with pytest.raises(ConfigError, match=r"board.yaml: chip.ram: '264 kilobytes' is not a size"):
+        parse_profile({**minimal_profile(), "chip": {"name": "X", "ram": "264 kilobytes"}}, "board.yaml")

@@ -1,0 +1,131 @@
+"""Does it fit the chip? The library's static RAM and flash, the heap and stack a probe run
+measured, against a RAM and flash budget; and the colcon.meta options that cost most RAM, each by
+the size of the static pools it sets, read from the library's own symbols (pure: text in, numbers
+and lines out).
+
+Flash is text + data (GNU size's text holds .rodata too; .data's initial values live in flash),
+static RAM is data + bss: what `arm-none-eabi-size` users add up by hand.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+
+from uros_build.errors import ConfigError
+from uros_build.output.sizes import Sizes
+from uros_build.sources.options import KnownOption
+from uros_build.target.memsize import SIZE_HELP, parse_bytes, show_bytes
+
+# nm's types of symbols that take RAM: initialised (D/d), zeroed (B/b), common (C)
+_RAM_TYPES = frozenset("DdBbC")
+
+
+def budget_value(value: str | None, flag: str) -> int | None:
+    """--ram/--flash as bytes (None: not given); a value that is no size is refused naming the flag."""
+    if value is None:
+        return None
+    number = parse_bytes(value)
+    if number is None:
+        raise ConfigError(f"{flag} {value}: not a size more than 0: {SIZE_HELP}")
+    return number
+
+
+def symbol_sizes(nm_posix: str) -> dict[str, int]:
+    """RAM symbol -> its size in bytes, from ``nm -g --format=posix`` text of an archive (``name
+    type value size`` per line; a member's header line and undefined symbols carry no size)."""
+    out: dict[str, int] = {}
+    for line in nm_posix.splitlines():
+        parts = line.split()
+        if len(parts) != 4 or parts[1] not in _RAM_TYPES:
+            continue
+        try:
+            size = int(parts[3], 16)
+        except ValueError:
+            continue
+        out[parts[0]] = max(out.get(parts[0], 0), size)
+    return out
+
+
+@dataclass(frozen=True)
+class OptionCost:
+    package: str
+    option: str
+    value: str  # in force in the library: its colcon.meta's, else upstream's default
+    bytes: int  # the static pools it sets, as the library holds them
+    pools: tuple[str, ...]
+
+
+def option_costs(
+    known: Iterable[KnownOption],
+    cmake_options: Mapping[str, Mapping[str, str]],
+    transport: str | None,
+    sizes: Mapping[str, int],
+) -> list[OptionCost]:
+    """The options that size a static pool of this library, most bytes first. An option counts
+    with the value the library was built with (``cmake_options``, its build-info.json's), else its
+    upstream default; an MTU option only for the library's transport; a pool the library does not
+    hold (another rmw, a renamed array) costs nothing, and an option whose pools all are absent is
+    left out rather than shown as free."""
+    costs = []
+    for option in known:
+        if not option.pools or (option.transport and option.transport != transport):
+            continue
+        value = cmake_options.get(option.package, {}).get(option.name, option.default)
+        held = tuple(p for p in option.pools if sizes.get(p))
+        if not value or not held:
+            continue
+        costs.append(OptionCost(option.package, option.name, value, sum(sizes[p] for p in held), held))
+    costs.sort(key=lambda c: (-c.bytes, c.package, c.option))
+    return costs
+
+
+@dataclass(frozen=True)
+class Need:
+    """What the firmware needs of the chip, part by part (None: not measured)."""
+
+    library: Sizes  # the library's text/data/bss as counted (linked, or the whole archive)
+    rest: Sizes | None = None  # the rest of the user's firmware, from its map file
+    heap: int | None = None
+    stack: int | None = None
+
+    @property
+    def static_ram(self) -> int:
+        return sum(s.data + s.bss for s in (self.library, self.rest) if s is not None)
+
+    @property
+    def ram(self) -> int:
+        return self.static_ram + (self.heap or 0) + (self.stack or 0)
+
+    @property
+    def flash(self) -> int:
+        return sum(s.text + s.data for s in (self.library, self.rest) if s is not None)
+
+
+def _part(what: str, need: int, budget: int | None) -> tuple[bool, str]:
+    if budget is None:
+        return True, f"{what} {need:,} B (no budget: --{what.lower()} N)"
+    if need <= budget:
+        return True, f"{what} {need:,} of {budget:,} B ({100 * need / budget:.0f}%)"
+    return False, f"{what} needs {need:,} B: {need - budget:,} B over {show_bytes(budget)} ({budget:,} B)"
+
+
+def verdict(need: Need, ram: int | None, flash: int | None, unmeasured: str | None) -> tuple[bool, str]:
+    """(fits, the one line that says so). ``unmeasured``: why heap and stack are not counted."""
+    ram_ok, ram_text = _part("RAM", need.ram, ram)
+    flash_ok, flash_text = _part("flash", need.flash, flash)
+    fits = ram_ok and flash_ok
+    line = f"{'fits' if fits else 'does not fit'}: {ram_text}, {flash_text}"
+    if unmeasured is not None:
+        line += f" (static RAM only; heap and stack {unmeasured})"
+    return fits, line
+
+
+def over_by(need: Need, ram: int | None, flash: int | None) -> dict[str, int]:
+    """resource -> bytes over its budget (only those over)."""
+    over = {}
+    if ram is not None and need.ram > ram:
+        over["ram"] = need.ram - ram
+    if flash is not None and need.flash > flash:
+        over["flash"] = need.flash - flash
+    return over
