@@ -27,8 +27,9 @@ def test_a_target_without_a_machine_says_so() -> None:
 
 def test_the_agent_argv() -> None:
     assert probe.agent_argv("/a/MicroXRCEAgent", "/dev/pts/7") == [
-        "/a/MicroXRCEAgent", "serial", "--dev", "/dev/pts/7", "-b", "115200", "-v6",
+        "/a/MicroXRCEAgent", "serial", "--dev", "/dev/pts/7", "-b", "115200", "-m", "dds", "-v6",
     ]  # fmt: skip
+    assert probe.agent_argv("/a/MicroXRCEAgent", "/dev/pts/7", "ced")[-3:] == ["-m", "ced", "-v6"]
 
 
 def test_the_pty_qemu_announces() -> None:
@@ -50,10 +51,14 @@ def test_the_firmware_sources_ship_and_name_every_verdict() -> None:
     src = probe.firmware_sources()
     assert {p.name for p in src.iterdir()} >= {"CMakeLists.txt", "main.c", "transport.c", "probe.h"}
     # the FreeRTOS variant's statuses are its own files' (templates/probe/freertos/)
-    main = "".join(p.read_text() for p in (src / "main.c", *sorted((src / "freertos").glob("*.c"))))
+    assert {"stages.h", "stage_service.c", "stage_time.c", "stage_fragmentation.c", "stage_restart.c"} <= {
+        p.name for p in src.iterdir()
+    }
+    # the stages' statuses are stages.h's; the FreeRTOS variant's its own files' (templates/probe/freertos/)
+    main = "".join(p.read_text() for p in (src / "stages.h", *sorted((src / "freertos").glob("*.c"))))
     for status in probe.VERDICTS:
         if status not in (0, 70, 71):
-            assert any(f in main for f in (f", {status}, ", f"return {status};", f"_exit({status});")), status
+            assert any(f in main for f in (f" = {status},", f"return {status};", f"_exit({status});")), status
 
 
 def test_limits_from_the_console() -> None:

@@ -26,11 +26,12 @@ from uros_build.proc import Runner, new_run_log
 from uros_build.run import freertos as freertos_mod
 from uros_build.run import machines as probe_mod
 from uros_build.run import netns, peerenv
+from uros_build.run import stages as stages_mod
 from uros_build.run.firmware import build_firmware
 from uros_build.run.machines import qemu_hint
 from uros_build.run.peer import peer_verdict
 from uros_build.run.report import probe_base, probe_work, write_report
-from uros_build.run.session import PeerRun, run_session
+from uros_build.run.session import PeerRun, SessionSpec, run_session
 from uros_build.sources.packages import discover
 from uros_build.sources.workspace import Workspace, workspace_of_output
 
@@ -53,6 +54,9 @@ class ProbeReport:
     stack_bytes: int | None
     limits: dict[str, int]  # nodes/publishers/subscriptions: as many as RMW_UXRCE_MAX_* were created
     rtos: str | None  # "freertos": the firmware ran its stages in a FreeRTOS task; None: bare metal
+    # name -> {"result": pass/fail/skip, "detail": the firmware's line (+ the host's judgement),
+    # "seconds": time's offset from the host clock, restart's seconds to reconnect (host)}
+    stages: dict[str, dict[str, object]]
     console_log: str
     agent_log: str
     run_log: str
@@ -178,21 +182,29 @@ def _probe(
         runner, probe_mod.firmware_sources(), work, out, "uros_probe", verbose, machine,
         defines=freertos_mod.cmake_defines(rtos), folders=freertos_mod.firmware_folders(rtos),
     )  # fmt: skip
-    ran = run_session(runner, qemu_program, machine, elf, agent_program, work, timeout, peer=peer_run)
+    # the agent's DDS middleware: its CED one creates no XRCE requesters or repliers (the service
+    # stage's rclc_service_init_default returned 1 with -m ced), so it runs in a namespace of its own
+    spec = SessionSpec(middleware="dds", restart_agent=True)
+    ran = run_session(
+        runner, qemu_program, machine, elf, agent_program, work, timeout, peer=peer_run, spec=spec
+    )
     status, seconds, text = ran.status, ran.seconds, ran.console
     console_log, agent_log = ran.console_log, ran.agent_log
     used = probe_mod.resources_used(text)
     limits = probe_mod.limits_held(text)
+    stages = stages_mod.stages_of(ran.lines, ran.restarts)
+    failed = stages_mod.failed(stages)
     report = ProbeReport(
         target=info.target,
         machine=machine.machine,
         status=status,
-        verdict=probe_mod.verdict(status),
+        verdict=stages_mod.failure_line(failed) if failed else probe_mod.verdict(status),
         seconds=round(seconds, 2),
         heap_bytes=used[0] if used else None,
         stack_bytes=used[1] if used else None,
         limits={kind: limit for kind, (limit, _) in limits.items()},
         rtos="freertos" if rtos else None,
+        stages={s.name: {"result": s.result, "detail": s.detail, "seconds": s.seconds} for s in stages},
         console_log=str(console_log),
         agent_log=str(agent_log),
         run_log=str(runner.log_path),
@@ -205,18 +217,20 @@ def _probe(
         return _peer_report(report, info.target, machine.machine, as_json)
     if as_json:
         sys.stdout.write(json.dumps(asdict(report), indent=2, sort_keys=True) + "\n")
-    if status != 0:
-        stage = freertos_mod.two_tasks(text) if status == 9 else None
-        measured = f": {stage[1]}" if stage else ""
+    if status != 0 or failed is not None:
+        two_tasks = freertos_mod.two_tasks(text) if status == 9 and failed is None else None
+        measured = f": {two_tasks[1]}" if two_tasks else ""
         raise VerifyError(
             f"uros probe {info.target} ({machine.machine}{on}): {report.verdict}{measured}",
             f"the firmware's console: {console_log}; the agent's log: {agent_log}",
         )
     memory = f"; heap {used[0]:,} B, stack {used[1]:,} B" if used else ""
     console.step(
-        f"probe passed: {info.target} in QEMU {machine.machine}{on} talked to the agent: session, node, "
-        f"publisher, subscription, every sample back ({seconds:.1f} s{memory})"
+        f"probe passed: {info.target} in QEMU {machine.machine}{on} talked to the agent: "
+        f"{stages_mod.describe(stages) or 'every sample back'} ({seconds:.1f} s{memory})"
     )
+    for skipped in (s for s in stages if s.result == "skip"):
+        console.info(f"stage {skipped.name} skipped: {skipped.detail}")
     if rtos is not None:
         console.info(freertos_mod.describe_run(text))
     if limits:

@@ -252,9 +252,10 @@ def qemu_hint(program: str) -> str:
     return f"install {program} (Debian: apt-get install {package})"
 
 
-def agent_argv(agent: str, pty: str) -> list[str]:
-    """The Micro XRCE-DDS Agent on the firmware's serial link; -v6 logs every message in hex."""
-    return [agent, "serial", "--dev", pty, "-b", "115200", "-v6"]
+def agent_argv(agent: str, pty: str, middleware: str = "dds") -> list[str]:
+    """The Micro XRCE-DDS Agent on the firmware's serial link; -v6 logs every message in hex. `-m`
+    names the middleware, dds (Fast DDS, the agent's default) or ced (no network)."""
+    return [agent, "serial", "--dev", pty, "-b", "115200", "-m", middleware, "-v6"]
 
 
 _PTY = re.compile(r"char device redirected to (/dev/pts/\d+) \(label link\)")
@@ -275,8 +276,12 @@ VERDICTS: Mapping[int, str] = {
     4: "an entity (node, publisher, subscription) could not be created: check RMW_UXRCE_MAX_* in colcon.meta",
     5: "samples lost: fewer came back through the agent than were published",
     6: "tearing down the entities failed",
+    7: "stage service failed",
+    8: "stage time failed",
     9: "two tasks publishing at once lost or tore samples (FreeRTOS: a library without "
     "microxrcedds_client.UCLIENT_PROFILE_MULTITHREAD=ON must not be called from two tasks)",
+    10: "stage restart failed",
+    11: "stage fragmentation failed",
     70: "the firmware crashed (hard fault)",
     71: "an unaligned access did not trap: the machine does not check ARMv6-M's alignment (CCR.UNALIGN_TRP)",
     72: "a FreeRTOS task overflowed its stack",

@@ -2,9 +2,13 @@
 firmware's link on a pseudo-terminal, the agent opens that terminal, and QEMU's exit status (the
 firmware's, through semihosting) is the result. Every process goes through the one runner.
 
-With a host peer (`uros probe --peer`), the agent speaks DDS (``-m dds``) and runs, with the peer,
-in a network namespace of the run's own (run/netns.py): the peer's exit status is the second half of
-the verdict (run/peer.py)."""
+The agent's DDS middleware (Fast DDS; the probe's service stage needs it: the CED middleware makes
+no requesters or repliers) runs in a network namespace of the run's own, loopback only
+(run/netns.py), with a host peer (`uros probe --peer`) beside it: the peer's exit status is the
+second half of the verdict (run/peer.py). uros watches the firmware's console while it runs: each
+line gets the host time it appeared (`ConsoleLine.seen`, read every WATCH_SECONDS), and when the
+firmware asks for an agent restart (the probe's restart stage) uros stops the agent and, once the
+firmware says it lost it, starts it again on the same terminal."""
 
 from __future__ import annotations
 
@@ -16,10 +20,23 @@ from pathlib import Path
 from uros_build.errors import StepFailed
 from uros_build.proc import Background, Runner
 from uros_build.run import machines, netns
+from uros_build.run.stages import ConsoleLine
 
 # How long the agent outlives the firmware while a peer runs: the firmware's last samples (sent
 # just before its exit) are still on their way through the agent to the peer.
 AGENT_GRACE = 2.0
+WATCH_SECONDS = 0.01  # how often the console is read: the resolution of a line's host time
+RESTART_ASKED = "uros-probe: restart the agent"  # templates/probe/stage_restart.c
+AGENT_LOST = "uros-probe: agent lost"
+LOST_WAIT = 5.0  # seconds to wait for AGENT_LOST before starting the agent again all the same
+
+
+@dataclass(frozen=True)
+class SessionSpec:
+    """How the agent side of a run is set up (the firmware side is the ELF and the machine)."""
+
+    middleware: str = "dds"  # the agent's -m: dds (Fast DDS, in a namespace of its own) or ced
+    restart_agent: bool = False  # stop and start the agent when the firmware asks (RESTART_ASKED)
 
 
 @dataclass(frozen=True)
@@ -42,6 +59,26 @@ class Session:
     qemu_log: Path
     peer_status: int | None = None  # the peer's exit status; None: no peer, or it did not finish
     peer_log: Path | None = None  # None: no peer ran
+    lines: tuple[ConsoleLine, ...] = ()  # the console as it appeared
+    restarts: tuple[tuple[float, float], ...] = ()  # host times: the agent stopped, started again
+
+
+class _Console:
+    """The console file's whole lines as QEMU writes them, each stamped when first read."""
+
+    def __init__(self, path: Path) -> None:
+        self.path, self.offset, self.partial = path, 0, b""
+
+    def read(self) -> list[ConsoleLine]:
+        if not self.path.is_file():
+            return []
+        with self.path.open("rb") as f:
+            f.seek(self.offset)
+            data = f.read()
+        self.offset += len(data)
+        now = time.time()
+        *whole, self.partial = (self.partial + data).split(b"\n")
+        return [ConsoleLine(now, x.decode("utf-8", "replace").rstrip("\r")) for x in whole]
 
 
 def _wait_for_pty(qemu_output: Path, qemu: Background, seconds: float) -> str | None:
@@ -89,15 +126,20 @@ def run_session(
     work: Path,
     timeout: float,
     peer: PeerRun | None = None,
+    spec: SessionSpec = SessionSpec(),
 ) -> Session:
     console_log, qemu_log, agent_log = work / "console.log", work / "qemu.log", work / "agent.log"
     console_log.unlink(missing_ok=True)
     argv = machines.qemu_argv(machine, elf, console_log)
     started = time.monotonic()
-    holder = _namespace(runner, work) if peer is not None else None
+    middleware = "dds" if peer is not None else spec.middleware  # a peer speaks DDS
+    holder = _namespace(runner, work) if middleware == "dds" else None
     qemu = runner.start([qemu_program, *argv[1:]], step="QEMU", output=qemu_log)
-    agent_proc = peer_proc = None
+    agents: list[Background] = []
+    peer_proc = None
     peer_status = None
+    lines: list[ConsoleLine] = []
+    restarts: list[tuple[float, float]] = []
     try:
         pty = _wait_for_pty(qemu_log, qemu, 10.0)
         if pty is None:
@@ -105,28 +147,45 @@ def run_session(
                 f"QEMU {machine.machine} did not open the firmware's link (no pseudo-terminal)",
                 f"its output is in {qemu_log}",
             )
-        agent_argv = machines.agent_argv(agent_program, pty)
+        agent_argv = machines.agent_argv(agent_program, pty, middleware)
         if holder is not None:  # Fast DDS in the namespace: the peer's participants find the agent's
-            agent_argv = netns.enter_argv(holder.proc.pid, [*agent_argv, "-m", "dds"])
-        agent_proc = runner.start(agent_argv, step="the agent", output=agent_log)
+            agent_argv = netns.enter_argv(holder.proc.pid, agent_argv)
+        agents.append(runner.start(agent_argv, step="the agent", output=agent_log))
         if peer is not None and holder is not None:
-            _wait_for_agent(agent_log, agent_proc, 5.0)
+            _wait_for_agent(agent_log, agents[0], 5.0)
             peer_proc = runner.start(
                 netns.enter_argv(holder.proc.pid, peer.argv), step="the peer", output=peer.log, env=peer.env
             )
-        status = qemu.wait(timeout)
+        console = _Console(console_log)
+        stopped: float | None = None  # when uros stopped the agent for a restart
+        status = None
+        while time.monotonic() - started < timeout:
+            status = qemu.wait(WATCH_SECONDS)
+            new = console.read()
+            lines.extend(new)
+            texts = {line.text for line in new}
+            if spec.restart_agent and RESTART_ASKED in texts and stopped is None and not restarts:
+                agents[-1].stop()
+                stopped = time.time()
+            # once the firmware lost it (or said nothing for LOST_WAIT: it then fails the stage itself)
+            if stopped is not None and (AGENT_LOST in texts or time.time() - stopped > LOST_WAIT):
+                agents.append(runner.start(agent_argv, step="the agent", output=work / "agent-restarted.log"))
+                restarts.append((stopped, time.time()))
+                stopped = None
+            if status is not None:
+                break
         runner.log(f"the firmware ended after {time.monotonic() - started:.1f} s")
         if peer_proc is not None:  # what the firmware sent last still reaches the peer
             peer_status = peer_proc.wait(min(AGENT_GRACE, max(0.1, timeout - (time.monotonic() - started))))
         # the agent goes with the firmware: it would wait for the pty to come back, and another run's
         # QEMU may be given the same /dev/pts number
-        agent_proc.stop()
+        agents[-1].stop()
         if peer_proc is not None and peer_status is None:  # the peer gets what is left of the same time
             peer_status = peer_proc.wait(max(0.1, timeout - (time.monotonic() - started)))
             runner.log(f"the peer ended after {time.monotonic() - started:.1f} s")
     finally:
         qemu.stop()
-        for proc in (peer_proc, agent_proc, holder):
+        for proc in (peer_proc, *agents, holder):
             if proc is not None:
                 proc.stop()
     seconds = time.monotonic() - started
@@ -140,4 +199,5 @@ def run_session(
     return Session(
         status, seconds, text, console_log, agent_log, qemu_log,
         peer_status=peer_status, peer_log=peer.log if peer is not None else None,
+        lines=tuple(lines), restarts=tuple(restarts),
     )  # fmt: skip

@@ -1,0 +1,97 @@
+"""The probe's stages from its console (run/stages.py, pure) and the live console reader of
+run/session.py: what `uros probe` reports per stage, and the one-line verdict."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from uros_build.run import stages
+from uros_build.run.session import RESTART_ASKED, _Console
+from uros_build.run.stages import ConsoleLine, Stage
+
+CONSOLE = """uros-probe: boot
+uros-probe: stage session pass session, node, publisher and subscription created
+uros-probe: stage samples pass 10 of 10 came back in 649 ms (10 published)
+uros-probe: stage limits pass nodes 1, publishers 1, subscriptions 1
+uros-probe: stage fragmentation pass 773 B (1.5 x MTU 512) came back whole
+uros-probe: stage service skip the library has no example_interfaces/srv/AddTwoInts
+uros-probe: stage time pass epoch 1795656679.921 s (synced in 32 ms)
+uros-probe: restart the agent
+uros-probe: stage restart pass reconnected in 367 ms after the agent answered again
+uros-probe: stage samples fail a second line of a stage does not count
+uros-probe: stage Bad pass not a stage name
+uros-probe: stage limits maybe not a result
+"""
+
+
+def _lines(text: str, seen: float = 1795656679.95) -> list[ConsoleLine]:
+    return [ConsoleLine(seen, x) for x in text.splitlines()]
+
+
+def test_stage_lines_are_read_in_order_first_line_wins() -> None:
+    found = stages.parse(_lines(CONSOLE))
+    assert [(s.name, s.result) for s in found] == [
+        ("session", "pass"),
+        ("samples", "pass"),
+        ("limits", "pass"),
+        ("fragmentation", "pass"),
+        ("service", "skip"),
+        ("time", "pass"),
+        ("restart", "pass"),
+    ]
+    assert found[4].detail == "the library has no example_interfaces/srv/AddTwoInts"
+    assert stages.parse(_lines("uros-probe: stage service pass\r")) == [Stage("service", "pass", "")]
+
+
+def test_the_time_stage_is_judged_against_the_host_clock_when_its_line_appeared() -> None:
+    line = "uros-probe: stage time pass epoch 1795656679.921 s (synced in 32 ms)"
+    near = stages.stages_of(_lines(line, seen=1795656679.957))[0]
+    assert near.result == "pass" and near.seconds == -0.036
+    assert near.detail.endswith("-0.036 s off the host's clock")
+    far = stages.stages_of(_lines(line, seen=1795656681.5))[0]
+    assert far.result == "fail" and far.seconds == -1.579
+    assert far.detail.startswith("the firmware's epoch is -1.579 s off the host's clock (more than 1 s)")
+    ahead = stages.judge_time(stages.parse(_lines(line))[0], 1795656678.0)
+    assert ahead.result == "fail" and ahead.seconds == 1.921
+    no_epoch = stages.judge_time(Stage("time", "pass", "synced"), 1.0)
+    assert no_epoch.result == "fail" and "no epoch" in no_epoch.detail
+    failed = Stage("time", "fail", "rmw_uros_sync_session: no answer")
+    assert stages.judge_time(failed, 1.0) == failed
+
+
+def test_the_restart_stage_gets_the_hosts_time_to_reconnect() -> None:
+    text = "uros-probe: stage restart pass reconnected in 367 ms"
+    done = stages.stages_of(_lines(text, seen=110.5), restarts=[(100.0, 108.25)])[0]
+    assert done.seconds == 2.25 and done.detail.endswith("2.25 s from the agent's restart (host)")
+    assert stages.stages_of(_lines(text))[0].seconds is None  # no restart was made: nothing to add
+
+
+def test_the_verdict_line_names_every_stage_and_the_first_failure() -> None:
+    found = stages.stages_of(_lines(CONSOLE, seen=1795656679.957), restarts=[(1795656678.0, 1795656678.5)])
+    line = stages.describe(found)
+    assert line.startswith("session pass, samples pass, limits pass, fragmentation pass, service skip, ")
+    assert "time pass (-0.036 s)" in line and "restart pass (1.46 s)" in line
+    assert stages.failed(found) is None
+    bad = [*found, Stage("service2", "fail", "no answer to 20 AddTwoInts requests in 5000 ms")]
+    failure = stages.failed(bad)
+    assert failure is not None
+    assert (
+        stages.failure_line(failure)
+        == "stage service2 failed: no answer to 20 AddTwoInts requests in 5000 ms"
+    )
+
+
+def test_the_console_is_read_line_by_line_as_it_grows(tmp_path: Path) -> None:
+    """run/session.py stamps each whole line when it first sees it; a half-written line waits."""
+    log = tmp_path / "console.log"
+    console = _Console(log)
+    assert console.read() == []  # QEMU has not made the file yet
+    log.write_bytes(b"uros-probe: boot\r\nuros-probe: resta")
+    first = console.read()
+    assert [x.text for x in first] == ["uros-probe: boot"]
+    with log.open("ab") as f:
+        f.write(b"rt the agent\r\n")
+    second = console.read()
+    assert [x.text for x in second] == [RESTART_ASKED]
+    assert second[0].seen >= first[0].seen
+    assert console.read() == []

@@ -1,0 +1,109 @@
+"""The probe firmware's stages, read from its console (pure). Every stage prints one line,
+
+    uros-probe: stage <name> pass|fail|skip <detail>
+
+(templates/probe/stages.h; an app or another firmware reuses the same form), and uros adds what only
+the host can judge: the time stage's epoch against the host's clock at the moment its line appeared
+(`ConsoleLine.seen`, read every run/session.WATCH_SECONDS), and for the restart stage the host's
+time from the agent's restart to the node publishing again."""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, replace
+
+RESULTS = ("pass", "fail", "skip")
+TIME_LIMIT = 1.0  # seconds the firmware's epoch may be off the host's (issue 31)
+_STAGE = re.compile(r"^uros-probe: stage ([a-z][a-z0-9_-]*) (pass|fail|skip)\b ?(.*)$")
+_EPOCH = re.compile(r"\bepoch (\d+)\.(\d{3}) s\b")
+
+
+@dataclass(frozen=True)
+class ConsoleLine:
+    seen: float  # host time (time.time(), epoch seconds) the whole line was first read
+    text: str
+
+
+@dataclass(frozen=True)
+class Stage:
+    name: str
+    result: str  # pass, fail or skip
+    detail: str
+    seconds: float | None = None  # time: the epoch's offset from the host; restart: seconds to reconnect
+
+
+def parse(lines: Iterable[ConsoleLine]) -> list[Stage]:
+    """The stages in the order they reported; a stage that reported twice counts its first line."""
+    out: dict[str, Stage] = {}
+    for line in lines:
+        found = _STAGE.match(line.text.strip())
+        if found and found[1] not in out:
+            out[found[1]] = Stage(found[1], found[2], found[3].strip())
+    return list(out.values())
+
+
+def seen_at(lines: Iterable[ConsoleLine], name: str) -> float | None:
+    """When the host first read the line of stage `name`."""
+    return next((x.seen for x in lines if (m := _STAGE.match(x.text.strip())) and m[1] == name), None)
+
+
+def judge_time(stage: Stage, seen: float | None) -> Stage:
+    """A passed time stage passes only if its epoch is within TIME_LIMIT of the host's clock when its
+    line appeared."""
+    epoch = _EPOCH.search(stage.detail)
+    if stage.result != "pass" or seen is None:
+        return stage
+    if epoch is None:
+        return replace(stage, result="fail", detail=f"{stage.detail}: no epoch in the line")
+    offset = round(int(epoch[1]) + int(epoch[2]) / 1000 - seen, 3)
+    if abs(offset) > TIME_LIMIT:
+        return replace(
+            stage,
+            result="fail",
+            seconds=offset,
+            detail=f"the firmware's epoch is {offset:+.3f} s off the host's clock (more than "
+            f"{TIME_LIMIT:g} s): {stage.detail}",
+        )
+    return replace(stage, seconds=offset, detail=f"{stage.detail}, {offset:+.3f} s off the host's clock")
+
+
+def judge_restart(stage: Stage, seen: float | None, restarts: Sequence[tuple[float, float]]) -> Stage:
+    """The host's figure for a passed restart: from starting the agent again to the stage's line."""
+    if stage.result != "pass" or seen is None or not restarts:
+        return stage
+    seconds = round(seen - restarts[0][1], 2)
+    return replace(
+        stage, seconds=seconds, detail=f"{stage.detail}; {seconds:.2f} s from the agent's restart (host)"
+    )
+
+
+def stages_of(lines: Sequence[ConsoleLine], restarts: Sequence[tuple[float, float]] = ()) -> list[Stage]:
+    """The console's stages with the host's judgement added."""
+    out = []
+    for stage in parse(lines):
+        if stage.name == "time":
+            stage = judge_time(stage, seen_at(lines, "time"))
+        elif stage.name == "restart":
+            stage = judge_restart(stage, seen_at(lines, "restart"), restarts)
+        out.append(stage)
+    return out
+
+
+def failed(stages: Iterable[Stage]) -> Stage | None:
+    return next((s for s in stages if s.result == "fail"), None)
+
+
+def describe(stages: Iterable[Stage]) -> str:
+    """`session pass, ..., service skip, time pass (+0.041 s), restart pass (1.21 s)`."""
+    parts = []
+    for s in stages:
+        extra = ""
+        if s.seconds is not None and s.result == "pass":
+            extra = f" ({s.seconds:+.3f} s)" if s.name == "time" else f" ({s.seconds:.2f} s)"
+        parts.append(f"{s.name} {s.result}{extra}")
+    return ", ".join(parts)
+
+
+def failure_line(stage: Stage) -> str:
+    return f"stage {stage.name} failed: {stage.detail}"
