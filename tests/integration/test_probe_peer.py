@@ -114,3 +114,59 @@ def test_a_peer_that_fails_fails_the_verdict_though_the_firmware_passed(tmp_path
     line = _one_error(subprocess.CompletedProcess([], code, "", err))
     assert "the peer failed (exit 1), though the firmware passed its own checks" in line
     assert str(data["peer_log"]) in err and str(data["console_log"]) in err
+
+
+# -- the seeds' apps (examples/*/app.c, run by `uros probe --app`) and their peers -----------------
+
+_APPS = pytest.mark.skipif(
+    not ((SEED_001 / "app.c").is_file() and (SEED_000 / "app.c").is_file()),
+    reason="the seeds' apps are not here",
+)
+
+
+def _seed_001(out: Path) -> tuple[int, str, dict[str, object]]:
+    return _probe(
+        str(out), "--app", str(SEED_001), "-D", "APP_PEER_REQUESTS=2", "--peer", str(SEED_001 / "peer.py")
+    )
+
+
+@_RUNS
+@_APPS
+def test_seed_001_s_app_and_its_peer_cmdvel_and_get_time() -> None:
+    code, err, data = _seed_001(_output())
+    assert code == 0, err
+    peer_log = Path(str(data["peer_log"])).read_text()
+    assert "peer: PASS" in peer_log and "get_time asked at" in peer_log, peer_log
+    assert "app: PASS" in Path(str(data["console_log"])).read_text()
+
+
+@_RUNS
+@_APPS
+def test_seed_000_s_hsb_node_follows_the_peer_s_commands() -> None:
+    code, err, data = _probe(
+        str(_output()), "--app", str(SEED_000), "-D", "HSB_EXIT_AFTER=2", "-D", "HSB_STATE_PERIOD_MS=200",
+        "--peer", str(SEED_000 / "peer.py"),
+    )  # fmt: skip
+    assert code == 0, err
+    peer_log = Path(str(data["peer_log"])).read_text()
+    assert "peer: PASS every command was followed by the state" in peer_log, peer_log
+
+
+@_RUNS
+@_APPS
+def test_a_wrong_interface_definition_is_caught_by_the_peer_only(tmp_path: Path) -> None:
+    """The negative control of a wrong type: the peer's CmdVel has int16 fields where the firmware's
+    (the library's) has int32. DDS matches them by name; the firmware passes its own checks (exit 0)
+    and only the peer's field checks see the nonsense, so the verdict fails."""
+    assert HUMBLE_WS
+    ws = tmp_path / "ws"
+    shutil.copytree(HUMBLE_WS, ws, symlinks=True, ignore=shutil.ignore_patterns("probe"))
+    msg = ws / "mcu_ws" / "extra_packages" / "eic_demo_interface" / "msg" / "CmdVel.msg"
+    msg.write_text("int16 left_rpm\nint16 right_rpm\n", encoding="utf-8")  # the library keeps int32
+    code, err, data = _seed_001(ws / "build" / "cortex-m7")
+    assert code == 5, err
+    assert data["peer_status"] == 1
+    assert "though the firmware passed its own checks" in _one_error(
+        subprocess.CompletedProcess([], code, "", err)
+    )
+    assert "CmdVel fields wrong" in Path(str(data["peer_log"])).read_text()

@@ -113,7 +113,11 @@ def _namespace(runner: Runner, work: Path) -> Background:
             raise StepFailed(
                 "uros probe: could not make a network namespace (unshare --net)", f"see {work / 'netns.log'}"
             )
-    runner.run(netns.enter_argv(holder.proc.pid, netns.loopback_argv()), step="loopback up", quiet=True)
+    try:
+        runner.run(netns.enter_argv(holder.proc.pid, netns.loopback_argv()), step="loopback up", quiet=True)
+    except BaseException:
+        holder.stop()
+        raise
     return holder
 
 
