@@ -41,6 +41,9 @@ def test_the_shipped_table() -> None:
         "cortex-m55": "mps3-an547",
         "cortex-m0plus": "mps2-an385",
     }
+    microbit = machines.machine_for("cortex-m0plus", table, "microbit")
+    assert microbit.chosen and microbit.board.ram == machines.Region(0x20000000, 16 << 10)
+    assert microbit.board.console is None and microbit.startup == ()  # a real M0 traps by itself
     m33 = table["cortex-m33"].board
     assert (m33.console, m33.link, m33.rom.origin, m33.ram.length) == (
         0x50200000,
@@ -100,12 +103,27 @@ def _broken(path: tuple[str, ...], value: Any) -> dict[str, Any]:
         (("boards", "an505", "colour"), "red", "colour: unknown key"),
         (("machines", "cortex-m33", "board"), "an521", "'an521' is not one of the boards"),
         (("machines", "cortex-m33", "startup"), ["turbo"], "'turbo' is not one of unaligned-trap"),
+        (("machines", "cortex-m33", "other_boards"), {"an521": {}}, "other_boards.an521: board: 'an521'"),
+        (("machines", "cortex-m33", "other_boards"), {"an505": {"board": "x"}}, "board: unknown key"),
     ],
 )
 def test_a_bad_table_is_refused_in_one_line(path: tuple[str, ...], value: Any, message: str) -> None:
     with pytest.raises(ConfigError, match=message) as caught:
         machines.parse_machines(_broken(path, value), "machines.yaml")
     assert "machines.yaml" in caught.value.message and "\n" not in caught.value.message
+
+
+def test_another_board_is_chosen_by_name_or_refused() -> None:
+    table = machines.load_machines()
+    assert machines.machine_for("cortex-m0plus", table, "mps2-an385") is table["cortex-m0plus"]
+    with pytest.raises(ConfigError, match="--board lx60: cortex-m0plus boots on mps2-an385, microbit"):
+        machines.machine_for("cortex-m0plus", table, "lx60")
+
+
+def test_a_firmware_too_big_for_the_ram_is_measured() -> None:
+    line = "ld: region `RAM' overflowed by 408 bytes\ncollect2: error: ld returned 1 exit status"
+    assert machines.ram_overflow(line) == 408
+    assert machines.ram_overflow("collect2: error: ld returned 1 exit status") is None
 
 
 def test_the_argv_of_a_two_uart_machine() -> None:
@@ -126,6 +144,20 @@ def test_the_argv_of_every_shipped_machine() -> None:
         assert argv[-2:] == ["-kernel", "/w/fw.elf"] and "pty,id=link" in argv, target
         # the link is the last -serial: the agent's end
         assert argv[len(argv) - 1 - argv[::-1].index("-serial") + 1] == "chardev:link", target
+
+
+def test_the_argv_of_a_one_uart_machine() -> None:
+    """The microbit's only UART is the agent's link: the console goes through semihosting's chardev."""
+    microbit = machines.machine_for("cortex-m0plus", machines.load_machines(), "microbit")
+    argv = machines.qemu_argv(microbit, Path("/w/fw.elf"), Path("/w/console.log"))
+    assert argv == [
+        "qemu-system-arm", "-M", "microbit", "-nographic", "-monitor", "none",
+        "-chardev", "file,id=console,path=/w/console.log",
+        "-semihosting-config", "enable=on,target=native,chardev=console",
+        "-chardev", "pty,id=link", "-serial", "chardev:link",
+        "-kernel", "/w/fw.elf",
+    ]  # fmt: skip
+    assert "#define PROBE_CONSOLE_SEMIHOSTING 1" in machines.machine_header(microbit)
 
 
 def test_the_generated_header_and_memory_map() -> None:

@@ -189,6 +189,7 @@ def export_arduino(output: Path, sources: tuple[Path, ...]) -> None:
     help="Run the probe firmware on FreeRTOS with this FreeRTOS-Kernel checkout (a library built "
     "with --rtos freertos runs on FreeRTOS without it).",
 )  # fmt: skip
+@click.option("--board", help="Another QEMU board of the target (meta/probe/machines.yaml), e.g. microbit.")
 @VERBOSE
 def probe(
     output: Path | None,
@@ -199,10 +200,11 @@ def probe(
     as_json: bool,
     peer: Path | None,
     freertos: str | None,
+    board: str | None,
     verbose: bool,
 ) -> None:
     """Run a built library: boot a probe firmware in QEMU against a real Micro XRCE-DDS Agent."""
-    probe_cmd.probe(output, workspace, toolchain, agent, timeout, as_json, verbose, peer, freertos)
+    probe_cmd.probe(output, workspace, toolchain, agent, timeout, as_json, verbose, peer, freertos, board)
 
 
 @click.group(cls=Group)

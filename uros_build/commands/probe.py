@@ -83,6 +83,7 @@ def probe(
     verbose: bool = False,
     peer: Path | None = None,
     freertos: str | None = None,
+    board: str | None = None,
 ) -> ProbeReport:
     check_timeout(timeout)
     if peer is not None:
@@ -92,7 +93,7 @@ def probe(
     info = read_build_info(out, "OUTPUT")
     if output is not None and toolchain is not None:
         check_toolchain_matches(toolchain, folder_key(toolchain), out, info.target)
-    machine = probe_mod.machine_for(info.target, probe_mod.load_machines())
+    machine = probe_mod.machine_for(info.target, probe_mod.load_machines(), board)
     rtos = _freertos(info, freertos)
     base = probe_base(out, info.target)
     # One probe of a target at a time: two at once shared the work folder (one deleted the other's
@@ -163,6 +164,8 @@ def _probe(
     rtos: freertos_mod.FreeRtos | None,
 ) -> ProbeReport:
     work = probe_work(base, info.target, out)
+    if machine.chosen:  # another board of the target keeps its own work folder (firmware, console, logs)
+        work = work.with_name(f"{work.name}-{machine.board.name}")
     work.mkdir(parents=True, exist_ok=True)
     runner = Runner(new_run_log(work / "log", "probe", info.target), verbose=verbose)
     on = f" on FreeRTOS ({rtos.why})" if rtos else ""

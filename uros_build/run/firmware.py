@@ -10,7 +10,7 @@ from pathlib import Path
 
 from uros_build.errors import StepFailed
 from uros_build.proc import Runner
-from uros_build.run.machines import Machine, board_files
+from uros_build.run.machines import Machine, board_files, ram_overflow
 
 
 def build_firmware(
@@ -47,7 +47,22 @@ def build_firmware(
          f"-DCMAKE_TOOLCHAIN_FILE={out / 'toolchain.cmake'}", f"-DCMAKE_PREFIX_PATH={out}", *defines],
         step=f"configure the {name} firmware", quiet=not verbose,
     )  # fmt: skip
-    runner.run([cmake, "--build", str(build)], step=f"build the {name} firmware", quiet=not verbose)
+    try:
+        runner.run([cmake, "--build", str(build)], step=f"build the {name} firmware", quiet=not verbose)
+    except StepFailed as failed:
+        log = (
+            runner.log_path.read_text(encoding="utf-8", errors="replace") if runner.log_path.is_file() else ""
+        )
+        over = ram_overflow(log)
+        if over is None:
+            raise
+        board = machine.board
+        raise StepFailed(
+            f"the {name} firmware does not fit {board.name}'s {board.ram.length:,} bytes of RAM: "
+            f"its .data and .bss alone are {over:,} bytes over, before heap and stack",
+            "a smaller library: uros build --preset tiny (fewer entities, a smaller history and MTU; "
+            "docs/probe.md)",
+        ) from failed
     elf = next(iter(sorted(p for p in build.glob(f"{name}*") if p.suffix in ("", ".elf"))), None)
     if elf is None or not elf.is_file():
         raise StepFailed(

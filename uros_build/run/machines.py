@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -21,7 +21,7 @@ from uros_build.errors import ConfigError
 
 QEMU_PROGRAMS = ("qemu-system-arm", "qemu-system-riscv32", "qemu-system-xtensa")
 ARCHES = ("arm",)  # folders under templates/probe/
-UARTS = ("cmsdk",)  # templates/probe/uart/<name>.c
+UARTS = ("cmsdk", "nrf51")  # templates/probe/uart/<name>.c
 STARTUPS = ("unaligned-trap",)  # what a machine's start-up may do more (templates/probe/<arch>/board.c)
 _NAME = re.compile(r"[a-z0-9][a-z0-9.-]*")
 _ARG = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.,=-]*|-[A-Za-z0-9-]+")
@@ -63,6 +63,8 @@ class Machine:
     board: Board
     startup: tuple[str, ...] = ()
     note: str = ""
+    others: tuple[Machine, ...] = ()  # boards `uros probe --board` may choose instead
+    chosen: bool = False  # one of another machine's others (`--board`)
 
 
 def _size(data: Mapping[str, Any], key: str, where: str) -> int:
@@ -138,21 +140,39 @@ def parse_machines(data: Any, source: str) -> dict[str, Machine]:
     out = {}
     for target, entry in table.items():
         where = f"{source}: machines.{target}"
-        item = loader.mapping(entry, where, {"board", "startup", "note"}, required=("board",))
-        board = loader.string(item, "board", where)
-        if board not in boards:
-            raise ConfigError(
-                f"{where}: board: {board!r} is not one of the boards ({', '.join(sorted(boards))})"
+        item = loader.mapping(entry, where, {"board", "startup", "note", "other_boards"}, required=("board",))
+        others = loader.mapping(item.get("other_boards"), f"{where}: other_boards")
+        alternatives = tuple(
+            _machine(
+                str(target), str(name), other, boards, f"{where}: other_boards.{name}", {"startup", "note"}
             )
-        startup = loader.string_list(item, "startup", where)
-        for step in startup:
-            if step not in STARTUPS:
-                raise ConfigError(f"{where}: startup: {step!r} is not one of {', '.join(STARTUPS)}")
-        note = item.get("note", "")
-        if not isinstance(note, str):
-            raise ConfigError(f"{where}: note: must be a string, got {note!r}")
-        out[str(target)] = Machine(str(target), boards[board].machine, boards[board], startup, note)
+            for name, other in others.items()
+        )
+        out[str(target)] = _machine(str(target), loader.string(item, "board", where), item, boards, where)
+        out[str(target)] = replace(out[str(target)], others=alternatives)
     return out
+
+
+def _machine(
+    target: str,
+    board: str,
+    item: Mapping[str, Any],
+    boards: Mapping[str, Board],
+    where: str,
+    known: set[str] | None = None,
+) -> Machine:
+    if known is not None:
+        loader.mapping(item, where, known)
+    if board not in boards:
+        raise ConfigError(f"{where}: board: {board!r} is not one of the boards ({', '.join(sorted(boards))})")
+    startup = loader.string_list(item, "startup", where)
+    for step in startup:
+        if step not in STARTUPS:
+            raise ConfigError(f"{where}: startup: {step!r} is not one of {', '.join(STARTUPS)}")
+    note = item.get("note", "")
+    if not isinstance(note, str):
+        raise ConfigError(f"{where}: note: must be a string, got {note!r}")
+    return Machine(target, boards[board].machine, boards[board], startup, note, chosen=known is not None)
 
 
 def load_machines() -> dict[str, Machine]:
@@ -160,13 +180,23 @@ def load_machines() -> dict[str, Machine]:
     return parse_machines(loader.load_yaml(path, str(path)), str(path))
 
 
-def machine_for(target: str, machines: Mapping[str, Machine]) -> Machine:
+def machine_for(target: str, machines: Mapping[str, Machine], board: str | None = None) -> Machine:
+    """The target's machine, or (`--board NAME`) one of its other boards."""
     if target not in machines:
         raise ConfigError(
             f"uros probe: target {target} has no QEMU machine here (probed: {', '.join(sorted(machines))})",
             "meta/probe/machines.yaml names the targets QEMU can boot; test this target on its board",
         )
-    return machines[target]
+    machine = machines[target]
+    if board is None or board == machine.board.name:
+        return machine
+    for other in machine.others:
+        if other.board.name == board:
+            return other
+    boards = ", ".join([machine.board.name, *(o.board.name for o in machine.others)])
+    raise ConfigError(
+        f"--board {board}: {target} boots on {boards}", f"pass one of them: --board {machine.board.name}"
+    )
 
 
 def firmware_sources() -> Path:
@@ -244,6 +274,15 @@ def qemu_argv(machine: Machine, elf: Path, console_log: Path) -> list[str]:
             "-serial", "chardev:link",
         ]  # fmt: skip
     return [*argv, "-kernel", str(elf)]
+
+
+_RAM_OVERFLOW = re.compile(r"region `RAM' overflowed by (\d+) bytes")
+
+
+def ram_overflow(link_output: str) -> int | None:
+    """By how many bytes the linker found the firmware's RAM region too small, or None."""
+    found = _RAM_OVERFLOW.search(link_output)
+    return int(found.group(1)) if found else None
 
 
 def qemu_hint(program: str) -> str:
