@@ -179,7 +179,13 @@ def test_doctor_says_which_qemu_runs_which_targets() -> None:
     checks = doctor.eval_probe_tools(qemus, None, False, table)
     arm, riscv, agent = checks
     assert arm.status == doctor.OK and "cortex-m33" in arm.detail and "cortex-m0plus" in arm.detail
-    assert riscv.status == doctor.SKIP and "qemu-system-misc" in riscv.fix
+    assert riscv.status == doctor.SKIP and "no target's probe runs on it yet" in riscv.detail
+    arm = doctor.eval_probe_tools({"qemu-system-arm": None}, None, False, table)[0]
+    assert (
+        arm.status == doctor.SKIP
+        and "cannot run cortex-m0plus" in arm.detail
+        and "qemu-system-arm" in arm.fix
+    )
     assert agent.status == doctor.SKIP
     checks = doctor.eval_probe_tools({}, "/a/MicroXRCEAgent", True, table)
     assert [c.status for c in checks] == [doctor.OK]
