@@ -12,9 +12,10 @@ Inputs (skipped cleanly without any of them; CI has none):
 What it does, as a user would: configures examples/esp32s3-idf with ESP-IDF's CMake (a copy in a
 tmp folder), creates a firmware workspace with the example's demo_interfaces/Hsb message, runs
 `uros build --toolchain esp32s3 --idf-build <project>/build`, exports the ESP-IDF component into the
-project, configures again and compiles the example's main.c with the compile command ESP-IDF wrote.
+project, configures again and compiles the example's main.c and app/app.c with the compile commands
+ESP-IDF wrote.
 It checks: every object of libmicroros.a has the windowed ABI (ABI=0, no call0 object), and
-`ld -r main.c.obj libmicroros.a` leaves only symbols ESP-IDF provides undefined (declared by its
+`ld -r main.c.obj app.c.obj libmicroros.a` leaves only symbols ESP-IDF provides undefined (declared by its
 headers or its C library's; libgcc's, in the compiler's libgcc.a or the S3 ROM; the __atomic_*_8 of
 its newlib) plus the 1/2/4-byte atomics uros's check reported (what the firmware must then define,
 docs/esp32.md).
@@ -157,15 +158,19 @@ def test_real_humble_for_esp32s3_against_an_esp_idf_project(tmp_path: Path) -> N
     run_uros("export", "esp-idf", "--from", str(out), "--output", str(project / "components" / "micro_ros"))
     _configure(project)
     entries = json.loads((idf_build / "compile_commands.json").read_text())
-    main = next(e for e in entries if e["file"].endswith("main/main.c"))
-    argv = shlex.split(main["command"])
-    obj = Path(main["directory"]) / argv[argv.index("-o") + 1]
-    obj.parent.mkdir(parents=True, exist_ok=True)
-    _run(argv, cwd=Path(main["directory"]))
-    assert _xtensa_abi_by_member_single(obj) == "0"
+    objects = []
+    # main.c (Wi-Fi, the task) and app/app.c (the node's appMain, which `uros probe --app` also runs)
+    for source in ("main/main.c", "app/app.c"):
+        entry = next(e for e in entries if e["file"].endswith(source))
+        argv = shlex.split(entry["command"])
+        obj = Path(entry["directory"]) / argv[argv.index("-o") + 1]
+        obj.parent.mkdir(parents=True, exist_ok=True)
+        _run(argv, cwd=Path(entry["directory"]))
+        assert _xtensa_abi_by_member_single(obj) == "0"
+        objects.append(str(obj))
 
     closure = tmp_path / "closure.o"
-    _run([PREFIX + "ld", "-r", "-o", str(closure), str(obj), str(lib)])
+    _run([PREFIX + "ld", "-r", "-o", str(closure), *objects, str(lib)])
     undefined = set(_run([PREFIX + "nm", "-u", "--format=just-symbols", str(closure)]).split())
     description = json.loads((idf_build / "project_description.json").read_text())
     idf_dirs = [

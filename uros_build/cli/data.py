@@ -179,6 +179,18 @@ def export_arduino(output: Path, sources: tuple[Path, ...]) -> None:
 @click.option(
     "--timeout", type=float, default=60.0, show_default=True, help="Seconds the firmware may take in QEMU."
 )
+@click.option(
+    "--app", "app", type=PATH_ARG,
+    help="Run your application instead: a folder of C files with void appMain(void *arg).",
+)  # fmt: skip
+@click.option(
+    "--define", "-D", "defines", multiple=True, metavar="NAME[=VALUE]",
+    help="A macro for the app's C files, as the compiler's -D (repeatable; with --app).",
+)  # fmt: skip
+@click.option(
+    "--duration", type=float,
+    help="With --app: end the run this many seconds after appMain started (an app that never exits).",
+)  # fmt: skip
 @click.option("--json", "as_json", is_flag=True, help="The result as JSON on stdout.")
 @click.option(
     "--peer", type=PATH_ARG,
@@ -197,14 +209,20 @@ def probe(
     toolchain: str | None,
     agent: str | None,
     timeout: float,
+    app: Path | None,
+    defines: tuple[str, ...],
+    duration: float | None,
     as_json: bool,
     peer: Path | None,
     freertos: str | None,
     board: str | None,
     verbose: bool,
 ) -> None:
-    """Run a built library: boot a probe firmware in QEMU against a real Micro XRCE-DDS Agent."""
-    probe_cmd.probe(output, workspace, toolchain, agent, timeout, as_json, verbose, peer, freertos, board)
+    """Run a built library: boot a probe firmware (or your --app) in QEMU against a real XRCE-DDS Agent."""
+    request = probe_cmd.app_request(app, defines, duration)
+    probe_cmd.probe(
+        output, workspace, toolchain, agent, timeout, as_json, verbose, peer, freertos, board, request
+    )
 
 
 @click.group(cls=Group)

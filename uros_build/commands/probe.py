@@ -23,6 +23,7 @@ from uros_build.errors import ConfigError, MissingToolError, VerifyError
 from uros_build.files import locked
 from uros_build.output.buildinfo import BuildInfo, read_build_info
 from uros_build.proc import Runner, new_run_log
+from uros_build.run import app as app_mod
 from uros_build.run import freertos as freertos_mod
 from uros_build.run import machines as probe_mod
 from uros_build.run import netns, peerenv
@@ -84,8 +85,11 @@ def probe(
     peer: Path | None = None,
     freertos: str | None = None,
     board: str | None = None,
-) -> ProbeReport:
+    app: AppRequest | None = None,
+) -> ProbeReport | app_mod.AppReport:
     check_timeout(timeout)
+    duration_ms = app_mod.check_duration(app.duration) if app is not None else 0
+    defines = app_mod.parse_defines(app.defines) if app is not None else ()
     if peer is not None:
         check_peer(peer, os.geteuid())
     finish_killed_swaps(output, workspace)
@@ -93,14 +97,48 @@ def probe(
     info = read_build_info(out, "OUTPUT")
     if output is not None and toolchain is not None:
         check_toolchain_matches(toolchain, folder_key(toolchain), out, info.target)
+    ws = workspace_of_output(out, info.target)
+    plan = None
+    if app is not None:  # before anything is built: the app's interfaces must be in the library
+        plan = app_mod.AppPlan(app_mod.scan_app(app.folder.resolve()), defines, duration_ms)
+        missing = app_mod.missing_packages(plan.app, info.packages)
+        if missing:
+            raise app_mod.missing_packages_error(plan.app, missing, out, ws.root if ws is not None else None)
     machine = probe_mod.machine_for(info.target, probe_mod.load_machines(), board)
     rtos = _freertos(info, freertos)
+    if plan is not None and rtos is not None:
+        raise ConfigError(
+            f"--app {plan.app.folder}: the app runner is bare metal; this run is on FreeRTOS ({rtos.why})",
+            "run the app against a library built without --rtos, and without --freertos",
+        )
     base = probe_base(out, info.target)
     # One probe of a target at a time: two at once shared the work folder (one deleted the other's
     # firmware and console log) and blamed a good library ("no agent answered", "an entity could not
     # be created"); the second waits, and says for whom.
     with locked(base / "probe" / "locks" / info.target, info.target, command="uros probe"):
+        if plan is not None:
+            return _probe_app(plan, out, info, machine, base, (agent, timeout, as_json, verbose), peer)
         return _probe(out, info, machine, base, agent, timeout, as_json, verbose, peer, rtos)
+
+
+@dataclass(frozen=True)
+class AppRequest:
+    """--app DIR, its --define/-D macros and --duration."""
+
+    folder: Path
+    defines: tuple[str, ...] = ()
+    duration: float | None = None
+
+
+def app_request(folder: Path | None, defines: tuple[str, ...], duration: float | None) -> AppRequest | None:
+    """--app with its options; --define or --duration without --app is refused (the probe firmware
+    takes neither)."""
+    if folder is None:
+        if defines or duration is not None:
+            flag = "--duration" if duration is not None else "--define"
+            raise ConfigError(f"{flag}: only with --app DIR", "give --app DIR, or drop it")
+        return None
+    return AppRequest(folder, defines, duration)
 
 
 def check_peer(script: Path, euid: int) -> None:
@@ -166,13 +204,9 @@ def _probe(
     work = probe_work(base, info.target, out)
     if machine.chosen:  # another board of the target keeps its own work folder (firmware, console, logs)
         work = work.with_name(f"{work.name}-{machine.board.name}")
-    work.mkdir(parents=True, exist_ok=True)
-    runner = Runner(new_run_log(work / "log", "probe", info.target), verbose=verbose)
     on = f" on FreeRTOS ({rtos.why})" if rtos else ""
-    console.step(f"uros probe: {out} ({info.target}) in QEMU {machine.machine}{on}")
-    if machine.note:
-        console.info(f"{machine.machine}: {machine.note}")
-    console.info(f"log: {runner.log_path}")
+    title = f"uros probe: {out} ({info.target}) in QEMU {machine.machine}{on}"
+    runner = _open_run(work, info.target, machine, title, verbose)
     if rtos is not None:
         console.info(f"FreeRTOS kernel {rtos.kernel}, port {rtos.port.relative_to(rtos.kernel)}, heap_4")
         mismatch = freertos_mod.config_differs(rtos)
@@ -238,6 +272,55 @@ def _probe(
         console.info(freertos_mod.describe_run(text))
     if limits:
         console.info(probe_mod.describe_limits(limits))
+    return report
+
+
+def _open_run(work: Path, target: str, machine: probe_mod.Machine, title: str, verbose: bool) -> Runner:
+    """The work folder, the run's log and its first lines."""
+    work.mkdir(parents=True, exist_ok=True)
+    runner = Runner(new_run_log(work / "log", "probe", target), verbose=verbose)
+    console.step(title)
+    if machine.note:
+        console.info(f"{machine.machine}: {machine.note}")
+    console.info(f"log: {runner.log_path}")
+    return runner
+
+
+def _probe_app(
+    plan: app_mod.AppPlan,
+    out: Path,
+    info: BuildInfo,
+    machine: probe_mod.Machine,
+    base: Path,
+    options: tuple[str | None, float, bool, bool],  # --agent, --timeout, --json, --verbose
+    peer: Path | None,
+) -> app_mod.AppReport:
+    agent, timeout, as_json, verbose = options
+    work = app_mod.app_work(base, info.target, out, plan.app.folder)
+    if machine.chosen:  # another board of the target keeps its own work folder
+        work = work.with_name(f"{work.name}-{machine.board.name}")
+    title = f"uros probe --app {plan.app.folder}: {out} ({info.target}) in QEMU {machine.machine}"
+    runner = _open_run(work, info.target, machine, title, verbose)
+    qemu_program = runner.which(machine.board.qemu, qemu_hint(machine.board.qemu))
+    agent_program = _agent(agent, runner)
+    peer_run = _peer_run(runner, peer, out, info, work) if peer is not None else None
+    compiler = info.compiler.path if info.compiler is not None else None
+    ran = app_mod.run_app(
+        runner, plan, out, compiler, qemu_program, machine, agent_program, work, timeout, verbose, peer_run
+    )
+    report = app_mod.app_report(info.target, machine.machine, plan, ran, runner)
+    if peer_run is not None:  # the app's verdict and the peer's together
+        judged = peer_verdict(0 if report.passed else report.status, report.verdict, ran.session.peer_status)
+        report = replace(report, passed=judged.passed, verdict=judged.text)
+    if as_json:
+        sys.stdout.write(json.dumps(asdict(report), indent=2, sort_keys=True) + "\n")
+    line = app_mod.describe(report)
+    logs = f"its console: {report.console_log}; the agent's log: {report.agent_log}"
+    if report.peer_log:
+        logs += f"; the peer's log: {report.peer_log}"
+    if not report.passed:
+        raise VerifyError(line, logs)
+    console.step(line)
     return report
 
 

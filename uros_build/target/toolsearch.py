@@ -22,11 +22,22 @@ from uros_build.target.profiles import TargetProfile
 
 @dataclass(frozen=True)
 class BinTools:
-    """The target's binutils (as the toolchain names them): what merges and reads its archives."""
+    """The target's binutils (as the toolchain names them): what merges and reads its archives,
+    and measures its firmware (`uros probe --app`)."""
 
     ar: str
     ranlib: str
     nm: str
+    size: str = "size"
+
+
+def bintools_beside(compiler_path: str | None) -> BinTools:
+    """The binutils beside a GNU compiler (``.../arm-none-eabi-gcc`` -> ``.../arm-none-eabi-size``:
+    the host's read only the host's object formats on most distributions), else the host's."""
+    if compiler_path is not None and compiler_path.endswith("gcc"):
+        prefix = compiler_path[: -len("gcc")]
+        return BinTools(ar=prefix + "ar", ranlib=prefix + "ranlib", nm=prefix + "nm", size=prefix + "size")
+    return BinTools("ar", "ranlib", "nm")
 
 
 def search_roots(env: Mapping[str, str], home: Path) -> dict[str, str | None]:

@@ -44,7 +44,13 @@ void probe_console_put(uint8_t byte) {
  * Weak, like the SVCall/PendSV/SysTick vectors and the heap and stack figures: the FreeRTOS variant
  * (templates/probe/freertos/rtos.c) takes the clock from the kernel's tick and gives its own figures. */
 static volatile uint32_t ticks_ms;
-__attribute__((weak)) void probe_systick(void) { ticks_ms++; }
+/* What else runs every millisecond: nothing for the probe; `uros probe --app --duration` ends the
+ * run here (app_main.c). */
+__attribute__((weak)) void probe_tick_hook(void) {}
+__attribute__((weak)) void probe_systick(void) {
+  ticks_ms++;
+  probe_tick_hook();
+}
 __attribute__((weak)) uint32_t probe_millis(void) { return ticks_ms; }
 
 __attribute__((weak)) int clock_gettime(clockid_t clock, struct timespec *when) {

@@ -1,0 +1,197 @@
+"""`uros probe --app DIR` (issue 31, items 1 and 3): a user's rclc application with micro_ros_setup's
+`void appMain(void *arg)` runs unchanged on the probe's board in QEMU against a real Micro XRCE-DDS
+Agent; the seeds' applications (examples/stm32h7-custom, examples/esp32s3-idf/app) are two of them.
+
+The runs need UROS_AGENT (a MicroXRCEAgent), UROS_HUMBLE_WS (an already built humble workspace whose
+cortex-m7 output has eic_demo_interface and demo_interfaces, e.g. a copy of docs/real-humble.md's)
+and qemu-system-arm; without them they skip. The error paths before anything is built run in CI,
+against the fixture library.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+from uros_helpers import REPO, run_uros
+
+pytestmark = pytest.mark.integration
+
+AGENT = os.environ.get("UROS_AGENT")
+HUMBLE_WS = os.environ.get("UROS_HUMBLE_WS")
+SEED_001 = REPO / "examples" / "stm32h7-custom"
+SEED_000 = REPO / "examples" / "esp32s3-idf" / "app"
+_RUNS = pytest.mark.skipif(
+    not (AGENT and HUMBLE_WS and shutil.which("qemu-system-arm")),
+    reason="set UROS_AGENT (a MicroXRCEAgent) and UROS_HUMBLE_WS (a built humble workspace with "
+    "eic_demo_interface and demo_interfaces for cortex-m7), and install qemu-system-arm",
+)
+
+
+def _one_error(proc: subprocess.CompletedProcess[str]) -> str:
+    assert "Traceback" not in proc.stderr, proc.stderr
+    errors = [x for x in proc.stderr.splitlines() if x.startswith("error:")]
+    assert len(errors) == 1, proc.stderr
+    return errors[0]
+
+
+def _app(folder: Path, text: str) -> Path:
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "app.c").write_text(text)
+    return folder
+
+
+# -- before anything is built (CI) ------------------------------------------------------------------
+
+
+def test_an_app_folder_that_is_not_there_or_has_no_appmain(m7_build: Path, tmp_path: Path) -> None:
+    out = m7_build / "build" / "cortex-m7"
+    proc = run_uros("probe", str(out), "--app", str(tmp_path / "nowhere"), check=False)
+    assert proc.returncode == 2
+    assert f"--app {tmp_path / 'nowhere'}: no such folder" in _one_error(proc)
+    app = _app(tmp_path / "plain", "int main(void) { return 0; }\n")
+    proc = run_uros("probe", str(out), "--app", str(app), check=False)
+    assert proc.returncode == 2
+    assert "no C file defines void appMain(void *arg) (app.c)" in _one_error(proc)
+
+
+def test_an_app_using_a_package_the_library_lacks_fails_before_building(
+    m7_build: Path, tmp_path: Path
+) -> None:
+    out = m7_build / "build" / "cortex-m7"
+    have = json.loads((out / "build-info.json").read_text())["packages"]
+    assert "geometry_msgs" not in have
+    app = _app(
+        tmp_path / "teleop",
+        "#include <rclc/rclc.h>\n#include <geometry_msgs/msg/twist.h>\n"
+        "void appMain(void *arg) { (void)arg; }\n",
+    )
+    env = {k: v for k, v in os.environ.items() if k != "UROS_AGENT"}  # checked before any tool
+    proc = run_uros("probe", str(out), "--app", str(app), env=env, check=False)
+    assert proc.returncode == 2, proc.stderr
+    line = _one_error(proc)
+    assert f"--app {app}: the library {out.resolve()} lacks geometry_msgs (app.c:2)" in line
+    assert f"uros build -w {m7_build.resolve()} --packages geometry_msgs" in proc.stderr
+    assert "uros add-package" in proc.stderr
+    assert not list((m7_build / ".uros").glob("probe/app-*")), "nothing may be built"
+
+
+def test_duration_and_defines_only_with_an_app(m7_build: Path) -> None:
+    out = m7_build / "build" / "cortex-m7"
+    proc = run_uros("probe", str(out), "--duration", "3", check=False)
+    assert proc.returncode == 2 and "--duration: only with --app DIR" in _one_error(proc)
+    proc = run_uros("probe", str(out), "--app", str(SEED_000), "--duration", "0", check=False)
+    assert proc.returncode == 2 and "--duration 0: must be a number of seconds more than 0" in _one_error(
+        proc
+    )
+
+
+# -- against the agent (UROS_AGENT, UROS_HUMBLE_WS) -------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def humble_out(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A copy of the workspace's cortex-m7 output (8 MB; a probe writes its work folder beside the
+    output's workspace, so the shared workspace is never written)."""
+    assert HUMBLE_WS
+    out = tmp_path_factory.mktemp("humble") / "cortex-m7"
+    shutil.copytree(Path(HUMBLE_WS) / "build" / "cortex-m7", out, symlinks=True)
+    packages = json.loads((out / "build-info.json").read_text())["packages"]
+    assert {"eic_demo_interface", "demo_interfaces"} <= set(packages), packages
+    return out
+
+
+def _run_app(out: Path, tmp_path: Path, *args: str) -> tuple[int, str, dict[str, object] | None]:
+    env = {**os.environ, "TMPDIR": str(tmp_path)}  # the work folder of an output outside a workspace
+    proc = run_uros("probe", str(out), "--json", *args, env=env, check=False)
+    data = json.loads(proc.stdout) if proc.stdout.strip() else None
+    return proc.returncode, proc.stderr, data
+
+
+def _console(data: dict[str, object]) -> str:
+    return Path(str(data["console_log"])).read_text()
+
+
+@_RUNS
+def test_seed_001_cmdvel_publisher_and_gettime_server(humble_out: Path, tmp_path: Path) -> None:
+    """Seed 001's app: CmdVel out and back through the agent intact, GetTime served to its own
+    client, rcl's allocator through the board heap (microros_allocate & co)."""
+    code, err, data = _run_app(humble_out, tmp_path, "--app", str(SEED_001))
+    assert data is not None, err
+    assert code == 0 and data["status"] == 0 and data["passed"] is True, err + _console(data)
+    assert data["packages"] == ["eic_demo_interface"] and data["machine"] == "mps2-an500"
+    assert 50_000 < int(str(data["flash_bytes"])) < 200_000 and int(str(data["ram_bytes"])) > 0
+    assert data["heap_bytes"] and data["stack_bytes"]
+    assert float(str(data["seconds"])) < 15, _console(data)
+    console = _console(data)
+    assert "app: PASS 10 CmdVel back, get_time answered" in console
+    assert "app: clock synchronised with the agent" in console
+    assert "app passed: " in err and "exit(0)" in err and "flash " in err and "heap " in err
+
+
+@_RUNS
+def test_seed_000_hsb_node_hears_its_own_state(humble_out: Path, tmp_path: Path) -> None:
+    """Seed 000's node logic (the ESP32-S3 example's own app.c) on a Cortex-M7: the timer publishes
+    Hsb on state/led/hsb, the agent routes it back to the node's subscription (HSB_LOOPBACK), the
+    state follows the commands."""
+    code, err, data = _run_app(
+        humble_out, tmp_path, "--app", str(SEED_000),
+        "-D", "HSB_LOOPBACK", "-D", "HSB_EXIT_AFTER=3", "-D", "HSB_STATE_PERIOD_MS=200",
+    )  # fmt: skip
+    assert code == 0, err
+    assert data is not None and data["status"] == 0 and data["packages"] == ["demo_interfaces"]
+    console = _console(data)
+    assert "Created publisher state/led/hsb." in console and "Created subscriber state/led/hsb." in console
+    assert console.count("microros_demo: LED now HSB 30,100,50") >= 3
+    assert "microros_demo: PASS 3 commands applied" in console
+
+
+@_RUNS
+def test_an_app_that_never_exits_runs_for_the_duration(humble_out: Path, tmp_path: Path) -> None:
+    code, err, data = _run_app(
+        humble_out, tmp_path, "--app", str(SEED_000), "-D", "HSB_STATE_PERIOD_MS=200", "--duration", "2"
+    )
+    assert code == 0, err
+    assert data is not None and data["status"] == 83 and data["duration"] == 2.0
+    assert "ran for the whole --duration (2 s) without exiting or crashing" in err
+    assert data["heap_bytes"] and data["stack_bytes"]  # the board measured them when it ended the run
+
+
+@_RUNS
+@pytest.mark.parametrize(
+    ("body", "status", "said"),
+    [
+        ("return;", 82, "appMain returned without exit(status)"),
+        ("exit(3);", 3, "the app exited with 3"),
+        ("*(volatile int *)0xF0000000u = 1;", 70, "the app crashed (hard fault)"),
+    ],
+)
+def test_an_app_that_returns_fails_or_crashes_gets_its_verdict(
+    humble_out: Path, tmp_path: Path, body: str, status: int, said: str
+) -> None:
+    app = _app(
+        tmp_path / "bad",
+        "#include <stdlib.h>\n#include <std_msgs/msg/int32.h>\n"
+        f"void appMain(void *arg) {{ (void)arg; {body} }}\n",
+    )
+    code, err, data = _run_app(humble_out, tmp_path, "--app", str(app), "--timeout", "30")
+    assert code == 5, err
+    assert data is not None and data["status"] == status and data["passed"] is False
+    assert f"app failed: {app} on cortex-m7 in QEMU mps2-an500: {said}" in _one_error(
+        subprocess.CompletedProcess([], code, "", err)
+    )
+
+
+@_RUNS
+def test_a_package_the_real_library_lacks(humble_out: Path, tmp_path: Path) -> None:
+    app = _app(
+        tmp_path / "nav", "#include <nav_msgs/msg/odometry.h>\nvoid appMain(void *arg) { (void)arg; }\n"
+    )
+    code, err, _ = _run_app(humble_out, tmp_path, "--app", str(app))
+    assert code == 2
+    assert "lacks nav_msgs (app.c:1)" in err and "--packages nav_msgs" in err
+    assert "configure the uros_app firmware" not in err
