@@ -88,6 +88,7 @@ def test_stand_ins_are_declared_printed_and_recorded(tmp_path: Path) -> None:
     said = " ".join(failed.stderr.split())
     assert failed.returncode == 4 and "at 'jazzy' failed" in said
     assert "pass --stand-ins: the jazzy manifest declares" in said and not fw.exists()
+    assert "jazzy was built here with 10 stand-ins for branches the mirror lacked" in said
 
     done = run_uros(*base, "--stand-ins")
     said = " ".join(done.stderr.split())
@@ -157,6 +158,12 @@ def test_the_library_by_its_bytes_and_the_example_links(jazzy: tuple[Path, str],
     assert {"rcl", "rclc", "rmw_microxrcedds", "microxrcedds_client", "microcdr", "std_msgs"} <= set(
         info["packages"]
     )
+    # the library says which of its packages came from a stand-in (build-info.json, uros info)
+    assert info["sources"]["rclc"]["stand_in"] == "6.1.0"
+    assert info["sources"]["rmw_microxrcedds"]["stand_in"] == "rolling"
+    assert "stand_in" not in info["sources"]["rmw"]
+    shown = run_uros("info", str(out)).stdout
+    assert "(stand-in: 6.1.0, not the manifest's branch)" in shown
     symbols = _nm_defined(out / "libmicroros.a")
     for name in (
         "rcl_init",

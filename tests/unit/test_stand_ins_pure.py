@@ -117,3 +117,38 @@ def test_distros_lists_and_shows_stand_ins() -> None:
     bad = runner.invoke(cli, ["distros", "show", "jazy"])
     assert isinstance(bad.exception, ConfigError)
     assert bad.exception.message == "NAME: unknown distro 'jazy' (did you mean jazzy?)"
+
+
+def test_uros_info_names_the_packages_built_from_a_stand_in() -> None:
+    from uros_build.commands import info
+
+    data = {
+        "output": "/o",
+        "generated_by": "uros",
+        "build_key": None,
+        "from_cache": None,
+        "ccache": None,
+        "target": "cortex-m7",
+        "profile": "cortex-m7",
+        "toolchain_file": "t.cmake",
+        "compiler": None,
+        "flags": {"cpu": [], "c": [], "optimization": "", "micro_ros_only": []},
+        "library": {"file": "libmicroros.a", "bytes": 1, "members": 1, "size": None},
+        "include": {"dir": "include", "files": 1},
+        "transport": "custom",
+        "rtos": None,
+        "options": {},
+        "packages": [
+            {
+                "name": "rclc",
+                "repository": "mcu_ws/uros/rclc",
+                "commit": "4b8670d" + "0" * 33,
+                "stand_in": "6.1.0",
+            },
+            {"name": "rmw", "repository": "mcu_ws/ros2/rmw", "commit": "a" * 40, "stand_in": None},
+        ],
+        "types": [],
+    }
+    text = info.render(data)
+    assert "  rclc  mcu_ws/uros/rclc @ 4b8670d00000 (stand-in: 6.1.0, not the manifest's branch)\n" in text
+    assert "  rmw   mcu_ws/ros2/rmw @ aaaaaaaaaaaa\n" in text

@@ -103,6 +103,11 @@ def create_firmware(args: CreateArgs) -> Path:
         console.warn(
             f"the {distro.name} manifest was written from upstream facts and not built by uros's authors"
         )
+    if distro.stand_ins and not args.stand_ins:
+        console.info(
+            f"{distro.name} was built here with {len(distro.stand_ins)} stand-ins for branches the mirror "
+            f"lacked, not with these branches (`uros distros show {distro.name}`; --stand-ins uses them)"
+        )
     print_stand_ins(distro, plan.mirror, plan.sources)
     pending = root / PENDING
     pending.parent.mkdir(parents=True, exist_ok=True)

@@ -26,6 +26,7 @@ def gather(out: Path) -> dict[str, Any]:
             "name": p,
             "repository": info.sources.get(p, {}).get("repository"),
             "commit": info.sources.get(p, {}).get("commit"),
+            "stand_in": info.sources.get(p, {}).get("stand_in"),
         }
         for p in info.packages
     ]
@@ -105,6 +106,8 @@ def render(data: dict[str, Any]) -> str:
     width = max((len(r["name"]) for r in data["packages"]), default=0)
     for row in data["packages"]:
         source = f"{row['repository']} @ {row['commit'][:12]}" if row["commit"] else ""
+        if row.get("stand_in"):
+            source += f" (stand-in: {row['stand_in']}, not the manifest's branch)"
         lines.append(f"  {row['name']:<{width}}  {source}".rstrip())
     lines.append(f"types ({len(data['types'])}):")
     lines += [f"  {t}" for t in data["types"]]

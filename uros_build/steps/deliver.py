@@ -254,7 +254,12 @@ def _sources(plan: BuildPlan, built: tuple[str, ...]) -> dict[str, dict[str, str
     clone_paths = read_lock(ws.lock_path, "uros.lock").repositories
     wanted = set(built)
     located = [(p.name, p.path.resolve()) for p in plan.workspace_packages if p.name in wanted]
-    return clones.built_from(located, ws.root, clone_paths)
+    found = clones.built_from(located, ws.root, clone_paths)
+    for entry in found.values():  # the library says which of its packages came from a stand-in
+        stand_in = clone_paths[entry["repository"]].stand_in
+        if stand_in:
+            entry["stand_in"] = stand_in
+    return found
 
 
 def _library_info(ctx: Context, library: Path, report: MergeReport) -> Library:
