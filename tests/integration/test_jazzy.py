@@ -36,7 +36,7 @@ STAND_INS = {
     "mcu_ws/ros2/rosidl_core": "0.2.0",
     "mcu_ws/ros2/rosidl_dynamic_typesupport": "0.1.2",
     "mcu_ws/uros/rclc": "6.1.0",
-    "mcu_ws/uros/rosidl_typesupport": "jazzy",
+    "mcu_ws/uros/rosidl_typesupport": "fictionlab/rosidl_typesupport@jazzy",
     "mcu_ws/uros/micro_ros_msgs": "rolling",
     "mcu_ws/uros/micro_ros_utilities": "rolling",
     "mcu_ws/uros/rmw_microxrcedds": "rolling",
@@ -94,11 +94,11 @@ def test_stand_ins_are_declared_printed_and_recorded(tmp_path: Path) -> None:
     said = " ".join(done.stderr.split())
     assert "10 of 34 repositories from stand-ins (not the manifest's):" in said
     for path, version in STAND_INS.items():
-        assert f"stand-in {path}: {version} from " in said, path
+        assert f"stand-in {path}: {version.split('@')[-1]} from " in said, path
     assert "instead of jazzy (no jazzy branch in the mirror; tag 9.2.0 (c19dab5, 2024-03-28)" in said
     lock = json.loads((fw / "uros.lock").read_text())["repositories"]
     assert {p: r["commit"] for p, r in lock.items() if "stand_in" in r} == wanted
-    assert {p: r["stand_in"]["version"] for p, r in lock.items() if "stand_in" in r} == STAND_INS
+    assert {p: r["stand_in"]["use"] for p, r in lock.items() if "stand_in" in r} == STAND_INS
     assert lock["mcu_ws/uros/rosidl_typesupport"]["source"] == f"{mirror}/fictionlab+rosidl_typesupport"
     assert lock["mcu_ws/ros2/rmw"]["version"] == "jazzy" and "stand_in" not in lock["mcu_ws/ros2/rmw"]
     assert git_out("rev-parse", "HEAD", cwd=fw / "mcu_ws/uros/rclc") == wanted["mcu_ws/uros/rclc"]
@@ -139,10 +139,10 @@ def test_every_stand_in_is_printed_and_recorded(jazzy: tuple[Path, str]) -> None
     said = " ".join(said.split())  # the console wraps long lines
     assert f"{len(STAND_INS)} of 34 repositories from stand-ins" in said
     for path, version in STAND_INS.items():
-        assert f"stand-in {path}: {version} from " in said, path
+        assert f"stand-in {path}: {version.split('@')[-1]} from " in said, path
     assert "instead of jazzy (no jazzy branch in the mirror" in said
     lock = json.loads((fw / "uros.lock").read_text())["repositories"]
-    assert {p: r["stand_in"]["version"] for p, r in lock.items() if "stand_in" in r} == STAND_INS
+    assert {p: r["stand_in"]["use"] for p, r in lock.items() if "stand_in" in r} == STAND_INS
     assert all(r["version"] == "jazzy" for p, r in lock.items() if p in STAND_INS and "googletest" not in p)
     assert lock["mcu_ws/ros2/rmw"]["version"] == "jazzy" and "stand_in" not in lock["mcu_ws/ros2/rmw"]
     assert "fictionlab+rosidl_typesupport" in lock["mcu_ws/uros/rosidl_typesupport"]["source"]
@@ -161,6 +161,7 @@ def test_the_library_by_its_bytes_and_the_example_links(jazzy: tuple[Path, str],
     # the library says which of its packages came from a stand-in (build-info.json, uros info)
     assert info["sources"]["rclc"]["stand_in"] == "6.1.0"
     assert info["sources"]["rmw_microxrcedds"]["stand_in"] == "rolling"
+    assert info["sources"]["rosidl_typesupport_c"]["stand_in"] == "fictionlab/rosidl_typesupport@jazzy"
     assert "stand_in" not in info["sources"]["rmw"]
     shown = run_uros("info", str(out)).stdout
     assert "(stand-in: 6.1.0, not the manifest's branch)" in shown

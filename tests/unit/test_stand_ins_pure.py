@@ -80,9 +80,12 @@ def test_lock_records_each_stand_in_and_reads_it_back(tmp_path: Path) -> None:
     lock = Lock.from_clones("jazzy", plan.sources, commits)
     data = json.loads(lock.to_json())
     rcl = data["repositories"]["mcu_ws/ros2/rcl"]
-    assert rcl["version"] == "jazzy" and rcl["stand_in"]["version"] == "9.2.0"
+    assert rcl["version"] == "jazzy" and rcl["stand_in"]["use"] == "9.2.0"
     assert rcl["stand_in"]["why"].startswith("no jazzy branch in the mirror")
     assert "stand_in" not in data["repositories"]["mcu_ws/ros2/rmw"]
+    fork = data["repositories"]["mcu_ws/uros/rosidl_typesupport"]
+    assert fork["stand_in"]["use"] == "fictionlab/rosidl_typesupport@jazzy"
+    assert fork["source"] == "https://git.example/fictionlab+rosidl_typesupport"
     assert parse_lock(data, "uros.lock") == lock
 
 

@@ -321,6 +321,17 @@ def resolve(repo: Repo, mirror: Mirror, locked: Mapping[str, str] | None = None,
     return Source(repo, url, version, override)
 
 
+def stand_in_label(source: Source) -> str:
+    """What stood in, short: the version ("9.2.0"), or the fork and its version when the override
+    named another repository ("fictionlab/rosidl_typesupport@jazzy"); "" for the manifest's own."""
+    o = source.stand_in
+    if o is None:
+        return ""
+    if o.url:
+        return f"{owner_repo(o.url) or o.url}@{source.version}"
+    return source.version
+
+
 def describe_stand_in(path: str, source: Source) -> str:
     """One line saying what stood in for the manifest's repository, and why (never silent)."""
     o = source.stand_in

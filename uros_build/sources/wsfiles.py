@@ -242,8 +242,8 @@ class LockedRepo:
     version: str  # the manifest's branch/tag
     source: str  # what was cloned (after mirror rules)
     commit: str
-    # a stand-in's branch/tag (an override replaced the manifest's) and why: the lock says plainly
-    # which clones are not the manifest's own
+    # what stood in (an override replaced the manifest's repository or version: distros.stand_in_label)
+    # and why: the lock says plainly which clones are not the manifest's own
     stand_in: str = ""
     why: str = ""
 
@@ -255,7 +255,7 @@ class LockedRepo:
             source.repo.version,
             source.url,
             commit,
-            stand_in=source.version if o is not None else "",
+            stand_in=distros_mod.stand_in_label(source),
             why=o.reason if o is not None else "",
         )
 
@@ -267,7 +267,7 @@ class LockedRepo:
             "commit": self.commit,
         }
         if self.stand_in:
-            data["stand_in"] = {"version": self.stand_in, "why": self.why}
+            data["stand_in"] = {"use": self.stand_in, "why": self.why}
         return data
 
 
@@ -322,13 +322,13 @@ def parse_lock(data: Any, source: str) -> Lock:
         where = f"{source}: repositories.{path}"
         check_clone_path(str(path), f"{source}: repositories")
         item = loader.mapping(entry, where, required=("commit",))
-        stand_in = loader.mapping(item.get("stand_in"), f"{where}.stand_in", {"version", "why"})
+        stand_in = loader.mapping(item.get("stand_in"), f"{where}.stand_in", {"use", "why"})
         out[str(path)] = LockedRepo(
             url=str(item.get("url", "")),
             version=str(item.get("version", "")),
             source=str(item.get("source", "")),
             commit=loader.string(item, "commit", where),
-            stand_in=str(stand_in.get("version", "")),
+            stand_in=str(stand_in.get("use", "")),
             why=str(stand_in.get("why", "")),
         )
     return Lock(str(top.get("distro", "")), out)
