@@ -90,6 +90,22 @@ def test_duration_and_defines_only_with_an_app(m7_build: Path) -> None:
     )
 
 
+def test_an_app_on_freertos_is_refused_in_one_line(m7_build: Path, tmp_path: Path) -> None:
+    """The app runner is bare metal: --freertos (or a library built --rtos freertos) with --app is one
+    line, not a bare-metal run of a FreeRTOS library."""
+    kernel = tmp_path / "FreeRTOS-Kernel"  # only what uros checks before building
+    for name in ("tasks.c", "include/FreeRTOS.h", "portable/GCC/ARM_CM7/r0p1/port.c"):
+        (kernel / name).parent.mkdir(parents=True, exist_ok=True)
+        (kernel / name).write_text("")
+    app = _app(tmp_path / "plain", "void appMain(void *arg) { (void)arg; }\n")
+    out = m7_build / "build" / "cortex-m7"
+    proc = run_uros("probe", str(out), "--app", str(app), "--freertos", str(kernel), check=False)
+    assert proc.returncode == 2, proc.stderr
+    assert f"--app {app}: the app runner is bare metal; this run is on FreeRTOS (--freertos)" in _one_error(
+        proc
+    )
+
+
 # -- against the agent (UROS_AGENT, UROS_HUMBLE_WS) -------------------------------------------------
 
 
