@@ -70,12 +70,13 @@ def test_the_venv_key_follows_the_versions_and_the_python() -> None:
     assert peerenv.venv_path(Path("/c"), spec, "3.11") == Path(f"/c/kilted-py3.11-{key}")
 
 
-def test_the_interfaces_key_follows_every_file() -> None:
-    files = {"eic": {"msg/CmdVel.msg": b"int32 left_rpm\n", "package.xml": b"<package/>"}}
-    changed = {"eic": {"msg/CmdVel.msg": b"int16 left_rpm\n", "package.xml": b"<package/>"}}
+def test_the_interfaces_key_follows_every_file_and_the_dependencies() -> None:
+    files = {"msg/CmdVel.msg": b"int32 left_rpm\n", "package.xml": b"<package/>"}
+    changed = {"msg/CmdVel.msg": b"int16 left_rpm\n", "package.xml": b"<package/>"}
     assert peerenv.interfaces_key("v1", files) != peerenv.interfaces_key("v1", changed)
     assert peerenv.interfaces_key("v1", files) != peerenv.interfaces_key("v2", files)
     assert peerenv.interfaces_key("v1", files) == peerenv.interfaces_key("v1", dict(files))
+    assert peerenv.interfaces_key("v1", files, ["k1"]) != peerenv.interfaces_key("v1", files, ["k2"])
 
 
 def _pkg(name: str, deps: Sequence[str] = (), interface: bool = True) -> PackageInfo:
@@ -103,25 +104,27 @@ def test_the_library_s_interface_packages_the_venv_lacks_in_build_order() -> Non
 
 
 def test_the_host_build_argv_and_environment() -> None:
-    argv = peerenv.cmake_configure_argv("cmake", Path("/ws/eic"), Path("/b"), Path("/pre"), Path("/venv"))
-    assert "-DCMAKE_PREFIX_PATH=/pre;/venv" in argv
+    argv = peerenv.cmake_configure_argv(
+        "cmake", Path("/ws/eic"), Path("/b"), Path("/pre"), Path("/venv"), [Path("/dep")]
+    )
+    assert "-DCMAKE_PREFIX_PATH=/dep;/venv" in argv
     assert "-DCMAKE_INSTALL_PREFIX=/pre" in argv
     assert "-DPython3_EXECUTABLE=/venv/bin/python3" in argv
-    env = peerenv.build_env({"PATH": "/usr/bin", "PYTHONPATH": "/uros"}, Path("/venv"), Path("/pre"))
+    env = peerenv.build_env({"PATH": "/usr/bin", "PYTHONPATH": "/uros"}, Path("/venv"), [Path("/dep")])
     assert env["PATH"] == "/venv/bin:/usr/bin"
-    assert env["AMENT_PREFIX_PATH"] == "/pre:/venv"
+    assert env["AMENT_PREFIX_PATH"] == "/dep:/venv"
     assert "PYTHONPATH" not in env
 
 
 def test_the_peer_s_environment() -> None:
     base = {"PATH": "/usr/bin", "PYTHONPATH": "/uros", "VIRTUAL_ENV": "/uros-venv", "LD_LIBRARY_PATH": "/l"}
-    env = peerenv.peer_env(base, Path("/venv"), Path("/pre"), "3.11")
-    assert env["PYTHONPATH"] == "/pre/lib/python3.11/site-packages"
-    assert env["LD_LIBRARY_PATH"] == "/pre/lib:/l"
-    assert env["AMENT_PREFIX_PATH"] == "/pre:/venv"
+    env = peerenv.peer_env(base, Path("/venv"), [Path("/a"), Path("/b")], "3.11")
+    assert env["PYTHONPATH"] == "/a/lib/python3.11/site-packages:/b/lib/python3.11/site-packages"
+    assert env["LD_LIBRARY_PATH"] == "/a/lib:/b/lib:/l"
+    assert env["AMENT_PREFIX_PATH"] == "/a:/b:/venv"
     assert env["RMW_IMPLEMENTATION"] == "rmw_fastrtps_cpp"
     assert "VIRTUAL_ENV" not in env
-    bare = peerenv.peer_env(base, Path("/venv"), None, "3.11")
+    bare = peerenv.peer_env(base, Path("/venv"), [], "3.11")
     assert "PYTHONPATH" not in bare and bare["AMENT_PREFIX_PATH"] == "/venv"
     assert peerenv.peer_argv(Path("/venv"), Path("/p.py")) == ["/venv/bin/python3", "-u", "/p.py"]
 
@@ -223,3 +226,34 @@ def test_a_folder_uros_did_not_make_is_left_alone(tmp_path: Path) -> None:
     with pytest.raises(ConfigError, match="uros did not make it"):
         peerenv.ensure_venv(_fake_pip(tmp_path), spec, tmp_path)  # type: ignore[arg-type]
     assert (venv / "mine.txt").is_file()
+
+
+def test_each_interface_package_is_built_once_and_again_only_when_it_or_a_dependency_changed(
+    tmp_path: Path,
+) -> None:
+    def package(name: str, deps: Sequence[str], text: str) -> PackageInfo:
+        folder = tmp_path / "src" / name
+        (folder / "msg").mkdir(parents=True, exist_ok=True)
+        (folder / "msg" / "M.msg").write_text(text, encoding="utf-8")
+        return PackageInfo(name, "ament_cmake", frozenset(deps), folder)
+
+    def cmake(argv: Sequence[str]) -> str:
+        if "-B" in argv:
+            Path(argv[argv.index("-B") + 1]).mkdir(parents=True)
+        return ""
+
+    runner = FakeRunner(tmp_path / "log.txt", {"cmake": cmake})
+    root, venv = tmp_path / "cache", tmp_path / "venv"
+
+    def built(*packages: PackageInfo) -> list[str]:
+        before = len(runner.calls)
+        peerenv.build_interfaces(runner, venv, list(packages), root)  # type: ignore[arg-type]
+        return [Path(c[c.index("-S") + 1]).name for c in runner.calls[before:] if "-S" in c]
+
+    base, robot = package("base_msgs", [], "int32 a\n"), package("robot_msgs", ["base_msgs"], "int32 b\n")
+    assert built(base, robot) == ["base_msgs", "robot_msgs"]
+    assert built(base, robot) == []  # both built before
+    assert built(base, package("robot_msgs", ["base_msgs"], "int16 b\n")) == ["robot_msgs"]
+    assert built(package("base_msgs", [], "int16 a\n"), robot) == ["base_msgs", "robot_msgs"]
+    configure = next(c for c in runner.calls if "-S" in c and c[c.index("-S") + 1].endswith("robot_msgs"))
+    assert any(a.startswith("-DCMAKE_PREFIX_PATH=") and "base_msgs-venv-" in a for a in configure)

@@ -19,7 +19,7 @@ import os
 import re
 import shutil
 import sys
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -219,71 +219,84 @@ def package_files(path: Path) -> dict[str, bytes]:
     return out
 
 
-def interfaces_key(venv_name: str, packages: Mapping[str, Mapping[str, bytes]]) -> str:
-    """The host build's key: the venv and every file of every package (pure)."""
-    parts: list[str | bytes] = [venv_name]
-    for name in sorted(packages):
-        parts.append(name)
-        for rel in sorted(packages[name]):
-            parts += [rel, packages[name][rel]]
+def interfaces_key(venv_name: str, files: Mapping[str, bytes], deps: Iterable[str] = ()) -> str:
+    """One package's host build key: the venv, every file of the package and the keys of the
+    interface packages it was built against (pure)."""
+    parts: list[str | bytes] = [venv_name, *sorted(deps)]
+    for rel in sorted(files):
+        parts += [rel, files[rel]]
     return digest(*parts)[:16]
 
 
-def cmake_configure_argv(cmake: str, package: Path, build: Path, prefix: Path, venv: Path) -> list[str]:
+def cmake_configure_argv(
+    cmake: str, package: Path, build: Path, prefix: Path, venv: Path, deps: Sequence[Path] = ()
+) -> list[str]:
     """The package's own CMakeLists.txt (ament_cmake + rosidl_generate_interfaces), unchanged,
-    against the venv (an ament prefix) and the packages built before it (pure)."""
+    installed into its own prefix, against the venv (an ament prefix) and the prefixes of the
+    interface packages it depends on (pure)."""
+    search = ";".join(str(p) for p in (*deps, venv))
     return [
         cmake, "-S", str(package), "-B", str(build), "-DCMAKE_BUILD_TYPE=Release",
-        f"-DCMAKE_PREFIX_PATH={prefix};{venv}", f"-DCMAKE_INSTALL_PREFIX={prefix}",
+        f"-DCMAKE_PREFIX_PATH={search}", f"-DCMAKE_INSTALL_PREFIX={prefix}",
         f"-DPython3_EXECUTABLE={venv / 'bin' / 'python3'}", "-DBUILD_TESTING=OFF",
     ]  # fmt: skip
 
 
-def build_env(env: Mapping[str, str], venv: Path, prefix: Path) -> dict[str, str]:
+def build_env(env: Mapping[str, str], venv: Path, deps: Sequence[Path] = ()) -> dict[str, str]:
     """The venv's Python first on PATH (it runs the rosidl generators), and the ament index of
-    the venv and the prefix (typesupports are found through it) (pure)."""
+    the venv and of the packages built before (typesupports are found through it) (pure)."""
     out = dict(env)
     out["PATH"] = os.pathsep.join(p for p in (str(venv / "bin"), env.get("PATH", "")) if p)
-    out["AMENT_PREFIX_PATH"] = os.pathsep.join((str(prefix), str(venv)))
+    out["AMENT_PREFIX_PATH"] = os.pathsep.join(str(p) for p in (*deps, venv))
     out.pop("PYTHONPATH", None)  # uros's own must not reach the generators
     return out
 
 
 def build_interfaces(
     runner: Runner, venv: Path, packages: list[PackageInfo], root: Path, jobs: int = 2
-) -> Path | None:
-    """Build and install ``packages`` for the host into a prefix cached by their content; the
-    prefix, or None when there is nothing to build."""
-    if not packages:
-        return None
-    files = {p.name: package_files(p.path) for p in packages}
-    prefix = root / "interfaces" / f"{venv.name}-{interfaces_key(venv.name, files)}"
-    names = ", ".join(p.name for p in packages)
+) -> list[Path]:
+    """Build and install each of ``packages`` (in build order) for the host into a prefix of its
+    own, cached by its content and its dependencies' (a changed message rebuilds its package and
+    those built against it, not the others); the prefixes."""
+    prefixes: dict[str, Path] = {}
+    keys: dict[str, str] = {}
+    for package in packages:
+        deps = sorted(package.build_deps & prefixes.keys())
+        keys[package.name] = interfaces_key(venv.name, package_files(package.path), (keys[d] for d in deps))
+        prefix = root / "interfaces" / f"{package.name}-{venv.name}-{keys[package.name]}"
+        _build_interface(runner, venv, package, prefix, [prefixes[d] for d in deps], jobs)
+        prefixes[package.name] = prefix
+    return list(prefixes.values())
+
+
+def _build_interface(
+    runner: Runner, venv: Path, package: PackageInfo, prefix: Path, deps: list[Path], jobs: int
+) -> None:
     if (prefix / READY).is_file():
-        console.info(f"interface packages for the host: {names} in {prefix} (built before)")
-        return prefix
-    with locked(
-        root / "locks" / prefix.name, "the host build of the interface packages", command="uros probe"
-    ):
+        console.info(f"{package.name} for the host: {prefix} (built before)")
+        return
+    with locked(root_locks(prefix), f"the host build of {package.name}", command="uros probe"):
         if (prefix / READY).is_file():
-            return prefix
+            return
         _begin(prefix)
-        console.step(f"building the interface packages for the host: {names}")
+        console.step(f"building {package.name} for the host (the peer's Python types)")
         cmake = runner.which("cmake")
-        env = build_env(os.environ, venv, prefix)
-        for package in packages:
-            build = prefix / "build" / package.name
-            runner.run(cmake_configure_argv(cmake, package.path, build, prefix, venv), env=env,
-                       step=f"configure {package.name} for the host")  # fmt: skip
-            runner.run(
-                [cmake, "--build", str(build), "-j", str(jobs)],
-                env=env,
-                step=f"build {package.name} for the host",
-            )
-            runner.run([cmake, "--install", str(build)], env=env, step=f"install {package.name} for the host")
-        shutil.rmtree(prefix / "build")
-        _finish(prefix, {"packages": sorted(files), "venv": venv.name})
-    return prefix
+        env = build_env(os.environ, venv, deps)
+        build = prefix / "build"
+        runner.run(cmake_configure_argv(cmake, package.path, build, prefix, venv, deps), env=env,
+                   step=f"configure {package.name} for the host")  # fmt: skip
+        runner.run(
+            [cmake, "--build", str(build), "-j", str(jobs)],
+            env=env,
+            step=f"build {package.name} for the host",
+        )
+        runner.run([cmake, "--install", str(build)], env=env, step=f"install {package.name} for the host")
+        shutil.rmtree(build)
+        _finish(prefix, {"package": package.name, "venv": venv.name})
+
+
+def root_locks(prefix: Path) -> Path:
+    return prefix.parent.parent / "locks" / prefix.name
 
 
 # ---------------------------------------------------------------------------------------------
@@ -294,7 +307,7 @@ def peer_argv(venv: Path, script: Path) -> list[str]:
     return [str(venv / "bin" / "python3"), "-u", str(script)]
 
 
-def peer_env(env: Mapping[str, str], venv: Path, prefix: Path | None, python: str) -> dict[str, str]:
+def peer_env(env: Mapping[str, str], venv: Path, prefixes: Sequence[Path], python: str) -> dict[str, str]:
     """What the peer runs with: the venv's programs, the host-built interface packages' Python
     modules and type-support libraries, Fast DDS as the middleware (pure). The wheels' bootstrapper
     (a .pth the venv's Python runs) adds the venv's own libraries to LD_LIBRARY_PATH itself."""
@@ -304,13 +317,16 @@ def peer_env(env: Mapping[str, str], venv: Path, prefix: Path | None, python: st
     out["PYTHONUNBUFFERED"] = "1"
     out.pop("PYTHONPATH", None)
     out.pop("VIRTUAL_ENV", None)
-    ament = [str(venv)]
-    if prefix is not None:
-        out["PYTHONPATH"] = str(prefix / "lib" / f"python{python}" / "site-packages")
-        libs = [str(prefix / "lib"), *(p for p in env.get("LD_LIBRARY_PATH", "").split(os.pathsep) if p)]
+    if prefixes:
+        out["PYTHONPATH"] = os.pathsep.join(
+            str(p / "lib" / f"python{python}" / "site-packages") for p in prefixes
+        )
+        libs = [
+            *(str(p / "lib") for p in prefixes),
+            *(p for p in env.get("LD_LIBRARY_PATH", "").split(os.pathsep) if p),
+        ]
         out["LD_LIBRARY_PATH"] = os.pathsep.join(libs)
-        ament.insert(0, str(prefix))
-    out["AMENT_PREFIX_PATH"] = os.pathsep.join(ament)
+    out["AMENT_PREFIX_PATH"] = os.pathsep.join([*(str(p) for p in prefixes), str(venv)])
     return out
 
 
@@ -327,11 +343,11 @@ def prepare(
     lacks built for the host (from ``source_dir``, the workspace's sources; None: an output outside
     a workspace, the wheels' packages only), the argv and the environment."""
     venv = ensure_venv(runner, load_spec(), root)
-    prefix = None
+    prefixes: list[Path] = []
     if source_dir is not None:
         wanted = interface_packages(discover(source_dir), library, packages_in(venv), own)
-        prefix = build_interfaces(runner, venv, wanted, root)
+        prefixes = build_interfaces(runner, venv, wanted, root)
     else:
         console.info("the output is not in a workspace: the peer has the wheels' interface packages only")
-    env = peer_env(os.environ, venv, prefix, python_version())
+    env = peer_env(os.environ, venv, prefixes, python_version())
     return PeerRun(tuple(peer_argv(venv, script)), env, log)
