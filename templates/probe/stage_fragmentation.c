@@ -8,6 +8,7 @@
  * a sample into a static buffer of MTU x history bytes without checking (on_topic in callbacks.c): on
  * this library the firmware hung when one arrived. So the probe never lets one reach a subscription:
  * it drops its subscription, sends one, and names the colcon.meta options that carry such messages.
+ * A library whose input streams cannot take even 1.5 x MTU fails the stage from its config.h.
  * Sizes as uros_build/output/msgsize.py counts them (each fragment 8 bytes of headers, the sample 8). */
 #include <rcl/error_handling.h>
 #include <rmw_microxrcedds_c/config.h>
@@ -24,7 +25,9 @@
 #define CDR(chars) ((chars) + 5)                /* a string's CDR size: length, characters, NUL */
 #define LARGE (MTU * 3 / 2)
 #define TOO_LARGE (RELIABLE_MAX + 64)
-#define RAISE "raise rmw_microxrcedds.RMW_UXRCE_STREAM_HISTORY or microxrcedds_client.UCLIENT_CUSTOM_TRANSPORT_MTU"
+#define RAISE                                                                                   \
+  "raise rmw_microxrcedds.RMW_UXRCE_STREAM_HISTORY (RMW_UXRCE_STREAM_HISTORY_INPUT where set) or " \
+  "microxrcedds_client.UCLIENT_CUSTOM_TRANSPORT_MTU"
 
 static char outgoing_text[TOO_LARGE + 1];
 static char incoming_text[LARGE + 64];

@@ -19,10 +19,48 @@ pytestmark = pytest.mark.integration
 
 MIRROR = os.environ.get("UROS_MIRROR")
 AGENT = os.environ.get("UROS_AGENT")
+HUMBLE_WS = os.environ.get("UROS_HUMBLE_WS")
 _RUNS = pytest.mark.skipif(
     not (MIRROR and AGENT and shutil.which("qemu-system-arm")),
     reason="set UROS_MIRROR (upstream clones) and UROS_AGENT (a MicroXRCEAgent), and install qemu-system-arm",
 )
+
+
+# A built real Humble workspace (UROS_HUMBLE_WS, a copy of one such as /work/rt/ws: its cortex-m7
+# output has example_interfaces): the stage tests probe it without rebuilding micro-ROS; the negative
+# controls build other libraries in it (into tmp outputs, which rebuilds its colcon tree: a copy).
+_BUILT = pytest.mark.skipif(
+    not (
+        HUMBLE_WS
+        and AGENT
+        and shutil.which("qemu-system-arm")
+        and (Path(HUMBLE_WS) / "build" / "cortex-m7" / "build-info.json").is_file()
+    ),
+    reason="set UROS_HUMBLE_WS (a copy of a built humble workspace with a cortex-m7 output) and UROS_AGENT, "
+    "and install qemu-system-arm",
+)
+
+
+def _stage(data: dict[str, object], name: str) -> dict[str, object]:
+    stages = data["stages"]
+    assert isinstance(stages, dict)
+    stage = stages[name]
+    assert isinstance(stage, dict)
+    return stage
+
+
+def _histories(input_history: int) -> tuple[str, str]:
+    return (f"RMW_UXRCE_STREAM_HISTORY_INPUT={input_history}", "RMW_UXRCE_STREAM_HISTORY_OUTPUT=4")
+
+
+STAGES = ("session", "samples", "limits", "fragmentation", "service", "time", "restart")
+
+
+def _results(data: dict[str, object] | None) -> dict[str, str]:
+    assert data is not None
+    stages = data["stages"]
+    assert isinstance(stages, dict)
+    return {name: str(stage["result"]) for name, stage in stages.items()}
 
 
 @pytest.fixture(scope="module")
@@ -51,6 +89,9 @@ def test_the_library_runs_against_the_agent(humble: Path, target: str, machine: 
     assert code == 0, err
     assert data is not None and data["status"] == 0 and data["machine"] == machine
     assert data["limits"] == {"nodes": 1, "publishers": 1, "subscriptions": 1}  # generate_lib's preset
+    # std_msgs only: no service type, and the stage says so rather than passing
+    assert _results(data) == {**dict.fromkeys(STAGES, "pass"), "service": "skip"}
+    assert "--packages example_interfaces" in str(_stage(data, "service")["detail"])
     assert float(data["seconds"]) < 10  # type: ignore[arg-type]
     assert "probe passed" in err
     assert "uros-probe: PASS" in Path(str(data["console_log"])).read_text()
@@ -149,3 +190,57 @@ def test_a_second_probe_of_a_target_waits_for_the_first(m7_build: Path) -> None:
         assert not any(line.startswith("error:") for line in run.lines)  # waiting, not failing
     assert run.end(60) == 3, "".join(run.lines)
     assert any(x.startswith("error:") and ("/no/such/agent" in x or "qemu" in x) for x in run.lines)
+
+
+@_BUILT
+def test_every_stage_passes_on_a_built_humble_library() -> None:
+    """Issue 31, item 4: a service round trip, time sync, agent restart and fragmentation, each by
+    name in --json and in the one-line verdict."""
+    assert HUMBLE_WS
+    code, err, data = _probe(str(Path(HUMBLE_WS) / "build" / "cortex-m7"))
+    assert code == 0, err
+    assert data is not None and data["status"] == 0
+    assert _results(data) == dict.fromkeys(STAGES, "pass")
+    assert "AddTwoInts answered 1001" in str(_stage(data, "service")["detail"])
+    assert abs(float(str(_stage(data, "time")["seconds"]))) <= 1.0
+    assert 0 < float(str(_stage(data, "restart")["seconds"])) < 10
+    fragmentation = str(_stage(data, "fragmentation")["detail"])
+    assert (
+        "773 B (1.5 x MTU 512) came back whole" in fragmentation
+        and "RMW_UXRCE_STREAM_HISTORY" in fragmentation
+    )
+    assert float(data["seconds"]) <= 15  # type: ignore[arg-type]
+    line = next(x for x in err.splitlines() if "probe passed" in x)
+    assert all(f"{name} pass" in line for name in STAGES), line
+    restarted = Path(str(data["agent_log"])).with_name("agent-restarted.log").read_text()
+    assert "session established" in restarted  # the firmware's new session, on the agent started again
+
+
+@_BUILT
+@pytest.mark.parametrize(
+    ("options", "stage", "status", "named"),
+    [
+        # the stream histories named in both: an option one build set and the next leaves out stays in
+        # the workspace's CMake cache (found here: the service control built after the fragmentation one
+        # still had input streams of one MTU)
+        (("RMW_UXRCE_MAX_SERVICES=0", *_histories(4)), "service", 7, "RMW_UXRCE_MAX_SERVICES=0"),
+        # input streams of one MTU (496 B a sample): 1.5 x MTU cannot come back (the output's history
+        # stays 4: with RMW_UXRCE_STREAM_HISTORY=1 not even a publisher is created)
+        (_histories(1), "fragmentation", 11, "RMW_UXRCE_STREAM_HISTORY"),
+    ],
+)
+def test_a_library_that_cannot_do_a_stage_fails_it_by_name(
+    tmp_path: Path, options: tuple[str, ...], stage: str, status: int, named: str
+) -> None:
+    """The negative controls: the library links, the other stages pass, the one it cannot do fails by
+    name, with the firmware's own exit status."""
+    assert HUMBLE_WS
+    out = tmp_path / stage
+    sets = [x for option in options for x in ("--set", f"rmw_microxrcedds.{option}")]
+    run_uros("build", "--toolchain", "cortex-m7", "-w", HUMBLE_WS, "--output", str(out), *sets)
+    code, err, data = _probe(str(out))
+    assert code == 5, err
+    assert data is not None and data["status"] == status
+    assert _results(data) == {**dict.fromkeys(STAGES, "pass"), stage: "fail"}
+    error = _one_error(subprocess.CompletedProcess([], code, "", err))
+    assert f"uros probe cortex-m7 (mps2-an500): stage {stage} failed: " in error and named in error, error
