@@ -238,7 +238,8 @@ def test_real_humble_multithread_on_freertos(tmp_path: Path) -> None:
     subprocess.run(["cp", "-a", HUMBLE_WS, str(ws)], check=True)  # a copy: never build in the shared one
     config = write_config(tmp_path / "config", FREERTOS_CONFIG_H)
     run_uros(
-        "build", "--toolchain", "cortex-m7", "-w", str(ws), "-j", "2",
+        # the core, std_msgs and the workspace's extra packages (not every package it holds)
+        "build", "--toolchain", "cortex-m7", "-w", str(ws), "-j", "2", "--packages", "std_msgs",
         "--rtos", "freertos", "--rtos-dir", FREERTOS, "--rtos-config", str(config),
         "--set", "microxrcedds_client.UCLIENT_PROFILE_MULTITHREAD=ON",
     )  # fmt: skip
