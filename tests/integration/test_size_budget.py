@@ -38,6 +38,9 @@ def _pools_workspace(root: Path) -> Path:
         cmake.write(
             'set(RMW_UXRCE_MAX_HISTORY "8" CACHE STRING "input buffers")\n'
             "target_compile_definitions(rmw_microxrcedds PRIVATE RMW_UXRCE_MAX_HISTORY=${RMW_UXRCE_MAX_HISTORY})\n"
+            # the configured header a library carries, as rmw_microxrcedds_c/config.h.in does upstream
+            'file(WRITE ${CMAKE_CURRENT_BINARY_DIR}/config.h "#define RMW_UXRCE_MAX_HISTORY ${RMW_UXRCE_MAX_HISTORY}\\n")\n'
+            "install(FILES ${CMAKE_CURRENT_BINARY_DIR}/config.h DESTINATION include/rmw_microxrcedds_c)\n"
         )
     return ws
 
@@ -78,9 +81,17 @@ def test_fits_and_does_not_fit_by_how_much_naming_the_costly_options(pools_ws: P
     # stream history size both pools; the upstream defaults count where the meta sets nothing)
     assert "microxrcedds_client.UCLIENT_CUSTOM_TRANSPORT_MTU=512 13,992 B" in over.stderr
     costs = {c["option"]: c for c in data["options"]}
-    assert (
-        costs["RMW_UXRCE_MAX_HISTORY"]["bytes"] == 4 * SLOT and costs["RMW_UXRCE_MAX_HISTORY"]["value"] == "4"
-    )
+    history = costs["RMW_UXRCE_MAX_HISTORY"]
+    assert (history["bytes"], history["value"], history["each"]) == (4 * SLOT, "4", SLOT)
+    assert history["value_from"] == "header"  # the library's own rmw_microxrcedds_c/config.h
+    assert data["would_fit"] == []  # no option alone frees ~10 KB here
+    # 2 KB over: one input buffer fewer alone would fit, and uros says so
+    near = _size(pools_ws, "--ram", str(ram_need - 2048), "--json")
+    assert near.returncode == 5
+    assert json.loads(near.stdout)["budget"]["would_fit"] == [
+        {"package": "rmw_microxrcedds", "option": "RMW_UXRCE_MAX_HISTORY", "value": "3", "frees": SLOT}
+    ]
+    assert "alone enough: --set rmw_microxrcedds.RMW_UXRCE_MAX_HISTORY=3 (frees 2,112 B)" in near.stderr
 
 
 def test_an_option_cost_is_measured_from_the_library_built_twice(pools_ws: Path, tmp_path: Path) -> None:
@@ -91,6 +102,7 @@ def test_an_option_cost_is_measured_from_the_library_built_twice(pools_ws: Path,
     after = json.loads(_size(ws, "--ram", "1M", "--json").stdout)
     cost = {c["option"]: c for c in after["budget"]["options"]}["RMW_UXRCE_MAX_HISTORY"]
     assert (cost["value"], cost["bytes"]) == ("2", 2 * SLOT)
+    assert cost["value_from"] == "header"
     # what the option costs is what the library lost: two slots less of zeroed RAM
     assert before["total"]["bss"] - after["total"]["bss"] == 2 * SLOT
 

@@ -96,6 +96,63 @@ def test_the_options_that_cost_most_ram_come_first_with_the_values_in_force() ->
     assert "UCLIENT_UDP_TRANSPORT_MTU" in {c.option for c in udp}
 
 
+# the configured headers of a library built once with MTU 256, then without the --set (CMake's cache
+# kept 256; its build-info.json's meta names no MTU), cut to the lines that matter
+RMW_CONFIG = """\
+#define RMW_UXRCE_TRANSPORT_CUSTOM
+    #define RMW_UXRCE_MAX_TRANSPORT_MTU UXR_CONFIG_CUSTOM_TRANSPORT_MTU
+#define RMW_UXRCE_STREAM_HISTORY_INPUT 4
+#define RMW_UXRCE_MAX_HISTORY 1
+#define RMW_UXRCE_MAX_OPTIONS RMW_UXRCE_MAX_SESSIONS*3
+#define RMW_UXRCE_MAX_TOPICS -1
+"""
+UXR_CONFIG = "#define UXR_CONFIG_UDP_TRANSPORT_MTU                  512\n#define UXR_CONFIG_CUSTOM_TRANSPORT_MTU               256\n"
+
+
+def test_the_value_in_force_is_the_librarys_own_header_first() -> None:
+    rmw = budget.header_defines(RMW_CONFIG)
+    assert rmw == {
+        "RMW_UXRCE_STREAM_HISTORY_INPUT": "4",
+        "RMW_UXRCE_MAX_HISTORY": "1",
+        "RMW_UXRCE_MAX_TOPICS": "-1",
+    }
+    headers = {"rmw_microxrcedds_c/config.h": rmw, "uxr/client/config.h": budget.header_defines(UXR_CONFIG)}
+    meta = {"rmw_microxrcedds": {"RMW_UXRCE_MAX_HISTORY": "4", "RMW_UXRCE_MAX_PUBLISHERS": "1"}}
+    costs = {
+        c.option: c
+        for c in budget.option_costs(known_options(), meta, "custom", budget.symbol_sizes(NM), headers)
+    }
+    assert (
+        costs["UCLIENT_CUSTOM_TRANSPORT_MTU"].value,
+        costs["UCLIENT_CUSTOM_TRANSPORT_MTU"].value_from,
+    ) == ("256", "header")
+    assert (costs["RMW_UXRCE_MAX_HISTORY"].value, costs["RMW_UXRCE_MAX_HISTORY"].value_from) == (
+        "1",
+        "header",
+    )
+    assert (costs["RMW_UXRCE_MAX_PUBLISHERS"].value, costs["RMW_UXRCE_MAX_PUBLISHERS"].value_from) == (
+        "1",
+        "meta",
+    )
+    assert (costs["RMW_UXRCE_STREAM_HISTORY"].value, costs["RMW_UXRCE_STREAM_HISTORY"].value_from) == (
+        "4",
+        "default",
+    )
+
+
+def test_a_count_option_names_the_value_that_alone_would_fit() -> None:
+    built = {"rmw_microxrcedds": {"RMW_UXRCE_MAX_HISTORY": "4", "RMW_UXRCE_MAX_PUBLISHERS": "1"}}
+    costs = budget.option_costs(known_options(), built, "custom", budget.symbol_sizes(NM))
+    by_name = {c.option: c for c in costs}
+    assert by_name["RMW_UXRCE_MAX_HISTORY"].each == 2112  # 8,448 B over 4 elements
+    assert by_name["UCLIENT_CUSTOM_TRANSPORT_MTU"].each is None  # sizes elements, not their number
+    fit = {(c.option, value, frees) for c, value, frees in budget.values_that_fit(costs, 4947)}
+    # 4,947 B over: three buffers fewer (6,336 B); one publisher slot (216 B) cannot go below one
+    assert fit == {("RMW_UXRCE_MAX_HISTORY", 1, 3 * 2112)}
+    assert budget.values_that_fit(costs, 2112) == [(by_name["RMW_UXRCE_MAX_HISTORY"], 3, 2112)]
+    assert budget.values_that_fit(costs, 0) == []
+
+
 def test_need_adds_the_library_the_rest_and_what_the_probe_measured() -> None:
     need = budget.Need(Sizes(40_000, 300, 16_000), Sizes(1000, 20, 80), heap=2920, stack=2112)
     assert need.static_ram == 300 + 16_000 + 20 + 80

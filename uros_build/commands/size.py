@@ -236,14 +236,23 @@ def show_size(
         if fits and line:
             sys.stdout.write(line + "\n")
     if not fits:
-        costs = data["budget"]["options"]
-        raise VerifyError(
-            line,
-            "the options that cost most RAM: "
-            + ", ".join(f"{c['package']}.{c['option']}={c['value']} {c['bytes']:,} B" for c in costs[:3])
-            if costs and "ram" in data["budget"]["over"]
-            else "build fewer packages (--packages), or link with --gc-sections and pass --map",
+        raise VerifyError(line, _hint(data["budget"]))
+
+
+def _hint(b: dict[str, Any]) -> str:
+    """What to change: the options that cost most RAM, and a value of one that alone would fit."""
+    costs = b["options"]
+    if not costs or "ram" not in b["over"]:
+        return "build fewer packages (--packages), or link with --gc-sections and pass --map"
+    hint = "the options that cost most RAM: " + ", ".join(
+        f"{c['package']}.{c['option']}={c['value']} {c['bytes']:,} B" for c in costs[:3]
+    )
+    fit = b["would_fit"]
+    if fit:
+        hint += "; alone enough: " + ", ".join(
+            f"--set {f['package']}.{f['option']}={f['value']} (frees {f['frees']:,} B)" for f in fit[:2]
         )
+    return hint
 
 
 def profile_chip(info: BuildInfo | None) -> Chip:
@@ -260,6 +269,19 @@ def profile_chip(info: BuildInfo | None) -> Chip:
 def _linked_by_probe(map_file: str, library: str) -> Sizes:
     members, _ = sizes.linked_members(sizes.parse_map(loader.read_text(Path(map_file), "probe map")), library)
     return sum(members.values(), Sizes())
+
+
+def _headers(out: Path, info: BuildInfo | None, names: set[str]) -> dict[str, dict[str, str]]:
+    """header -> its whole-number defines, for the configured headers of the output's include tree
+    that hold the options' values (rmw_microxrcedds_c/config.h, uxr/client/config.h)."""
+    if info is None:
+        return {}
+    found = {}
+    for name in sorted(n for n in names if n):
+        path = out / info.include.dir / name
+        if path.is_file():
+            found[name] = budget.header_defines(path.read_text(encoding="utf-8", errors="replace"))
+    return found
 
 
 def check_budget(
@@ -300,7 +322,10 @@ def check_budget(
     transport = cmake_options.get("rmw_microxrcedds", {}).get("RMW_UXRCE_TRANSPORT") or (
         info.transport if info is not None else None
     )
-    costs = budget.option_costs(known_options(), cmake_options, transport, nm_sizes)
+    known = known_options()
+    costs = budget.option_costs(
+        known, cmake_options, transport, nm_sizes, _headers(library.parent, info, {o.header for o in known})
+    )
     result = {
         "ram": ram,
         "flash": flash,
@@ -321,8 +346,16 @@ def check_budget(
                 "value": c.value,
                 "bytes": c.bytes,
                 "pools": list(c.pools),
+                "each": c.each,
+                "value_from": c.value_from,
             }
             for c in costs
+        ],
+        "would_fit": [
+            {"package": c.package, "option": c.option, "value": str(value), "frees": frees}
+            for c, value, frees in budget.values_that_fit(
+                costs, budget.over_by(need, ram, flash).get("ram", 0)
+            )
         ],
     }
     return result, fits, line

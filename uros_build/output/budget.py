@@ -9,6 +9,7 @@ static RAM is data + bss: what `arm-none-eabi-size` users add up by hand.
 
 from __future__ import annotations
 
+import re
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 
@@ -19,6 +20,13 @@ from uros_build.target.memsize import SIZE_HELP, parse_bytes, show_bytes
 
 # nm's types of symbols that take RAM: initialised (D/d), zeroed (B/b), common (C)
 _RAM_TYPES = frozenset("DdBbC")
+# a whole-number define of a configured header (CMake's configure_file: "#define NAME 4")
+_DEFINE = re.compile(r"^\s*#\s*define\s+([A-Za-z_][A-Za-z0-9_]*)\s+(-?[0-9]+)\s*$", re.M)
+
+
+def header_defines(text: str) -> dict[str, str]:
+    """NAME -> value of every ``#define NAME <whole number>`` in a header's text."""
+    return {m.group(1): m.group(2) for m in _DEFINE.finditer(text)}
 
 
 def budget_value(value: str | None, flag: str) -> int | None:
@@ -51,9 +59,11 @@ def symbol_sizes(nm_posix: str) -> dict[str, int]:
 class OptionCost:
     package: str
     option: str
-    value: str  # in force in the library: its colcon.meta's, else upstream's default
+    value: str  # in force in the library: its own header's, else its colcon.meta's, else upstream's default
     bytes: int  # the static pools it sets, as the library holds them
     pools: tuple[str, ...]
+    each: int | None = None  # bytes one less frees (pools that are arrays of `value` elements)
+    value_from: str = "default"  # "header", "meta" or "default"
 
 
 def option_costs(
@@ -61,21 +71,35 @@ def option_costs(
     cmake_options: Mapping[str, Mapping[str, str]],
     transport: str | None,
     sizes: Mapping[str, int],
+    headers: Mapping[str, Mapping[str, str]] | None = None,
 ) -> list[OptionCost]:
     """The options that size a static pool of this library, most bytes first. An option counts
-    with the value the library was built with (``cmake_options``, its build-info.json's), else its
-    upstream default; an MTU option only for the library's transport; a pool the library does not
+    with the value the library was built with: its own header's define (``headers``: header path ->
+    its defines, from the output's include tree), else ``cmake_options`` (its build-info.json's),
+    else its upstream default; an MTU option only for the library's transport; a pool the library does not
     hold (another rmw, a renamed array) costs nothing, and an option whose pools all are absent is
     left out rather than shown as free."""
     costs = []
     for option in known:
         if not option.pools or (option.transport and option.transport != transport):
             continue
-        value = cmake_options.get(option.package, {}).get(option.name, option.default)
+        defined = (headers or {}).get(option.header, {}).get(option.macro or option.name)
+        meta = cmake_options.get(option.package, {}).get(option.name)
+        value, value_from = (
+            (defined, "header")
+            if defined is not None
+            else (meta, "meta")
+            if meta is not None
+            else (option.default, "default")
+        )
         held = tuple(p for p in option.pools if sizes.get(p))
         if not value or not held:
             continue
-        costs.append(OptionCost(option.package, option.name, value, sum(sizes[p] for p in held), held))
+        total = sum(sizes[p] for p in held)
+        count = int(value) if option.per_value and value.isdigit() else 0
+        # whole elements only: a pool that does not divide evenly is not what the notes say it is
+        each = total // count if count > 0 and total % count == 0 else None
+        costs.append(OptionCost(option.package, option.name, value, total, held, each, value_from))
     costs.sort(key=lambda c: (-c.bytes, c.package, c.option))
     return costs
 
@@ -129,3 +153,17 @@ def over_by(need: Need, ram: int | None, flash: int | None) -> dict[str, int]:
     if flash is not None and need.flash > flash:
         over["flash"] = need.flash - flash
     return over
+
+
+def values_that_fit(costs: Iterable[OptionCost], over: int) -> list[tuple[OptionCost, int, int]]:
+    """(option, the value that would fit, the bytes it frees): each option that alone frees ``over``
+    bytes of RAM while keeping at least one element, by the element size measured in the library."""
+    found = []
+    for cost in costs:
+        if cost.each is None or over <= 0:
+            continue
+        fewer = -(-over // cost.each)  # ceil
+        value = int(cost.value) - fewer
+        if value >= 1:
+            found.append((cost, value, fewer * cost.each))
+    return found

@@ -35,6 +35,12 @@ class KnownOption:
     pools: tuple[str, ...] = ()
     # an MTU option sizes its pools only in a library built for this transport ("": any)
     transport: str = ""
+    # each pool is an array of the option's value elements: one less frees pool/value bytes
+    per_value: bool = False
+    # the header of the library's include tree that #defines the value it was built with, and the
+    # macro there ("": the option's name)
+    header: str = ""
+    macro: str = ""
 
     def problem(self, value: str) -> str | None:
         """Why ``value`` cannot be right for this option, or None."""
@@ -63,7 +69,19 @@ def parse_options(data: object, source: str) -> tuple[KnownOption, ...]:
             item = loader.mapping(
                 entry,
                 item_where,
-                {"default", "cost", "type", "choices", "power_of_two", "minimum", "pools", "transport"},
+                {
+                    "default",
+                    "cost",
+                    "type",
+                    "choices",
+                    "power_of_two",
+                    "minimum",
+                    "pools",
+                    "transport",
+                    "per_value",
+                    "header",
+                    "macro",
+                },
                 ("default", "cost"),
             )
             default = item["default"]
@@ -80,6 +98,9 @@ def parse_options(data: object, source: str) -> tuple[KnownOption, ...]:
                 minimum=loader.integer(item, "minimum", item_where, 0),
                 pools=loader.string_list(item, "pools", item_where),
                 transport=loader.string(item, "transport", item_where) if "transport" in item else "",
+                per_value=loader.boolean(item, "per_value", item_where),
+                header=loader.string(item, "header", item_where) if "header" in item else "",
+                macro=loader.string(item, "macro", item_where) if "macro" in item else "",
             )
             if option.default and option.problem(option.default):
                 raise ConfigError(
