@@ -95,3 +95,28 @@ def test_the_console_is_read_line_by_line_as_it_grows(tmp_path: Path) -> None:
     assert [x.text for x in second] == [RESTART_ASKED]
     assert second[0].seen >= first[0].seen
     assert console.read() == []
+
+
+def test_without_root_the_ced_middleware_skips_the_service_stage_and_says_why() -> None:
+    """uros runs the agent's DDS middleware only as root (a network namespace); with CED the
+    firmware's service stage fails by the agent's doing: skip, not a verdict on the library."""
+    text = (
+        "uros-probe: stage samples pass 10 of 10 came back\n"
+        "uros-probe: stage service fail the AddTwoInts service could not be created (rclc_service_init_default"
+        " returned 1; RMW_UXRCE_MAX_SERVICES=1)\n"
+        "uros-probe: stage restart pass reconnected\n"
+    )
+    ced = stages.stages_of(_lines(text), middleware="ced")
+    assert [(s.name, s.result) for s in ced] == [
+        ("samples", "pass"),
+        ("service", "skip"),
+        ("restart", "pass"),
+    ]
+    assert ced[1].detail == stages.CED_SERVICE
+    assert stages.passed(stages.SERVICE_STATUS, ced) and stages.passed(0, ced)
+    dds = stages.stages_of(_lines(text))
+    assert dds[1].result == "fail" and not stages.passed(stages.SERVICE_STATUS, dds)
+    # another failure is never waived, nor another status
+    worse = stages.stages_of(_lines(text + "uros-probe: stage time fail no answer\n"), middleware="ced")
+    assert not stages.passed(stages.SERVICE_STATUS, worse)
+    assert not stages.passed(10, ced) and not stages.passed(None, ced)

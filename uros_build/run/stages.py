@@ -14,6 +14,11 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, replace
 
 RESULTS = ("pass", "fail", "skip")
+SERVICE_STATUS = 7  # templates/probe/stages.h PROBE_SERVICE
+CED_SERVICE = (
+    "the agent's CED middleware makes no XRCE repliers: the service stage needs its DDS middleware, which "
+    "uros runs only as root, in a network namespace of its own"
+)
 TIME_LIMIT = 1.0  # seconds the firmware's epoch may be off the host's (issue 31)
 _STAGE = re.compile(r"^uros-probe: stage ([a-z][a-z0-9_-]*) (pass|fail|skip)\b ?(.*)$")
 _EPOCH = re.compile(r"\bepoch (\d+)\.(\d{3}) s\b")
@@ -78,11 +83,16 @@ def judge_restart(stage: Stage, seen: float | None, restarts: Sequence[tuple[flo
     )
 
 
-def stages_of(lines: Sequence[ConsoleLine], restarts: Sequence[tuple[float, float]] = ()) -> list[Stage]:
-    """The console's stages with the host's judgement added."""
+def stages_of(
+    lines: Sequence[ConsoleLine], restarts: Sequence[tuple[float, float]] = (), middleware: str = "dds"
+) -> list[Stage]:
+    """The console's stages with the host's judgement added. With the agent's CED middleware (uros
+    without root) a failed service stage is the agent's doing, not the library's: skip, and why."""
     out = []
     for stage in parse(lines):
-        if stage.name == "time":
+        if stage.name == "service" and stage.result == "fail" and middleware == "ced":
+            stage = replace(stage, result="skip", detail=CED_SERVICE)
+        elif stage.name == "time":
             stage = judge_time(stage, seen_at(lines, "time"))
         elif stage.name == "restart":
             stage = judge_restart(stage, seen_at(lines, "restart"), restarts)
@@ -92,6 +102,16 @@ def stages_of(lines: Sequence[ConsoleLine], restarts: Sequence[tuple[float, floa
 
 def failed(stages: Iterable[Stage]) -> Stage | None:
     return next((s for s in stages if s.result == "fail"), None)
+
+
+def passed(status: int | None, stages: Sequence[Stage]) -> bool:
+    """Whether the run passed: exit status 0 and no failed stage, or the service stage's status when
+    uros skipped that stage (stages_of) and nothing else failed (the stages before it passed, or the
+    firmware's first failure would be theirs; those after it report their own lines)."""
+    if failed(stages) is not None:
+        return False
+    skipped = any(s.name == "service" and s.detail == CED_SERVICE for s in stages)
+    return status == 0 or (status == SERVICE_STATUS and skipped)
 
 
 def describe(stages: Iterable[Stage]) -> str:
