@@ -65,23 +65,21 @@ def _symbols(lib: Path) -> str:
 
 
 def _firmware(
-    tmp: Path, out: Path, kernel: Path, config: Path, with_rtos: bool
+    tmp: Path, out: Path, kernel: Path, config: Path, rtos: str
 ) -> subprocess.CompletedProcess[str]:
     """A firmware project configured (and built) against the output's toolchain file and CMake
     package: FreeRTOS as an INTERFACE target freertos_kernel (what docs/rtos.md tells a firmware
-    whose FreeRTOS is plain sources), or none."""
-    src = tmp / ("fw-rtos" if with_rtos else "fw-bare")
+    whose FreeRTOS is plain sources) declared ``before`` or ``after`` find_package, or ``none``."""
+    src = tmp / f"fw-{rtos}"
     src.mkdir()
-    rtos = (
+    target = (
         "add_library(freertos_kernel INTERFACE)\n"
         f'target_include_directories(freertos_kernel INTERFACE "{kernel}/include" "{kernel}/portable/{PORT}" "{config}")\n'
-        if with_rtos
-        else ""
     )
     (src / "CMakeLists.txt").write_text(
-        "cmake_minimum_required(VERSION 3.16)\nproject(fw C)\n" + rtos
+        "cmake_minimum_required(VERSION 3.16)\nproject(fw C)\n" + (target if rtos == "before" else "")
         + "find_package(microros CONFIG REQUIRED)\nadd_library(app STATIC app.c)\n"
-        "target_link_libraries(app PRIVATE microros::microros)\n"
+        "target_link_libraries(app PRIVATE microros::microros)\n" + (target if rtos == "after" else "")
     )  # fmt: skip
     (src / "app.c").write_text(
         '#include "FreeRTOS.h"\n#ifndef PLATFORM_NAME_FREERTOS\n#error "the package gave no define"\n#endif\n'
@@ -135,7 +133,7 @@ def test_freertos_headers_reach_the_micro_ros_compile_only(tmp_path: Path) -> No
     )
 
     # the CMake package: a firmware without FreeRTOS stops at configure, in one line naming the fix
-    bare = _firmware(tmp_path, out, kernel, config, with_rtos=False)
+    bare = _firmware(tmp_path, out, kernel, config, "none")
     assert bare.returncode != 0
     lines = [line for line in bare.stderr.splitlines() if "microros:" in line]
     assert len(lines) == 1, bare.stderr
@@ -144,9 +142,11 @@ def test_freertos_headers_reach_the_micro_ros_compile_only(tmp_path: Path) -> No
         and "freertos_kernel" in lines[0]
         and "MICROROS_FREERTOS_TARGET" in lines[0]
     )
-    # with FreeRTOS, the firmware's compile gets FreeRTOS's folders and the library's define
-    with_rtos = _firmware(tmp_path, out, kernel, config, with_rtos=True)
-    assert with_rtos.returncode == 0, with_rtos.stdout + with_rtos.stderr
+    # with FreeRTOS, before or after find_package (CMake >= 3.19), the firmware's compile gets
+    # FreeRTOS's folders and the library's define
+    for where in ("before", "after"):
+        with_rtos = _firmware(tmp_path, out, kernel, config, where)
+        assert with_rtos.returncode == 0, with_rtos.stdout + with_rtos.stderr
     text = (out / "microros.cmake").read_text()
     assert 'set(MICROROS_RTOS "freertos")' in text
 

@@ -9,6 +9,12 @@ if(NOT EXISTS "${kernel}/tasks.c" OR NOT EXISTS "${port}/port.c")
   message(FATAL_ERROR "uros probe: no FreeRTOS kernel at ${kernel} with a port at ${port}")
 endif()
 set(here "${CMAKE_CURRENT_LIST_DIR}")
+# "FreeRTOS is here", for a library built with uros build --rtos freertos: its CMake package looks
+# for this target when the project's CMakeLists.txt has been read (docs/rtos.md); the kernel's
+# sources and folders are the probe's own, above and below.
+if(NOT TARGET freertos_kernel)
+  add_library(freertos_kernel INTERFACE)
+endif()
 target_sources(uros_probe PRIVATE
   "${here}/rtos.c" "${here}/two_tasks.c"
   "${kernel}/tasks.c" "${kernel}/queue.c" "${kernel}/list.c"
