@@ -44,6 +44,9 @@ def test_target_checks_name_what_is_missing() -> None:
     no_cxx = d.eval_target(m7, "/usr/bin/arm-none-eabi-gcc", "arm-none-eabi-g++ has no C++ standard headers")
     assert [c.status for c in no_cxx] == [d.OK, d.OK, d.FAIL]
     assert [c.status for c in d.eval_target(m7, "/usr/bin/arm-none-eabi-gcc", None)] == [d.OK] * 3
+    # rv32imc's compiler has no C++ headers: the build hands micro-ROS uros's wrappers (issue 32)
+    rv = d.eval_target(find_profile("rv32imc"), "/usr/bin/riscv64-unknown-elf-gcc", None)
+    assert [c.status for c in rv] == [d.OK] * 3 and "uros hands micro-ROS its wrappers" in rv[2].detail
 
 
 def test_workspace_state() -> None:

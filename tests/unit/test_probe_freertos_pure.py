@@ -40,7 +40,9 @@ def test_the_port_of_each_probed_core(target: str, port: str) -> None:
 
 
 def test_every_probed_target_has_a_port() -> None:
-    assert set(probe.load_machines()) <= set(freertos.PORTS)
+    # the FreeRTOS variant of the probe is Arm's (its board files); rv32imc's probe is bare metal
+    arm = {t for t, m in probe.load_machines().items() if m.board.arch == "arm"}
+    assert arm <= set(freertos.PORTS)
 
 
 def test_every_port_names_a_target_uros_has_a_profile_for() -> None:

@@ -40,6 +40,7 @@ def test_the_shipped_table() -> None:
         "cortex-m33": "mps2-an505",
         "cortex-m55": "mps3-an547",
         "cortex-m0plus": "mps2-an385",
+        "rv32imc": "virt",
     }
     microbit = machines.machine_for("cortex-m0plus", table, "microbit")
     assert microbit.chosen and microbit.board.ram == machines.Region(0x20000000, 16 << 10)
@@ -175,11 +176,20 @@ def test_the_generated_header_and_memory_map() -> None:
 
 def test_doctor_says_which_qemu_runs_which_targets() -> None:
     table = machines.load_machines()
-    qemus = {"qemu-system-arm": "/usr/bin/qemu-system-arm", "qemu-system-riscv32": None}
+    qemus = {
+        "qemu-system-arm": "/usr/bin/qemu-system-arm",
+        "qemu-system-riscv32": None,
+        "qemu-system-xtensa": None,
+    }
     checks = doctor.eval_probe_tools(qemus, None, False, table)
-    arm, riscv, agent = checks
+    arm, riscv, xtensa, agent = checks
     assert arm.status == doctor.OK and "cortex-m33" in arm.detail and "cortex-m0plus" in arm.detail
-    assert riscv.status == doctor.SKIP and "no target's probe runs on it yet" in riscv.detail
+    assert (
+        riscv.status == doctor.SKIP
+        and "cannot run rv32imc" in riscv.detail
+        and "qemu-system-misc" in riscv.fix
+    )
+    assert xtensa.status == doctor.SKIP and "no target's probe runs on it yet" in xtensa.detail
     arm = doctor.eval_probe_tools({"qemu-system-arm": None}, None, False, table)[0]
     assert (
         arm.status == doctor.SKIP

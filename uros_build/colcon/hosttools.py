@@ -125,11 +125,35 @@ def locate_compiler(runner: Runner, profile: TargetProfile) -> str | None:
 
 def find_libc(runner: Runner, profile: TargetProfile, tools: Mapping[str, str]) -> str | None:
     """The target's libc.a as its compiler finds it with the profile's flags, or None."""
-    libc = runner.query(
-        [tools["gcc"], *profile.cpu_flags, *profile.libc_flags, "-print-file-name=libc.a"], step="find libc"
-    ).strip()
+    flags = [tools["gcc"], *profile.cpu_flags, *profile.libc_flags]
+    libc = runner.query([*flags, "-print-file-name=libc.a"], step="find libc").strip()
     # GCC prints the bare name back when it finds no such file
-    return libc if libc and Path(libc).is_absolute() else None
+    if libc and Path(libc).is_absolute():
+        return libc
+    # picolibc's specs add its library folder to the link only (-L...%M), where -print-file-name
+    # does not look (measured: riscv64-unknown-elf-gcc --specs=picolibc.specs prints "libc.a")
+    specs = next((f.removeprefix("--specs=") for f in profile.libc_flags if f.startswith("--specs=")), None)
+    if specs is None:
+        return None
+    if not Path(specs).is_absolute():
+        specs = runner.query(
+            [tools["gcc"], f"-print-file-name={specs}"], step="find the C library's specs"
+        ).strip()
+    multi = runner.query([*flags, "-print-multi-directory"], step="find libc").strip()
+    try:
+        text = Path(specs).read_text(encoding="utf-8")
+    except OSError:
+        return None
+    for folder in specs_library_dirs(text, multi):
+        if (Path(folder) / "libc.a").is_file():
+            return str(Path(folder) / "libc.a")
+    return None
+
+
+def specs_library_dirs(specs: str, multi: str) -> list[str]:
+    """The default -L folders a GCC specs file's link rule names, %M as the multilib folder
+    ("-L%{-picolibc-prefix=*:...; :/usr/lib/picolibc/riscv64-unknown-elf/lib/%M}")."""
+    return [found.replace("%M", multi) for found in re.findall(r":(/[^\s;{}:]+)\}", specs)]
 
 
 def has_cxx_headers(runner: Runner, profile: TargetProfile, tools: Mapping[str, str], scratch: Path) -> bool:
@@ -155,7 +179,7 @@ def check_target_prerequisites(
     hint = profile.install_hint or None
     if find_libc(runner, profile, tools) is None:
         raise MissingToolError(f"{profile.tool('gcc')} has no C library (libc.a) for {profile.name}", hint)
-    if not has_cxx_headers(runner, profile, tools, scratch):
+    if not profile.micro_ros.cxx_wrapper_headers and not has_cxx_headers(runner, profile, tools, scratch):
         message = f"{profile.tool('g++')} has no C++ standard headers for {profile.name}"
         raise MissingToolError(message, hint)
 

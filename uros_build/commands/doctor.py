@@ -193,6 +193,9 @@ def eval_target(profile: TargetProfile, compiler: str | None, problem: str | Non
         checks.append(Check(f"{profile.name} C++ headers", SKIP, "not probed without a C library"))
     elif problem is not None:
         checks.append(Check(f"{profile.name} C++ headers", FAIL, problem, hint))
+    elif profile.micro_ros.cxx_wrapper_headers:
+        why = "none with the compiler: uros hands micro-ROS its wrappers of <cstddef>, <cstdio>, <cstring>"
+        checks.append(Check(f"{profile.name} C++ headers", OK, why))
     else:
         checks.append(Check(f"{profile.name} C++ headers", OK, "<cstdint> compiles"))
     return checks

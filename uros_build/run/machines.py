@@ -20,8 +20,8 @@ from uros_build import loader, resources
 from uros_build.errors import ConfigError
 
 QEMU_PROGRAMS = ("qemu-system-arm", "qemu-system-riscv32", "qemu-system-xtensa")
-ARCHES = ("arm",)  # folders under templates/probe/
-UARTS = ("cmsdk", "nrf51")  # templates/probe/uart/<name>.c
+ARCHES = ("arm", "riscv")  # folders under templates/probe/
+UARTS = ("cmsdk", "nrf51", "ns16550")  # templates/probe/uart/<name>.c
 STARTUPS = ("unaligned-trap",)  # what a machine's start-up may do more (templates/probe/<arch>/board.c)
 _NAME = re.compile(r"[a-z0-9][a-z0-9.-]*")
 _ARG = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.,=-]*|-[A-Za-z0-9-]+")

@@ -26,7 +26,10 @@ from uros_build.target.profiles import TargetProfile
 from uros_build.target.toolchain import (
     CLOCK_HEADER_NAME,
     CLOCK_HEADER_TEXT,
+    CXX_WRAPPERS,
+    CXX_WRAPPERS_DIR,
     ToolchainRequest,
+    cxx_wrapper_text,
     microros_flags,
     render_toolchain,
     tool_paths,
@@ -147,6 +150,9 @@ class Profile:
             micro_ros=True,
             gcc_major=self.facts.gcc_major,
             clock_header=clock_header if profile.micro_ros.declare_clock_gettime else None,
+            cxx_wrappers=str(Path(clock_header).parent / CXX_WRAPPERS_DIR)
+            if profile.micro_ros.cxx_wrapper_headers
+            else None,
             tool_dir=self.facts.tool_dir,
             command=f"uros build --toolchain {profile.name}",
             prefix_map=root,
@@ -159,6 +165,10 @@ class Profile:
         target_dir = self.plan.target_dir
         if self.profile.micro_ros.declare_clock_gettime:
             write_if_changed(target_dir / CLOCK_HEADER_NAME, CLOCK_HEADER_TEXT)
+        if self.profile.micro_ros.cxx_wrapper_headers:
+            (target_dir / CXX_WRAPPERS_DIR).mkdir(parents=True, exist_ok=True)
+            for name, c_header in CXX_WRAPPERS.items():
+                write_if_changed(target_dir / CXX_WRAPPERS_DIR / name, cxx_wrapper_text(c_header))
         path = target_dir / "toolchain.cmake"
         if write_if_changed(path, render_toolchain(self.toolchain_request(str(self.plan.workspace.root)))):
             forget_configured_flags(target_dir / "build")

@@ -35,6 +35,10 @@ class MicroRosFlags:
     # Force-include a header declaring clock_gettime(): newlib without _POSIX_TIMERS declares none,
     # and rcutils/XRCE-DDS call it, which GCC >= 14 rejects as an implicit declaration.
     declare_clock_gettime: bool = False
+    # The compiler has no C++ standard library headers (Debian's riscv64-unknown-elf, xtensa-lx106-elf):
+    # micro-ROS's few C++ sources (rosidl_typesupport_c's dispatch, every interface's C type support)
+    # include only <cstddef>, <cstdio> and <cstring>; uros hands them wrappers of the C headers.
+    cxx_wrapper_headers: bool = False
     # -D'__attribute__(x)=' worked around GCC < 6 choking on attributes in micro-ROS headers; it
     # also strips rcl's constructor attributes, so uros only adds it where the compiler is older.
     strip_attributes_below_gcc: int = 0

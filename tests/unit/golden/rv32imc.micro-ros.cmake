@@ -22,7 +22,7 @@ set(UROS_MICROROS_FLAGS "-DCLOCK_MONOTONIC=0 -include /ws/h.h")
 set(CMAKE_C_FLAGS_INIT "-march=rv32imc -mabi=ilp32 --specs=picolibc.specs -ffunction-sections -fdata-sections -DCLOCK_MONOTONIC=0 -include /ws/h.h")
 set(CMAKE_CXX_FLAGS_INIT "-march=rv32imc -mabi=ilp32 --specs=picolibc.specs -ffunction-sections -fdata-sections -fno-rtti -fno-exceptions -DCLOCK_MONOTONIC=0 -include /ws/h.h")
 set(CMAKE_ASM_FLAGS_INIT "-march=rv32imc -mabi=ilp32")
-set(CMAKE_EXE_LINKER_FLAGS_INIT "-march=rv32imc -mabi=ilp32 --specs=picolibc.specs")
+set(CMAKE_EXE_LINKER_FLAGS_INIT "-march=rv32imc -mabi=ilp32")
 
 set(CMAKE_C_STANDARD 11)
 set(CMAKE_CXX_STANDARD 14)
