@@ -191,6 +191,11 @@ def test_only_a_passed_probe_of_this_very_library_is_counted() -> None:
     assert got == Measured(2920, 2112, str(work / REPORT), str(work / MAP))
     # a map file another build replaced is not that run's: heap and stack still count, its map not
     assert measured(_report(), "aa", "other", work) == Measured(2920, 2112, str(work / REPORT), None)
+    # the probe's own judgement of every stage counts over the firmware's status: a time stage the
+    # host failed (status 0) is no pass; the service stage skipped without root (status 7) is
+    host_failed = measured(_report(passed=False, verdict="stage time failed: ..."), "aa", "mm", work)
+    assert host_failed == "not measured: the last probe did not pass (stage time failed: ...; run uros probe)"
+    assert measured(_report(status=7, passed=True), "aa", "mm", work) == got
 
 
 def test_a_profile_names_its_chip_and_a_bad_size_names_the_key() -> None:

@@ -62,6 +62,9 @@ class ProbeReport:
     agent_log: str
     run_log: str
     peer_status: int | None = None  # --peer: the peer's exit status (None: none ran, or it did not finish)
+    # the firmware's status and every stage judged (a host-judged stage can fail a status 0; without
+    # root the service stage's status 7 can pass): what `uros size` counts
+    passed: bool = False
     peer_log: str | None = None
 
 
@@ -254,6 +257,7 @@ def _probe(
         run_log=str(runner.log_path),
         peer_status=ran.peer_status,
         peer_log=str(ran.peer_log) if ran.peer_log else None,
+        passed=ok,
     )
     # kept for `uros size`, which counts a passed run's heap and stack against a chip's RAM
     write_report(work, asdict(report), info.library.sha256)

@@ -79,7 +79,12 @@ def measured(
     if not isinstance(data, dict) or data.get("library_sha256") != library_sha256:
         return "not measured for this library: the last probe ran another build of it (run uros probe)"
     heap, stack = data.get("heap_bytes"), data.get("stack_bytes")
-    if data.get("status") != 0 or not isinstance(heap, int) or not isinstance(stack, int):
+    # `passed` (uros probe's stages judged too); a report of before it: the firmware's status
+    if (
+        not data.get("passed", data.get("status") == 0)
+        or not isinstance(heap, int)
+        or not isinstance(stack, int)
+    ):
         verdict = data.get("verdict") or "no verdict"
         return f"not measured: the last probe did not pass ({verdict}; run uros probe)"
     same_map = map_sha256 is not None and data.get("map_sha256") == map_sha256
