@@ -22,6 +22,7 @@ from uros_helpers import REPO, run_uros
 pytestmark = pytest.mark.integration
 
 AGENT = os.environ.get("UROS_AGENT")
+FREERTOS = os.environ.get("UROS_FREERTOS")
 HUMBLE_WS = os.environ.get("UROS_HUMBLE_WS")
 SEED_001 = REPO / "examples" / "stm32h7-custom"
 SEED_000 = REPO / "examples" / "esp32s3-idf" / "app"
@@ -86,22 +87,6 @@ def test_duration_and_defines_only_with_an_app(m7_build: Path) -> None:
     assert proc.returncode == 2 and "--duration: only with --app DIR" in _one_error(proc)
     proc = run_uros("probe", str(out), "--app", str(SEED_000), "--duration", "0", check=False)
     assert proc.returncode == 2 and "--duration 0: must be a number of seconds more than 0" in _one_error(
-        proc
-    )
-
-
-def test_an_app_on_freertos_is_refused_in_one_line(m7_build: Path, tmp_path: Path) -> None:
-    """The app runner is bare metal: --freertos (or a library built --rtos freertos) with --app is one
-    line, not a bare-metal run of a FreeRTOS library."""
-    kernel = tmp_path / "FreeRTOS-Kernel"  # only what uros checks before building
-    for name in ("tasks.c", "include/FreeRTOS.h", "portable/GCC/ARM_CM7/r0p1/port.c"):
-        (kernel / name).parent.mkdir(parents=True, exist_ok=True)
-        (kernel / name).write_text("")
-    app = _app(tmp_path / "plain", "void appMain(void *arg) { (void)arg; }\n")
-    out = m7_build / "build" / "cortex-m7"
-    proc = run_uros("probe", str(out), "--app", str(app), "--freertos", str(kernel), check=False)
-    assert proc.returncode == 2, proc.stderr
-    assert f"--app {app}: the app runner is bare metal; this run is on FreeRTOS (--freertos)" in _one_error(
         proc
     )
 
@@ -211,3 +196,23 @@ def test_a_package_the_real_library_lacks(humble_out: Path, tmp_path: Path) -> N
     assert code == 2
     assert "lacks nav_msgs (app.c:1)" in err and "--packages nav_msgs" in err
     assert "configure the uros_app firmware" not in err
+
+
+@_RUNS
+@pytest.mark.skipif(not FREERTOS, reason="set UROS_FREERTOS to a FreeRTOS-Kernel checkout (V11.x)")
+def test_seed_001_on_freertos_with_the_kernel_heap(humble_out: Path, tmp_path: Path) -> None:
+    """The same app on FreeRTOS (--freertos): appMain in the probe's task, micro-ROS's allocator and
+    the app's microros_allocate & co on the kernel's heap (pvPortMalloc, heap_4), the clock the
+    kernel's tick; --duration ends the run from the kernel's tick as on bare metal."""
+    assert FREERTOS
+    code, err, data = _run_app(humble_out, tmp_path, "--app", str(SEED_001), "--freertos", FREERTOS)
+    assert data is not None, err
+    assert code == 0 and data["status"] == 0 and data["rtos"] == "freertos", err + _console(data)
+    console = _console(data)
+    assert "uros-probe: FreeRTOS V11" in console and "app: PASS 10 CmdVel back" in console
+    assert "on FreeRTOS: exit(0)" in err
+    code, err, data = _run_app(
+        humble_out, tmp_path, "--app", str(SEED_000), "-D", "HSB_STATE_PERIOD_MS=200", "--duration", "2",
+        "--freertos", FREERTOS,
+    )  # fmt: skip
+    assert code == 0 and data is not None and data["status"] == 83, err

@@ -138,7 +138,8 @@ def test_the_cmakelists_escapes_paths_and_defines(tmp_path: Path) -> None:
     assert f'"{folder}/a\\$b.c"' in text
     assert '"TOPIC=\\"x\\${y}\\""' in text
     assert '"UROS_APP_DURATION_MS=3000"' in text
-    assert "app_main.c allocators.c transport.c ${probe_board}" in text
+    assert "add_executable(uros_probe app_main.c transport.c ${probe_board}" in text
+    assert "target_sources(uros_probe PRIVATE allocators.c)" in text  # bare metal; FreeRTOS: the kernel heap
     assert app.app_cmake(scanned, ['TOPIC="x${y}"', "N=1"], 3000) == text  # deterministic
 
 

@@ -109,18 +109,13 @@ def probe(
             raise app_mod.missing_packages_error(plan.app, missing, out, ws.root if ws is not None else None)
     machine = probe_mod.machine_for(info.target, probe_mod.load_machines(), board)
     rtos = _freertos(info, freertos)
-    if plan is not None and rtos is not None:
-        raise ConfigError(
-            f"--app {plan.app.folder}: the app runner is bare metal; this run is on FreeRTOS ({rtos.why})",
-            "run the app against a library built without --rtos, and without --freertos",
-        )
     base = probe_base(out, info.target)
     # One probe of a target at a time: two at once shared the work folder (one deleted the other's
     # firmware and console log) and blamed a good library ("no agent answered", "an entity could not
     # be created"); the second waits, and says for whom.
     with locked(base / "probe" / "locks" / info.target, info.target, command="uros probe"):
         if plan is not None:
-            return _probe_app(plan, out, info, machine, base, (agent, timeout, as_json, verbose), peer)
+            return _probe_app(plan, out, info, machine, base, (agent, timeout, as_json, verbose), peer, rtos)
         return _probe(out, info, machine, base, agent, timeout, as_json, verbose, peer, rtos)
 
 
@@ -305,21 +300,26 @@ def _probe_app(
     base: Path,
     options: tuple[str | None, float, bool, bool],  # --agent, --timeout, --json, --verbose
     peer: Path | None,
+    rtos: freertos_mod.FreeRtos | None,
 ) -> app_mod.AppReport:
     agent, timeout, as_json, verbose = options
     work = app_mod.app_work(base, info.target, out, plan.app.folder)
     if machine.chosen:  # another board of the target keeps its own work folder
         work = work.with_name(f"{work.name}-{machine.board.name}")
-    title = f"uros probe --app {plan.app.folder}: {out} ({info.target}) in QEMU {machine.machine}"
+    on = f" on FreeRTOS ({rtos.why})" if rtos else ""
+    title = f"uros probe --app {plan.app.folder}: {out} ({info.target}) in QEMU {machine.machine}{on}"
+    if rtos is not None:  # the FreeRTOS firmware keeps its own work folder
+        work = work.with_name(f"{work.name}-freertos")
     runner = _open_run(work, info.target, machine, title, verbose)
     qemu_program = runner.which(machine.board.qemu, qemu_hint(machine.board.qemu))
     agent_program = _agent(agent, runner)
     peer_run = _peer_run(runner, peer, out, info, work) if peer is not None else None
     compiler = info.compiler.path if info.compiler is not None else None
     ran = app_mod.run_app(
-        runner, plan, out, compiler, qemu_program, machine, agent_program, work, timeout, verbose, peer_run
-    )
-    report = app_mod.app_report(info.target, machine.machine, plan, ran, runner)
+        runner, plan, out, compiler, qemu_program, machine, agent_program, work, timeout, verbose, peer_run,
+        rtos,
+    )  # fmt: skip
+    report = app_mod.app_report(info.target, machine.machine, plan, ran, runner, "freertos" if rtos else None)
     if peer_run is not None:  # the app's verdict and the peer's together
         judged = peer_verdict(0 if report.passed else report.status, report.verdict, ran.session.peer_status)
         report = replace(report, passed=judged.passed, verdict=judged.text)

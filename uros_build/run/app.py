@@ -28,6 +28,7 @@ from uros_build.colcon.fingerprint import digest
 from uros_build.errors import ConfigError, StepFailed
 from uros_build.output.sizes import Sizes, parse_berkeley
 from uros_build.proc import Runner
+from uros_build.run import freertos as freertos_mod
 from uros_build.run import machines
 from uros_build.run.firmware import build_firmware
 from uros_build.run.session import PeerRun, Session, run_session
@@ -38,7 +39,7 @@ from uros_build.target.toolsearch import bintools_beside
 CRASHED, NO_AGENT, RETURNED, DURATION_OVER = 70, 81, 82, 83
 RUNNER_STATUSES: Mapping[int, str] = {
     CRASHED: "the app crashed (hard fault)",
-    71: machines.VERDICTS[71],
+    **{status: machines.VERDICTS[status] for status in (71, 72, 73, 74)},  # the ARMv6-M check, FreeRTOS's
     NO_AGENT: "no agent answered before appMain (is it running on the link? a library without the custom "
     "serial transport or stream framing never reaches it)",
     RETURNED: "appMain returned without exit(status): end the app with exit(0) when its job is done, or "
@@ -227,6 +228,7 @@ def run_app(
     timeout: float,
     verbose: bool,
     peer: PeerRun | None = None,
+    rtos: freertos_mod.FreeRtos | None = None,
 ) -> AppRun:
     """Build the app firmware against ``out``, measure it, run it against the agent."""
     app, defines, duration_ms = plan.app, plan.defines, plan.duration_ms
@@ -234,7 +236,10 @@ def run_app(
     shutil.rmtree(staged, ignore_errors=True)
     shutil.copytree(resources.templates_dir() / "probe", staged)
     (staged / "CMakeLists.txt").write_text(app_cmake(app, defines, duration_ms), encoding="utf-8")
-    elf = build_firmware(runner, staged, work, out, "uros_app", verbose, machine)
+    elf = build_firmware(
+        runner, staged, work, out, "uros_app", verbose, machine,
+        defines=freertos_mod.cmake_defines(rtos), folders=freertos_mod.firmware_folders(rtos),
+    )  # fmt: skip
     size = runner.query([bintools_beside(compiler_path).size, str(elf)], step="size of the app firmware")
     sizes = elf_sizes(size)
     wait = session_timeout(timeout, duration_ms)
@@ -251,6 +256,7 @@ class AppReport:
     machine: str
     app: str
     sources: tuple[str, ...]
+    rtos: str | None  # "freertos": appMain ran in a FreeRTOS task; None: bare metal
     packages: tuple[str, ...]  # the interface packages it includes
     defines: tuple[str, ...]
     duration: float | None  # --duration in seconds
@@ -271,7 +277,9 @@ class AppReport:
     peer_log: str | None = None
 
 
-def app_report(target: str, machine: str, plan: AppPlan, ran: AppRun, runner: Runner) -> AppReport:
+def app_report(
+    target: str, machine: str, plan: AppPlan, ran: AppRun, runner: Runner, rtos: str | None = None
+) -> AppReport:
     app, duration_ms = plan.app, plan.duration_ms
     passed, said = verdict(ran.session.status, duration_ms)
     return AppReport(
@@ -279,6 +287,7 @@ def app_report(target: str, machine: str, plan: AppPlan, ran: AppRun, runner: Ru
         machine=machine,
         app=str(app.folder),
         sources=tuple(p.name for p in app.sources),
+        rtos=rtos,
         packages=tuple(app.packages),
         defines=plan.defines,
         duration=duration_ms / 1000 if duration_ms else None,
@@ -306,7 +315,8 @@ def describe(report: AppReport) -> str:
     if report.heap_bytes is not None and report.stack_bytes is not None:
         memory += f", heap {report.heap_bytes:,} B, stack {report.stack_bytes:,} B"
     head = "app passed" if report.passed else "app failed"
+    on = " on FreeRTOS" if report.rtos else ""
     return (
-        f"{head}: {report.app} on {report.target} in QEMU {report.machine}: {report.verdict} "
+        f"{head}: {report.app} on {report.target} in QEMU {report.machine}{on}: {report.verdict} "
         f"({report.seconds:.1f} s; {memory})"
     )

@@ -28,7 +28,8 @@ void _exit(int status);
 void xPortSysTickHandler(void);
 
 /* ---- micro-ROS's allocator on the kernel's heap (seed 001's microros_allocate & co) ----
- * Each block starts with its size, so reallocate can copy; the kernel has no realloc. */
+ * Each block starts with its size, so reallocate can copy; the kernel has no realloc. Not static: an
+ * app (`uros probe --app`, seed 001) routes rcl's allocator through them itself, as on its board. */
 typedef union {
   size_t size;
   long double align; /* keep the caller's block 8-byte aligned */
@@ -36,7 +37,7 @@ typedef union {
 
 static size_t uros_in_use, uros_peak;
 
-static void *microros_allocate(size_t size, void *state) {
+void *microros_allocate(size_t size, void *state) {
   (void)state;
   block_head_t *block = pvPortMalloc(sizeof(block_head_t) + size);
   if (block == NULL) return NULL;
@@ -48,7 +49,7 @@ static void *microros_allocate(size_t size, void *state) {
   return block + 1;
 }
 
-static void microros_deallocate(void *pointer, void *state) {
+void microros_deallocate(void *pointer, void *state) {
   (void)state;
   if (pointer == NULL) return;
   block_head_t *block = (block_head_t *)pointer - 1;
@@ -58,7 +59,7 @@ static void microros_deallocate(void *pointer, void *state) {
   vPortFree(block);
 }
 
-static void *microros_reallocate(void *pointer, size_t size, void *state) {
+void *microros_reallocate(void *pointer, size_t size, void *state) {
   if (pointer == NULL) return microros_allocate(size, state);
   void *grown = microros_allocate(size, state);
   if (grown == NULL) return NULL;
@@ -68,7 +69,7 @@ static void *microros_reallocate(void *pointer, size_t size, void *state) {
   return grown;
 }
 
-static void *microros_zero_allocate(size_t count, size_t size, void *state) {
+void *microros_zero_allocate(size_t count, size_t size, void *state) {
   if (size != 0 && count > SIZE_MAX / size) return NULL;
   void *block = microros_allocate(count * size, state);
   if (block != NULL) memset(block, 0, count * size);
@@ -88,8 +89,10 @@ int clock_gettime(clockid_t clock, struct timespec *when) {
 
 /* board.c starts SysTick at reset; the kernel's tick handler may only run once the scheduler does
  * (before, a tick could ask for a context switch with no task to switch from) */
+void probe_tick_hook(void); /* board.c's (weak, nothing): `uros probe --app --duration` ends the run there */
 void probe_systick(void) {
   if (xTaskGetSchedulerState() != taskSCHEDULER_NOT_STARTED) xPortSysTickHandler();
+  probe_tick_hook();
 }
 
 /* ---- what main.c reports as heap and stack: micro-ROS's peak on the kernel's heap, and the probe
