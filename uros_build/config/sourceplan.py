@@ -80,9 +80,9 @@ def plan_sources(distro: Distro, mirror: Mirror, locked: Mapping[str, str] | Non
     return sources
 
 
-def print_stand_ins(plan_distro: Distro, mirror: Mirror, sources: Mapping[str, Source]) -> None:
+def print_stand_ins(distro: Distro, mirror: Mirror, sources: Mapping[str, Source]) -> None:
     """Say which clones are stand-ins, and why, before any is cloned or moved."""
-    lines, unused = stand_in_report(plan_distro, mirror, sources)
+    lines, unused = stand_in_report(distro, mirror, sources)
     if lines:
         console.step(f"{len(lines)} of {len(sources)} repositories from stand-ins (not the manifest's):")
     for line in lines:
