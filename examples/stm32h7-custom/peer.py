@@ -24,6 +24,7 @@ from eic_demo_interface.srv import GetTime
 SAMPLES = 5  # CmdVel messages to check
 REQUESTS = 2  # GetTime calls (the app's -D APP_PEER_REQUESTS waits for as many)
 DEADLINE = 25.0  # seconds: DDS discovery takes up to ~3 s here
+SAMPLE_WAIT = 8.0  # seconds for the CmdVel samples (discovery took 0.2-3 s here)
 # The app answers with its clock set from the agent's (rmw_uros_sync_session): the host's epoch in
 # ms. QEMU's clock lags the host's when the machine is busy (3 s in 3.5 s here at load 12), so the
 # answer must be an epoch (not an uptime), not later than the host's clock, and going forward.
@@ -43,10 +44,10 @@ def main() -> None:
     node.create_subscription(CmdVel, "pub_topic", samples.append, 10)
     client = node.create_client(GetTime, "get_time")
     end = time.monotonic() + DEADLINE
-    # the samples first: the app publishes until it has served our requests, then exits
-    while len(samples) < SAMPLES:
-        if time.monotonic() > end:
-            fail(f"{len(samples)} of {SAMPLES} CmdVel came")
+    # the samples first (the app publishes until it has served our requests, then exits), for at
+    # most SAMPLE_WAIT: the requests are made whatever came, so that the app ends by itself
+    sampling = time.monotonic() + SAMPLE_WAIT
+    while len(samples) < SAMPLES and time.monotonic() < sampling:
         rclpy.spin_once(node, timeout_sec=0.1)
     while not client.service_is_ready():
         if time.monotonic() > end:
@@ -67,6 +68,8 @@ def main() -> None:
         if answers and answered <= answers[-1]:
             fail(f"get_time answered {answered} after {answers[-1]}: the app's clock went back")
         answers.append(answered)
+    if len(samples) < SAMPLES:
+        fail(f"{len(samples)} of {SAMPLES} CmdVel came in {SAMPLE_WAIT:g} s")
     samples = samples[:SAMPLES]
     left = [m.left_rpm for m in samples]
     wrong = [m for m in samples if m.right_rpm != -2 * m.left_rpm or m.left_rpm <= 0]

@@ -173,3 +173,4 @@ def test_a_wrong_interface_definition_is_caught_by_the_peer_only(tmp_path: Path)
     # resized"), so nothing arrives; a same-size mismatch would arrive and fail the field checks
     peer_log = Path(str(data["peer_log"])).read_text()
     assert "peer: FAIL 0 of 5 CmdVel came" in peer_log or "CmdVel fields wrong" in peer_log, peer_log
+    assert "app: PASS" in Path(str(data["console_log"])).read_text()  # the app had the peer's requests
