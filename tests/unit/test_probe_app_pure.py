@@ -120,7 +120,7 @@ def test_durations_and_timeouts() -> None:
     assert app.check_duration(None) == 0
     assert app.check_duration(2.5) == 2500
     assert app.session_timeout(60.0, 0) == 60.0
-    assert app.session_timeout(60.0, 5000) == 5 + app.DURATION_GRACE
+    assert app.session_timeout(60.0, 5000) == 5 * app.DURATION_SLOWDOWN + app.DURATION_GRACE
 
 
 def test_define_or_duration_without_app_is_refused() -> None:
