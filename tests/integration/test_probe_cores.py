@@ -74,6 +74,7 @@ def _probe(ws: Path, target: str) -> tuple[int, str, dict[str, object]]:
         ("cortex-m55", "mps3-an547"),
         ("cortex-m0plus", "mps2-an385"),
         ("rv32imc", "virt"),
+        ("esp8266", "lx60-nommu"),
     ],
 )
 def test_the_probe_passes_on_the_core(humble: Path, target: str, machine: str) -> None:

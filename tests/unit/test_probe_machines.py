@@ -41,6 +41,7 @@ def test_the_shipped_table() -> None:
         "cortex-m55": "mps3-an547",
         "cortex-m0plus": "mps2-an385",
         "rv32imc": "virt",
+        "esp8266": "lx60-nommu",
     }
     microbit = machines.machine_for("cortex-m0plus", table, "microbit")
     assert microbit.chosen and microbit.board.ram == machines.Region(0x20000000, 16 << 10)
@@ -161,6 +162,21 @@ def test_the_argv_of_a_one_uart_machine() -> None:
     assert "#define PROBE_CONSOLE_SEMIHOSTING 1" in machines.machine_header(microbit)
 
 
+def test_the_argv_of_the_xtensa_machine() -> None:
+    """QEMU 7.2's simcall writes the console to QEMU's standard output: no console chardev."""
+    lx60 = machines.load_machines()["esp8266"]
+    assert lx60.board.console_stdout and lx60.board.console is None
+    argv = machines.qemu_argv(lx60, Path("/w/fw.elf"), Path("/w/console.log"))
+    assert argv == [
+        "qemu-system-xtensa", "-M", "lx60-nommu", "-cpu", "lx106", "-nographic", "-monitor", "none",
+        "-semihosting-config", "enable=on,target=native",
+        "-chardev", "pty,id=link", "-serial", "chardev:link",
+        "-kernel", "/w/fw.elf",
+    ]  # fmt: skip
+    rv = machines.qemu_argv(machines.load_machines()["rv32imc"], Path("/w/fw.elf"), Path("/w/c.log"))
+    assert rv[:5] == ["qemu-system-riscv32", "-M", "virt", "-bios", "none"]
+
+
 def test_the_generated_header_and_memory_map() -> None:
     table = machines.parse_machines(_broken(("machines", "cortex-m33", "startup"), ["unaligned-trap"]), "t")
     header = machines.machine_header(table["cortex-m33"])
@@ -189,7 +205,11 @@ def test_doctor_says_which_qemu_runs_which_targets() -> None:
         and "cannot run rv32imc" in riscv.detail
         and "qemu-system-misc" in riscv.fix
     )
-    assert xtensa.status == doctor.SKIP and "no target's probe runs on it yet" in xtensa.detail
+    assert xtensa.status == doctor.SKIP and "cannot run esp8266" in xtensa.detail
+    nothing = doctor.eval_probe_tools({"qemu-system-xtensa": "/usr/bin/qemu-system-xtensa"}, None, False, {})[
+        0
+    ]
+    assert nothing.status == doctor.OK and "no target's probe runs on it yet" in nothing.detail
     arm = doctor.eval_probe_tools({"qemu-system-arm": None}, None, False, table)[0]
     assert (
         arm.status == doctor.SKIP

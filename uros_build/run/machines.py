@@ -20,7 +20,9 @@ from uros_build import loader, resources
 from uros_build.errors import ConfigError
 
 QEMU_PROGRAMS = ("qemu-system-arm", "qemu-system-riscv32", "qemu-system-xtensa")
-ARCHES = ("arm", "riscv")  # folders under templates/probe/
+ARCHES = ("arm", "riscv", "xtensa")  # folders under templates/probe/
+# the C library's shared board files (templates/probe/<folder>/): newlib's are in arm/ itself
+LIBC_FILES = {"riscv": "picolibc", "xtensa": "picolibc"}
 UARTS = ("cmsdk", "nrf51", "ns16550")  # templates/probe/uart/<name>.c
 STARTUPS = ("unaligned-trap",)  # what a machine's start-up may do more (templates/probe/<arch>/board.c)
 _NAME = re.compile(r"[a-z0-9][a-z0-9.-]*")
@@ -47,6 +49,7 @@ class Board:
     uart: str  # templates/probe/uart/<uart>.c
     link: int  # the UART the agent talks to
     console: int | None  # the firmware's text; None: through semihosting (one-UART machines)
+    console_stdout: bool  # the semihosting console is QEMU's standard output (Xtensa's simcall)
     reg_shift: int
     clock_hz: int
     rom: Region
@@ -103,6 +106,11 @@ def parse_board(name: str, entry: Any, where: str) -> Board:
         if not _ARG.fullmatch(arg):
             raise ConfigError(f"{where}: qemu_args: {arg!r} is not a plain QEMU argument")
     console = item.get("console")
+    # QEMU 7.2's Xtensa simcall writes fd 1 to its own standard output, whatever -semihosting-config
+    # chardev= says (measured): the session reads the console from QEMU's output then
+    console_stdout = console == "stdout"
+    if console_stdout:
+        console = None
     rom, ram = _region(item, "rom", where), _region(item, "ram", where)
     stack = _size(item, "stack", where)
     if not 0 < stack < ram.length:
@@ -122,6 +130,7 @@ def parse_board(name: str, entry: Any, where: str) -> Board:
         uart=loader.one_of(item, "uart", where, UARTS),
         link=_size(item, "link", where),
         console=None if console is None else _size(item, "console", where),
+        console_stdout=console_stdout,
         reg_shift=loader.integer(item, "reg_shift", where, 0),
         clock_hz=clock,
         rom=rom,
@@ -214,6 +223,9 @@ def board_files(machine: Machine) -> dict[str, str]:
     files = {
         p.name: p.read_text(encoding="utf-8") for p in sorted((probe / board.arch).iterdir()) if p.is_file()
     }
+    if board.arch in LIBC_FILES:
+        libc = probe / LIBC_FILES[board.arch]
+        files.update({p.name: p.read_text(encoding="utf-8") for p in sorted(libc.iterdir()) if p.is_file()})
     files[f"uart_{board.uart}.c"] = (probe / "uart" / f"{board.uart}.c").read_text(encoding="utf-8")
     files["probe_machine.h"] = machine_header(machine)
     files["probe.ld"] = memory_script(board)
@@ -259,7 +271,13 @@ def qemu_argv(machine: Machine, elf: Path, console_log: Path) -> list[str]:
     board = machine.board
     argv = [board.qemu, "-M", board.machine, *(["-cpu", board.cpu] if board.cpu else []), *board.qemu_args]
     argv += ["-nographic", "-monitor", "none"]
-    if board.console is None:
+    if board.console_stdout:
+        argv += [
+            "-semihosting-config", "enable=on,target=native",
+            "-chardev", "pty,id=link",
+            "-serial", "chardev:link",
+        ]  # fmt: skip
+    elif board.console is None:
         argv += [
             "-chardev", f"file,id=console,path={console_log}",
             "-semihosting-config", "enable=on,target=native,chardev=console",

@@ -160,7 +160,8 @@ def run_session(
             peer_proc = runner.start(
                 netns.enter_argv(holder.proc.pid, peer.argv), step="the peer", output=peer.log, env=peer.env
             )
-        console = _Console(console_log)
+        # the firmware's text: its console file, or QEMU's own output (meta/probe/machines.yaml)
+        console = _Console(qemu_log if machine.board.console_stdout else console_log)
         stopped: float | None = None  # when uros stopped the agent for a restart
         status = None
         while time.monotonic() - started < timeout:
@@ -193,6 +194,8 @@ def run_session(
             if proc is not None:
                 proc.stop()
     seconds = time.monotonic() - started
+    if machine.board.console_stdout and qemu_log.is_file():  # console.log as on every machine
+        console_log.write_text(qemu_log.read_text(encoding="utf-8", errors="replace"), encoding="utf-8")
     text = console_log.read_text(encoding="utf-8", errors="replace") if console_log.is_file() else ""
     runner.log("firmware console:\n" + text)
     if peer is not None:

@@ -1,21 +1,18 @@
 /* uros probe: bare-metal start-up for QEMU's RISC-V virt machine (rv32, `-bios none`: QEMU jumps to the
  * ELF's entry). Start-up (stack, picolibc's thread pointer for its TLS errno, .data, .bss), a
- * millisecond clock from the CLINT's mtime, picolibc's stdout and sbrk, the console and _exit through
+ * millisecond clock from the CLINT's mtime, the console and _exit through
  * RISC-V semihosting (the machine has one UART: the agent's link), so that QEMU exits with main()'s
  * return value. The machine's numbers come from probe_machine.h (meta/probe/machines.yaml). Generated
  * by uros probe; not a board support package for real hardware. */
-#include <errno.h>
 #include <stddef.h>
 #include <stdint.h>
-#include <stdio.h>
 #include <time.h>
 
 #include "probe.h"
 #include "probe_machine.h"
 
-extern uint32_t probe_data_image, probe_data_start, probe_data_end, probe_bss_start, probe_bss_end;
-extern uint8_t probe_heap_start, probe_heap_end, probe_stack_top, probe_tls_base;
 int main(void);
+void probe_memory_init(const uint8_t *sp);
 
 /* ---- semihosting: the RISC-V sequence (uncompressed, in one page) around ebreak ---- */
 __attribute__((noinline, aligned(16))) static uint32_t semihost(uint32_t op, const void *arg) {
@@ -71,43 +68,11 @@ int clock_gettime(clockid_t clock, struct timespec *when) {
   return 0;
 }
 
-/* ---- picolibc: stdout, sbrk ---- */
-static int console_putc(char c, FILE *file) {
-  (void)file;
-  probe_console_put((uint8_t)c);
-  return (unsigned char)c;
-}
-static FILE console_file = FDEV_SETUP_STREAM(console_putc, NULL, NULL, _FDEV_SETUP_WRITE);
-FILE *const stdout = &console_file;
-FILE *const stderr = &console_file;
-
-static uint8_t *heap_top = &probe_heap_start;
-void *sbrk(ptrdiff_t grow) {
-  if (heap_top + grow > &probe_heap_end) {
-    errno = ENOMEM;
-    return (void *)-1;
-  }
-  uint8_t *old = heap_top;
-  heap_top += grow;
-  return old;
-}
-size_t probe_heap_used(void) { return (size_t)(heap_top - &probe_heap_start); }
-
-#define STACK_PAINT 0xA5u
-size_t probe_stack_used(void) {
-  const uint8_t *p = &probe_heap_end;
-  while (p < &probe_stack_top && *p == STACK_PAINT) p++;
-  return (size_t)(&probe_stack_top - p);
-}
-
 /* ---- start-up ---- */
 void probe_reset(void) {
-  uint32_t *from = &probe_data_image, *to = &probe_data_start;
-  while (to < &probe_data_end) *to++ = *from++;
-  for (to = &probe_bss_start; to < &probe_bss_end;) *to++ = 0u;
   uint8_t *sp;
   __asm volatile("mv %0, sp" : "=r"(sp));
-  for (uint8_t *p = &probe_heap_end; p < sp - 64; p++) *p = STACK_PAINT;
+  probe_memory_init(sp); /* picolibc.c */
   probe_console_init();
   probe_link_init();
   _exit(main());
