@@ -150,6 +150,9 @@ def test_seed_000_s_hsb_node_follows_the_peer_s_commands() -> None:
     assert code == 0, err
     peer_log = Path(str(data["peer_log"])).read_text()
     assert "peer: PASS every command was followed by the state" in peer_log, peer_log
+    line = next(x for x in err.splitlines() if "app passed" in x)
+    assert "the firmware and the peer both passed" in line
+    assert str(data["peer_log"]) in line and str(data["console_log"]) in line
 
 
 @_RUNS

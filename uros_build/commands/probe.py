@@ -331,7 +331,12 @@ def _probe_app(
         logs += f"; the peer's log: {report.peer_log}"
     if not report.passed:
         raise VerifyError(line, logs)
-    console.step(line)
+    # with a peer, both logs are named in the line (the two halves of the verdict)
+    console.step(
+        f"{line}; the console: {report.console_log}; the peer's log: {report.peer_log}"
+        if report.peer_log
+        else line
+    )
     return report
 
 
