@@ -158,3 +158,28 @@ def test_a_users_file_beside_the_output_is_not_a_change_but_a_header_added_to_in
     assert "the output folder" in rebuilt.stderr and "up to date" not in rebuilt.stderr, rebuilt.stderr
     assert not stray.exists()
     assert (out / "notes.txt").read_text() == "mine\n"
+
+
+def test_a_set_option_dropped_from_the_command_line_leaves_the_library(tmp_path: Path) -> None:
+    """`--set fx_core.FX_MARK=7`, then the same build without it: colcon no longer passed
+    -DFX_MARK=7, but fx_core's CMakeCache.txt kept FX_MARK, so the library was still built with it
+    while build-info.json named no such option (issue 33 item 3's size helper found it with
+    RMW_UXRCE_MAX_HISTORY). Judged by the library's bytes."""
+    need("arm-none-eabi-gcc", "cmake")
+    ws = make_fixture_workspace(tmp_path / "ws")
+    core = ws / "mcu_ws/src/fx_core"
+    cmake = core / "CMakeLists.txt"
+    cmake.write_text(
+        cmake.read_text() + "\nif(FX_MARK)\n  add_compile_definitions(FX_MARK_VALUE=${FX_MARK})\nendif()\n"
+    )
+    source = core / "src/core.c"
+    source.write_text(source.read_text() + "\n#ifdef FX_MARK_VALUE\nint fx_marked = FX_MARK_VALUE;\n#endif\n")
+    lib = ws / "build/cortex-m7/libmicroros.a"
+    _build(ws, "--set", "fx_core.FX_MARK=7")
+    assert "fx_marked" in defined_globals(lib)
+    dropped = _build(ws)
+    assert "fx_marked" not in defined_globals(lib), dropped.stderr
+    assert "configuring afresh (their colcon.meta options changed): fx_core" in dropped.stderr
+    info = (ws / "build/cortex-m7/build-info.json").read_text()
+    assert "FX_MARK" not in info
+    assert "up to date" in _build(ws).stderr

@@ -142,6 +142,20 @@ def stale(build_base: Path, expected: Mapping[str, str]) -> list[str]:
     return sorted(p for p, stamp in expected.items() if read_stamp(build_base, p) != stamp)
 
 
+def forget_changed_configs(build_base: Path, expected: Mapping[str, str]) -> list[str]:
+    """Packages built before with other flags (their stamp differs from ``expected``) configure
+    afresh: a `--set PKG.KEY=VALUE` dropped from the command line leaves ``-DKEY=VALUE`` out of
+    colcon's CMake arguments, but the package's CMakeCache.txt keeps KEY, so the library went on
+    being built with it while build-info.json named no such option. Returns those packages."""
+    changed = []
+    for package in stale(build_base, expected):
+        cache = build_base / package / "CMakeCache.txt"
+        if read_stamp(build_base, package) is not None and cache.is_file():
+            cache.unlink()
+            changed.append(package)
+    return changed
+
+
 def forget_configured_flags(build_base: Path) -> None:
     """A changed toolchain file must reach the compiles: CMake reads CMAKE_<LANG>_FLAGS_INIT only
     when it creates the CMAKE_<LANG>_FLAGS cache entry, on the first configure

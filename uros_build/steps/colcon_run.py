@@ -124,6 +124,10 @@ def _run_colcon(
     if setup.skipped:
         console.info(f"not building {len(setup.skipped)} pure-Python packages: {', '.join(setup.skipped)}")
     flags = flags_fingerprint(parts)
+    stamps = {p: installtree.package_stamp(flags, p, plan.meta.names.get(p, {})) for p in setup.building}
+    afresh = installtree.forget_changed_configs(setup.build_base, stamps)
+    if afresh:
+        console.info(f"configuring afresh (their colcon.meta options changed): {', '.join(afresh)}")
     progress = colcon.BuildProgress(total=_expected_packages(setup), started_at=time.monotonic())
     console.step("colcon build")
     view = console.ProgressView(progress.total, plain=plan.verbose)
