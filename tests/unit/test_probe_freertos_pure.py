@@ -10,48 +10,49 @@ from pathlib import Path
 import pytest
 
 from uros_build.errors import ConfigError
+from uros_build.output.buildinfo import RtosInfo
 from uros_build.run import freertos
 from uros_build.run import machines as probe
-from uros_build.target.profiles import shipped_profiles
 
 
-def fake_kernel(root: Path, ports: tuple[str, ...] = ("portable/GCC/ARM_CM7/r0p1",)) -> Path:
+def fake_kernel(root: Path, ports: tuple[str, ...] = ("GCC/ARM_CM7/r0p1",)) -> Path:
     """A folder shaped like a FreeRTOS-Kernel checkout (no kernel code: these tests only look)."""
     (root / "include").mkdir(parents=True)
     (root / "tasks.c").write_text("/* fake */\n")
     (root / "include" / "FreeRTOS.h").write_text("/* fake */\n")
     for port in ports:
-        (root / port).mkdir(parents=True)
-        (root / port / "port.c").write_text("/* fake */\n")
+        (root / "portable" / port).mkdir(parents=True)
+        (root / "portable" / port / "port.c").write_text("/* fake */\n")
     return root
+
+
+def library(kernel: Path, port: str = "GCC/ARM_CM7/r0p1", config: str = "/cfg") -> RtosInfo:
+    """build-info.json's rtos of a library built with uros build --rtos freertos."""
+    return RtosInfo("freertos", str(kernel), port, config, "0" * 64)
 
 
 @pytest.mark.parametrize(
     ("target", "port"),
     [
-        ("cortex-m7", "portable/GCC/ARM_CM7/r0p1"),
-        ("cortex-m4f", "portable/GCC/ARM_CM4F"),
-        ("cortex-m4", "portable/GCC/ARM_CM3"),  # no FPU: the M3's port
-        ("cortex-m3", "portable/GCC/ARM_CM3"),
+        ("cortex-m7", "GCC/ARM_CM7/r0p1"),
+        ("cortex-m4f", "GCC/ARM_CM4F"),
+        ("cortex-m4", "GCC/ARM_CM3"),  # no FPU: the M3's port
+        ("cortex-m3", "GCC/ARM_CM3"),
+        ("cortex-m33", "GCC/ARM_CM33_NTZ/non_secure"),
     ],
 )
 def test_the_port_of_each_probed_core(target: str, port: str) -> None:
     assert freertos.port_for(target) == port
 
 
-def test_every_probed_target_has_a_port() -> None:
+def test_every_probed_arm_target_has_a_port() -> None:
     # the FreeRTOS variant of the probe is Arm's (its board files); rv32imc's probe is bare metal
     arm = {t for t, m in probe.load_machines().items() if m.board.arch == "arm"}
-    assert arm <= set(freertos.PORTS)
-
-
-def test_every_port_names_a_target_uros_has_a_profile_for() -> None:
-    names = set(shipped_profiles())
-    assert {t for t in freertos.PORTS if t not in names} <= {"cortex-m55"}  # cores may add it
+    assert all(freertos.port_for(target) for target in arm)
 
 
 def test_a_core_without_a_port_says_so() -> None:
-    with pytest.raises(ConfigError, match="FreeRTOS has no port here for target esp32s3"):
+    with pytest.raises(ConfigError, match="the probe runs no FreeRTOS port for target esp32s3 here"):
         freertos.port_for("esp32s3")
 
 
@@ -64,6 +65,7 @@ def test_freertos_flag_runs_any_library_on_freertos(tmp_path: Path) -> None:
     kernel = fake_kernel(tmp_path / "k")
     rtos = freertos.choose("cortex-m7", None, str(kernel), None)
     assert rtos == freertos.FreeRtos(kernel, kernel / "portable/GCC/ARM_CM7/r0p1", "--freertos", None)
+    assert freertos.firmware_folders(rtos) == ["freertos"] and freertos.firmware_folders(None) == []
     assert freertos.cmake_defines(rtos) == [
         f"-DUROS_FREERTOS_KERNEL={kernel}",
         f"-DUROS_FREERTOS_PORT={kernel}/portable/GCC/ARM_CM7/r0p1",
@@ -71,40 +73,41 @@ def test_freertos_flag_runs_any_library_on_freertos(tmp_path: Path) -> None:
     assert freertos.cmake_defines(None) == []
 
 
-def test_a_freertos_library_runs_on_its_own_kernel(tmp_path: Path) -> None:
-    own = fake_kernel(tmp_path / "own")
-    other = fake_kernel(tmp_path / "other")
-    library = {"name": "freertos", "kernel": str(own), "port": "", "config": str(tmp_path / "cfg")}
-    rtos = freertos.choose("cortex-m7", library, None, str(other))
-    assert rtos is not None
-    assert (rtos.kernel, rtos.why, rtos.library_config) == (
-        own,
-        "the library was built for FreeRTOS",
-        tmp_path / "cfg",
+def test_a_freertos_library_runs_on_its_own_kernel_and_port(tmp_path: Path) -> None:
+    own = fake_kernel(tmp_path / "own", ("GCC/ARM_CM7/r0p1", "GCC/ARM_CM4F"))
+    other = fake_kernel(tmp_path / "other", ("GCC/ARM_CM7/r0p1", "GCC/ARM_CM4F"))
+    built = library(own, "GCC/ARM_CM4F", str(tmp_path / "cfg"))  # uros build --rtos-port GCC/ARM_CM4F
+    rtos = freertos.choose("cortex-m7", built, None, str(other))
+    assert rtos == freertos.FreeRtos(
+        own, own / "portable/GCC/ARM_CM4F", "the library was built for FreeRTOS", tmp_path / "cfg"
     )
     # --freertos overrides the library's kernel; $UROS_FREERTOS stands in only for a kernel that is gone
-    assert freertos.choose("cortex-m7", library, str(other), None).kernel == other  # type: ignore[union-attr]
-    gone = dict(library, kernel=str(tmp_path / "gone"))
+    assert freertos.choose("cortex-m7", built, str(other), None).kernel == other  # type: ignore[union-attr]
+    gone = library(tmp_path / "gone")
     assert freertos.choose("cortex-m7", gone, None, str(other)).kernel == other  # type: ignore[union-attr]
-    with pytest.raises(ConfigError, match=r"the library.s FreeRTOS kernel .*gone is gone"):
+    with pytest.raises(ConfigError, match=r"the library's FreeRTOS kernel .*gone is gone"):
         freertos.choose("cortex-m7", gone, None, None)
 
 
 @pytest.mark.parametrize(
-    ("library", "flag", "message"),
+    ("built", "flag", "message"),
     [
-        ({"name": "zephyr"}, None, "the library was built for 'zephyr'; the probe runs FreeRTOS only"),
+        (
+            RtosInfo("zephyr", "/z", "", "", ""),
+            None,
+            "the library was built for 'zephyr'; the probe runs FreeRTOS only",
+        ),
         (None, "nowhere", "--freertos nowhere: not a FreeRTOS-Kernel checkout \\(no tasks.c\\)"),
     ],
 )
-def test_what_the_probe_refuses(library: dict[str, str] | None, flag: str | None, message: str) -> None:
+def test_what_the_probe_refuses(built: RtosInfo | None, flag: str | None, message: str) -> None:
     with pytest.raises(ConfigError, match=message):
-        freertos.choose("cortex-m7", library, flag, None)
+        freertos.choose("cortex-m7", built, flag, None)
 
 
 def test_a_kernel_without_the_cores_port_is_refused(tmp_path: Path) -> None:
     kernel = fake_kernel(tmp_path / "k")  # only the M7's port
-    with pytest.raises(ConfigError, match=r"no portable/GCC/ARM_CM4F/port\.c"):
+    with pytest.raises(ConfigError, match=r"portable/GCC/ARM_CM4F/port\.c"):
         freertos.choose("cortex-m4f", None, str(kernel), None)
 
 
@@ -126,8 +129,18 @@ def test_the_library_config_is_compared_with_the_probes(tmp_path: Path) -> None:
 def test_the_shipped_freertos_firmware_files() -> None:
     sources = probe.firmware_sources()
     cmake = (sources / "CMakeLists.txt").read_text()
+    # the kernel's target before find_package(microros): a FreeRTOS library's package asks for it
+    assert cmake.index("include(freertos/kernel.cmake)") < cmake.index("find_package(microros")
     assert "include(freertos/freertos.cmake)" in cmake
-    for name in ("FreeRTOSConfig.h", "rtos.c", "two_tasks.c", "freertos.cmake"):
+    assert "add_library(freertos_kernel STATIC" in (sources / "freertos" / "kernel.cmake").read_text()
+    # `uros probe --app` on FreeRTOS: the app firmware (target uros_probe too) includes freertos.cmake
+    # alone, which declares the kernel then, and runs no two-task stage
+    app = (sources.parent / "probe-app.cmake.j2").read_text()
+    assert "include(freertos/freertos.cmake)" in app
+    assert app.index("include(freertos/kernel.cmake)") < app.index("find_package(microros")
+    rtos_cmake = (sources / "freertos" / "freertos.cmake").read_text()
+    assert 'include("${here}/kernel.cmake")' in rtos_cmake and "UROS_PROBE_APP=1" in rtos_cmake
+    for name in ("FreeRTOSConfig.h", "rtos.c", "two_tasks.c", "kernel.cmake", "freertos.cmake"):
         assert (sources / "freertos" / name).is_file()
     config = freertos.probe_config().read_text()
     # what the client's multithread profile and the vector table need of the kernel
@@ -140,6 +153,7 @@ def test_the_shipped_freertos_firmware_files() -> None:
         assert line in config
     rtos = (sources / "freertos" / "rtos.c").read_text()
     assert "rcutils_set_default_allocator(&allocator)" in rtos and "pvPortMalloc" in rtos
+    assert "void *microros_allocate(size_t size, void *state) {" in rtos
     board = (sources / "arm" / "board.c").read_text()
     assert "probe_svcall, probe_idle, 0, probe_pendsv, probe_systick" in board
     for weak in ("uint32_t probe_millis(void)", "int clock_gettime(", "size_t probe_heap_used(void)"):

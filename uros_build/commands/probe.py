@@ -161,11 +161,8 @@ def _peer_run(runner: Runner, script: Path, out: Path, info: BuildInfo, work: Pa
 
 def _freertos(info: BuildInfo, given: str | None) -> freertos_mod.FreeRtos | None:
     """The FreeRTOS kernel the probe runs on (the library's, or --freertos), or None: bare metal."""
-    library_rtos = getattr(info, "rtos", None)  # build-info.json's rtos (uros build --rtos)
-    if library_rtos is not None and not isinstance(library_rtos, dict):
-        library_rtos = {k: getattr(library_rtos, k) for k in ("name", "kernel", "port", "config")}
     env = resolve_outside(FREERTOS, None).value  # $UROS_FREERTOS: a gone kernel's stand-in only
-    return freertos_mod.choose(info.target, library_rtos, given, env)
+    return freertos_mod.choose(info.target, info.rtos, given, env)
 
 
 def check_timeout(timeout: float) -> None:
@@ -261,10 +258,8 @@ def _probe(
     if as_json:
         sys.stdout.write(json.dumps(asdict(report), indent=2, sort_keys=True) + "\n")
     if not ok:
-        two_tasks = freertos_mod.two_tasks(text) if status == 9 and failed is None else None
-        measured = f": {two_tasks[1]}" if two_tasks else ""
         raise VerifyError(
-            f"uros probe {info.target} ({machine.machine}{on}): {report.verdict}{measured}",
+            f"uros probe {info.target} ({machine.machine}{on}): {report.verdict}",
             f"the firmware's console: {console_log}; the agent's log: {agent_log}",
         )
     memory = f"; heap {used[0]:,} B, stack {used[1]:,} B" if used else ""

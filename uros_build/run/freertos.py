@@ -1,5 +1,5 @@
 """The probe on FreeRTOS (docs/rtos.md): which kernel and which of its ports the probe firmware is
-built with, and the CMake definitions that add them (templates/probe/freertos/freertos.cmake).
+built with, and the CMake definitions that add them (templates/probe/freertos/kernel.cmake, freertos.cmake).
 
 A library built for FreeRTOS (build-info.json's ``rtos``, written by ``uros build --rtos freertos``)
 runs on the FreeRTOS variant of the probe with the kernel it was compiled against; any library runs
@@ -12,27 +12,14 @@ from __future__ import annotations
 
 import hashlib
 import re
-from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
 from uros_build import resources
 from uros_build.errors import ConfigError
-
-# The kernel's GCC port for each core uros has a profile for (FreeRTOS-Kernel V11.x,
-# portable/GCC/): an M4 without its FPU and an M3 share ARM_CM3; the M7 takes ARM_CM7/r0p1, which
-# the kernel's ARM_CM7/ReadMe.txt says runs on every M7 revision (an erratum workaround for r0p1
-# silicon); ARMv8-M cores take the non-TrustZone port.
-PORTS: Mapping[str, str] = {
-    "cortex-m7": "portable/GCC/ARM_CM7/r0p1",
-    "cortex-m7-sp": "portable/GCC/ARM_CM7/r0p1",
-    "cortex-m4f": "portable/GCC/ARM_CM4F",
-    "cortex-m4": "portable/GCC/ARM_CM3",
-    "cortex-m3": "portable/GCC/ARM_CM3",
-    "cortex-m0plus": "portable/GCC/ARM_CM0",
-    "cortex-m33": "portable/GCC/ARM_CM33_NTZ/non_secure",
-    "cortex-m55": "portable/GCC/ARM_CM55_NTZ/non_secure",
-}
+from uros_build.output.buildinfo import RtosInfo
+from uros_build.target import rtos as rtos_table
+from uros_build.target.profiles import shipped_profiles
 
 _KERNEL_HINT = (
     "give a FreeRTOS-Kernel checkout (V11.x: git clone --branch V11.1.0 "
@@ -49,13 +36,21 @@ class FreeRtos:
 
 
 def port_for(target: str) -> str:
-    """The kernel's port folder (relative to the kernel) for a target."""
-    if target not in PORTS:
+    """The kernel's port folder under portable/ for a target (meta/rtos/freertos.yaml, the table
+    `uros build --rtos` chooses from: ARM_CM7/r0p1 on an M7, ARM_CM4F, ARM_CM3 ...)."""
+    profile = shipped_profiles().get(target)
+    folders = rtos_table.port_for(profile) if profile is not None else None
+    if not folders or len(folders) != 1:
         raise ConfigError(
-            f"uros probe: FreeRTOS has no port here for target {target} (ports: {', '.join(sorted(PORTS))})",
-            "probe this target without FreeRTOS",
+            f"uros probe: the probe runs no FreeRTOS port for target {target} here",
+            "probe this target without FreeRTOS (the probe's FreeRTOS runs on Cortex-M cores)",
         )
-    return PORTS[target]
+    return folders[0]
+
+
+def _port_dir(kernel: Path, port: str) -> Path:
+    """A port folder as build-info.json or the table names it: absolute, or under <kernel>/portable."""
+    return Path(port) if Path(port).is_absolute() else kernel / "portable" / port
 
 
 def check_kernel(kernel: Path, where: str) -> Path:
@@ -66,44 +61,36 @@ def check_kernel(kernel: Path, where: str) -> Path:
     return kernel
 
 
-def choose(
-    target: str,
-    library_rtos: Mapping[str, object] | None,
-    flag: str | None,
-    env: str | None,
-) -> FreeRtos | None:
+def choose(target: str, library: RtosInfo | None, flag: str | None, env: str | None) -> FreeRtos | None:
     """The kernel the probe runs on, or None (bare metal).
 
-    ``library_rtos`` is build-info.json's ``rtos`` (None: the library names no RTOS); ``flag`` is
+    ``library`` is build-info.json's ``rtos`` (None: the library names no RTOS); ``flag`` is
     --freertos (it alone makes a library without an RTOS run on FreeRTOS, and it overrides the
     library's kernel); ``env`` is $UROS_FREERTOS, used only where a FreeRTOS library's own kernel
     folder is gone (a library moved to another machine)."""
-    name = str(library_rtos.get("name", "")) if library_rtos else ""
-    if library_rtos and name != "freertos":
-        raise ConfigError(f"uros probe: the library was built for {name!r}; the probe runs FreeRTOS only")
-    built_for = name == "freertos"
+    if library is not None and library.name != "freertos":
+        raise ConfigError(
+            f"uros probe: the library was built for {library.name!r}; the probe runs FreeRTOS only"
+        )
     if flag:
         kernel = check_kernel(Path(flag).expanduser(), "--freertos")
-        why = "the library was built for FreeRTOS" if built_for else "--freertos"
-    elif built_for:
-        recorded = Path(str(library_rtos.get("kernel", ""))) if library_rtos else Path()
+    elif library is not None:
+        recorded = Path(library.kernel)
         if (recorded / "tasks.c").is_file():
             kernel = check_kernel(recorded, "build-info.json's rtos.kernel")
         elif env:
             kernel = check_kernel(Path(env).expanduser(), "$UROS_FREERTOS")
         else:
-            raise ConfigError(
-                f"uros probe: the library's FreeRTOS kernel {recorded} is gone",
-                _KERNEL_HINT,
-            )
-        why = "the library was built for FreeRTOS"
+            raise ConfigError(f"uros probe: the library's FreeRTOS kernel {recorded} is gone", _KERNEL_HINT)
     else:
         return None
-    config = library_rtos.get("config") if library_rtos else None
-    port = kernel / port_for(target)
+    # the library's own port (it may have chosen another with --rtos-port), else the table's
+    names = library.port.split() if library is not None else []
+    port = _port_dir(kernel, names[0] if len(names) == 1 else port_for(target))
     if not (port / "port.c").is_file():
-        raise ConfigError(f"uros probe: FreeRTOS kernel {kernel}: no {port_for(target)}/port.c", _KERNEL_HINT)
-    return FreeRtos(kernel, port, why, Path(str(config)) if config else None)
+        raise ConfigError(f"uros probe: FreeRTOS kernel {kernel}: no {port}/port.c", _KERNEL_HINT)
+    why = "the library was built for FreeRTOS" if library is not None else "--freertos"
+    return FreeRtos(kernel, port, why, Path(library.config) if library is not None else None)
 
 
 def cmake_defines(rtos: FreeRtos | None) -> list[str]:
