@@ -12,6 +12,7 @@ from uros_build import defaults, resources
 from uros_build.config.plan import (
     ProfileTarget,
     ToolchainFileTarget,
+    meta_option,
     meta_transport,
     plan_build,
     resolve_target,
@@ -416,3 +417,25 @@ def test_for_firmware_naming_a_package_the_workspace_lacks(tmp_path: Path) -> No
     (app / "main.c").write_text("int main(void) { return 0; }\n", encoding="utf-8")
     with pytest.raises(ConfigError, match="no interface type found in 1 C/C"):
         plan_build(BuildArgs(workspace=ws, toolchain="cortex-m7", for_firmware=app))
+
+
+def test_an_unedited_workspace_meta_does_not_undo_another_preset(tmp_path: Path) -> None:
+    """create-firmware writes the distro's preset into the workspace's colcon.meta; merged over
+    `--preset tiny` it put humble's RMW_UXRCE_MAX_HISTORY=4 back over tiny's 1 (the cores helper
+    found `--preset tiny` alone did not fit the microbit). An edited file still wins."""
+    ws = _ws(tmp_path)
+    (ws / "uros.yaml").write_text("distro: humble\n", encoding="utf-8")
+    humble = resources.meta_dir() / "presets" / "humble.json"
+    (ws / "colcon.meta").write_text(humble.read_text(encoding="utf-8"), encoding="utf-8")
+
+    def history(preset: str) -> str | None:
+        plan = plan_build(BuildArgs(workspace=ws, toolchain="cortex-m7", preset=preset))
+        return meta_option(plan.meta, "rmw_microxrcedds", "RMW_UXRCE_MAX_HISTORY")
+
+    assert history("tiny") == "1"
+    assert history("default") == "4"
+    (ws / "colcon.meta").write_text(
+        humble.read_text(encoding="utf-8").replace("-DRMW_UXRCE_MAX_HISTORY=4", "-DRMW_UXRCE_MAX_HISTORY=3"),
+        encoding="utf-8",
+    )
+    assert history("tiny") == "3"  # the user's own edit is merged over any preset

@@ -236,6 +236,15 @@ def meta_for(
     )
 
 
+def only_the_preset(path: Path, distro_preset: str | None) -> bool:
+    """The workspace's colcon.meta is the distro's preset as create-firmware wrote it, unedited.
+    It then adds nothing over that preset, and merged over another one (`--preset tiny`) it put
+    the distro's values back (RMW_UXRCE_MAX_HISTORY=4 over tiny's 1): such a file is left out,
+    an edited one is the user's and is merged over any preset."""
+    preset = meta_mod.load_preset(defaults.PRESET, distro_preset)
+    return meta_mod.load_meta_file(path).names == preset.names
+
+
 def meta_option(meta: meta_mod.Meta, package: str, option: str) -> str | None:
     """The value the merged meta gives ``package``'s CMake option ``option`` (-D), or None."""
     args = meta.names.get(package, {}).get("cmake-args", ())
@@ -508,14 +517,14 @@ def plan_build(args: BuildArgs, env: Mapping[str, str] | None = None) -> BuildPl
     distro = distros_mod.load_distro(name.value, name.source) if name.value else None
     metas: tuple[Path, ...] = get(rows.METAS)
     user_metas = list(metas)
-    if cfg is not None and ws.user_meta.is_file():
+    distro_preset = distro.preset if distro else None
+    if cfg is not None and ws.user_meta.is_file() and not only_the_preset(ws.user_meta, distro_preset):
         user_metas.insert(0, ws.user_meta)
     transport, sets = get(rows.TRANSPORT), get(rows.SETS)
     jobs, up_to = get(rows.JOBS), get(rows.PACKAGES_UP_TO)
     idf = idf_project(settings[rows.IDF_BUILD], target)
     target = idf_platform(target, idf)
     rtos = rtos_headers(settings, target, idf)
-    distro_preset = distro.preset if distro else None
     meta = meta_for(get(rows.PRESET), target, transport, user_metas, list(sets), distro_preset)
     check_multithread(meta, target, idf, rtos)
     if jobs is not None and jobs < 1:
