@@ -43,8 +43,6 @@ def _needs(target: str) -> machines.Machine:
     return machine
 
 
-
-
 def _build(ws: Path, target: str) -> None:
     run_uros("build", "--toolchain", target, "-w", str(ws), "--packages", "std_msgs")
 
