@@ -120,3 +120,13 @@ def test_without_root_the_ced_middleware_skips_the_service_stage_and_says_why() 
     worse = stages.stages_of(_lines(text + "uros-probe: stage time fail no answer\n"), middleware="ced")
     assert not stages.passed(stages.SERVICE_STATUS, worse)
     assert not stages.passed(10, ced) and not stages.passed(None, ced)
+
+
+def test_the_agents_middleware_is_chosen_in_one_place() -> None:
+    """DDS in a namespace needs root; `uros probe --app` as a user made the namespace anyway and
+    failed, while the built-in probe fell back to CED. Both ask session.middleware_for now."""
+    from uros_build.run.session import middleware_for
+
+    assert middleware_for(peer=False, euid=0) == "dds"
+    assert middleware_for(peer=False, euid=1000) == "ced"
+    assert middleware_for(peer=True, euid=0) == "dds"

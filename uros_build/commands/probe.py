@@ -32,7 +32,7 @@ from uros_build.run.firmware import build_firmware
 from uros_build.run.machines import qemu_hint
 from uros_build.run.peer import peer_verdict
 from uros_build.run.report import probe_base, probe_work, write_report
-from uros_build.run.session import PeerRun, SessionSpec, run_session
+from uros_build.run.session import PeerRun, SessionSpec, middleware_for, run_session
 from uros_build.sources.packages import discover
 from uros_build.sources.workspace import Workspace, workspace_of_output
 
@@ -217,7 +217,7 @@ def _probe(
     # the agent's DDS middleware: its CED one creates no XRCE requesters or repliers (the service
     # stage's rclc_service_init_default returned 1 with -m ced), so it runs in a namespace of its own;
     # that needs root: without, the CED middleware and no service stage (said so), not a refusal
-    middleware = "dds" if peer_run is not None or os.geteuid() == 0 else "ced"
+    middleware = middleware_for(peer_run is not None, os.geteuid())
     if middleware == "ced":
         console.info(
             "not root: the agent runs its CED middleware (no network namespace); " + stages_mod.CED_SERVICE

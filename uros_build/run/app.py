@@ -17,13 +17,14 @@ the verdicts; :func:`run_app` runs them.
 from __future__ import annotations
 
 import math
+import os
 import re
 import shutil
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from uros_build import resources, templating
+from uros_build import console, resources, templating
 from uros_build.colcon.fingerprint import digest
 from uros_build.errors import ConfigError, StepFailed
 from uros_build.output.sizes import Sizes, parse_berkeley
@@ -31,7 +32,7 @@ from uros_build.proc import Runner
 from uros_build.run import freertos as freertos_mod
 from uros_build.run import machines
 from uros_build.run.firmware import build_firmware
-from uros_build.run.session import PeerRun, Session, run_session
+from uros_build.run.session import PeerRun, Session, SessionSpec, middleware_for, run_session
 from uros_build.target.toolsearch import bintools_beside
 
 # app_main.c's and the board's own exit statuses (70, 71: run/machines.VERDICTS); an app's own should
@@ -245,7 +246,14 @@ def run_app(
     size = runner.query([bintools_beside(compiler_path).size, str(elf)], step="size of the app firmware")
     sizes = elf_sizes(size)
     wait = session_timeout(timeout, duration_ms)
-    ran = run_session(runner, qemu_program, machine, elf, agent_program, work, wait, peer=peer)
+    # without root (no namespace to run DDS in) the agent's CED middleware, as for the built-in probe:
+    # an app's topics need no DDS, its services do (said so)
+    spec = SessionSpec(middleware=middleware_for(peer is not None, os.geteuid()))
+    if spec.middleware == "ced":
+        console.info(
+            "not root: the agent runs its CED middleware (no network namespace): services cannot be created"
+        )
+    ran = run_session(runner, qemu_program, machine, elf, agent_program, work, wait, peer=peer, spec=spec)
     used = machines.resources_used(ran.console)
     return AppRun(elf, sizes, ran, used[0] if used else None, used[1] if used else None)
 

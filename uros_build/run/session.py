@@ -39,6 +39,14 @@ class SessionSpec:
     restart_agent: bool = False  # stop and start the agent when the firmware asks (RESTART_ASKED)
 
 
+def middleware_for(peer: bool, euid: int) -> str:
+    """The agent's middleware (pure): DDS in a namespace of the run's own when uros can make one
+    (root), so the service stage can run (the CED middleware creates no XRCE requesters or
+    repliers); without root CED, with no network at all. A peer speaks DDS (it refuses non-root
+    itself, before anything is built)."""
+    return "dds" if peer or euid == 0 else "ced"
+
+
 @dataclass(frozen=True)
 class PeerRun:
     """A host program the run starts once the agent is up, beside the firmware (its exit status
