@@ -87,14 +87,19 @@ def top_level_files() -> list[str]:
     return sorted(p.name for p in PACKAGE.glob("*.py"))
 
 
-def main() -> None:
+def table() -> str:
+    """The import table at the end of docs/architecture.md."""
     graph = imports()
-    print("| folder | module | imports (uros_build) |")
-    print("|---|---|---|")
+    lines = ["| folder | module | imports (uros_build) |", "|---|---|---|"]
     for index in range(len(LAYERS) - 1, -1, -1):
         for module in sorted(m for m in graph if layer_of(m) == index):
             deps = ", ".join(sorted(graph[module])) or "-"
-            print(f"| {LAYERS[index][0]} | `{module}` | {deps} |")
+            lines.append(f"| {LAYERS[index][0]} | `{module}` | {deps} |")
+    return "\n".join(lines)
+
+
+def main() -> None:
+    print(table())
 
 
 if __name__ == "__main__":

@@ -82,3 +82,13 @@ def test_test_files_have_unique_names() -> None:
     tests = import_graph.PACKAGE.parent / "tests"
     names = [p.name for p in tests.rglob("test_*.py")]
     assert sorted({n for n in names if names.count(n) > 1}) == []
+
+
+def test_the_architecture_docs_import_table_is_current() -> None:
+    """docs/architecture.md ends with the import table; helpers landed modules without
+    regenerating it four times this session (`python tests/import_graph.py` prints it)."""
+    doc = (import_graph.PACKAGE.parent / "docs" / "architecture.md").read_text(encoding="utf-8")
+    start = doc.index("| folder | module | imports (uros_build) |")
+    end = doc.find("\n\n", start)
+    current = doc[start : end if end >= 0 else len(doc)].strip()
+    assert current == import_graph.table(), "run `python tests/import_graph.py` and paste its table"
