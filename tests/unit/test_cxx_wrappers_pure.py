@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from uros_build.colcon.hosttools import specs_library_dirs
+from uros_build.target.compilers import specs_library_dirs
 from uros_build.target.profiles import shipped_profiles
 from uros_build.target.toolchain import CXX_WRAPPERS, ToolchainRequest, cxx_wrapper_text, microros_flags
 

@@ -11,8 +11,8 @@ from typing import Any
 import pytest
 from fake_runner import FakeRunner
 
+from uros_build.colcon import compilerfacts
 from uros_build.colcon import fingerprint as fp
-from uros_build.colcon import hosttools
 from uros_build.errors import VerifyError
 from uros_build.output import includes
 from uros_build.steps import inputs, team_cache, toolchain_file
@@ -40,7 +40,7 @@ def _cmake_writes(langs: tuple[str, ...], archiver: str = "") -> Any:
 
 def test_the_compilers_facts_come_from_one_configure(tmp_path: Path) -> None:
     runner = FakeRunner(tmp_path / "log", {"cmake": _cmake_writes(("C", "CXX"))})
-    found = hosttools.cmake_compiler_facts(
+    found = compilerfacts.cmake_compiler_facts(
         runner,  # type: ignore[arg-type]
         "cmake",
         tmp_path / "toolchain.cmake",
@@ -62,11 +62,11 @@ def test_the_archive_plugin_is_gccs_own_when_the_archiver_is_gnu_ar(tmp_path: Pa
     gnu = f"{plugin}\nGNU ar (GNU Binutils for Debian) 2.40\nCopyright (C) 2023\n"
     runner = FakeRunner(tmp_path / "log", {"cmake": _cmake_writes(("C", "CXX"), gnu)})
     args = ("cmake", tmp_path / "t.cmake", tmp_path / "s", None, {})
-    found = hosttools.cmake_compiler_facts(runner, *args)  # type: ignore[arg-type]
+    found = compilerfacts.cmake_compiler_facts(runner, *args)  # type: ignore[arg-type]
     assert found is not None and found.archive_plugin == str(plugin)
     plugin.unlink()  # the compiler named a plugin that is not there: CMake's own rules
     runner = FakeRunner(tmp_path / "log", {"cmake": _cmake_writes(("C", "CXX"), gnu)})
-    found = hosttools.cmake_compiler_facts(runner, *args)  # type: ignore[arg-type]
+    found = compilerfacts.cmake_compiler_facts(runner, *args)  # type: ignore[arg-type]
     assert found is not None and found.archive_plugin == ""
 
 
@@ -93,23 +93,23 @@ def test_the_seed_is_found_again_when_its_archive_plugin_is_gone(tmp_path: Path)
 
 def test_archive_plugin_only_for_gnu_ar_and_a_plain_absolute_path() -> None:
     gnu = "\nGNU ar (GNU Binutils) 2.40\n"
-    assert hosttools.archive_plugin("/usr/lib/gcc/arm-none-eabi/12.2.1/liblto_plugin.so" + gnu) == (
+    assert compilerfacts.archive_plugin("/usr/lib/gcc/arm-none-eabi/12.2.1/liblto_plugin.so" + gnu) == (
         "/usr/lib/gcc/arm-none-eabi/12.2.1/liblto_plugin.so"
     )
-    assert hosttools.archive_plugin("liblto_plugin.so" + gnu) == ""  # gcc did not find it: bare name
-    assert hosttools.archive_plugin("/opt/my tools/liblto_plugin.so" + gnu) == ""  # would need quoting
-    assert hosttools.archive_plugin("/opt/x;rm/liblto_plugin.so" + gnu) == ""
+    assert compilerfacts.archive_plugin("liblto_plugin.so" + gnu) == ""  # gcc did not find it: bare name
+    assert compilerfacts.archive_plugin("/opt/my tools/liblto_plugin.so" + gnu) == ""  # would need quoting
+    assert compilerfacts.archive_plugin("/opt/x;rm/liblto_plugin.so" + gnu) == ""
     llvm = "/usr/lib/gcc/x/liblto_plugin.so\nLLVM (http://llvm.org/):\n  LLVM version 14.0.6\n"
-    assert hosttools.archive_plugin(llvm) == ""  # llvm-ar: not GNU ar
-    assert hosttools.archive_plugin("") == "" and hosttools.archive_plugin("/a/b.so\n") == ""
+    assert compilerfacts.archive_plugin(llvm) == ""  # llvm-ar: not GNU ar
+    assert compilerfacts.archive_plugin("") == "" and compilerfacts.archive_plugin("/a/b.so\n") == ""
 
 
 def test_without_a_cxx_compiler_there_are_no_facts(tmp_path: Path) -> None:
     runner = FakeRunner(tmp_path / "log", {"cmake": _cmake_writes(("C",))})
     args = ("cmake", tmp_path / "t.cmake", tmp_path / "s", None, {})
-    assert hosttools.cmake_compiler_facts(runner, *args) is None  # type: ignore[arg-type]
+    assert compilerfacts.cmake_compiler_facts(runner, *args) is None  # type: ignore[arg-type]
     failing = FakeRunner(tmp_path / "log", {})  # cmake fails: the build goes without the seed
-    assert hosttools.cmake_compiler_facts(failing, *args) is None  # type: ignore[arg-type]
+    assert compilerfacts.cmake_compiler_facts(failing, *args) is None  # type: ignore[arg-type]
 
 
 def _plan(tmp_path: Path, rebuild: bool = False) -> Any:

@@ -12,7 +12,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from uros_build import console
-from uros_build.colcon import hosttools
+from uros_build.colcon import devws
 from uros_build.config.sourceplan import CreateArgs, CreatePlan, plan_create, print_stand_ins
 from uros_build.errors import StepFailed, UrosError
 from uros_build.proc import Runner, new_run_log, user_log_dir
@@ -21,6 +21,7 @@ from uros_build.sources import meta as meta_mod
 from uros_build.sources.distros import Source
 from uros_build.sources.workspace import PENDING, USER_META, Workspace, sync_tree
 from uros_build.sources.wsfiles import CONFIG, DEV_WS, LOCK, MCU_WS, Lock, WorkspaceConfig, save_config
+from uros_build.target import compilers
 
 
 def _clone_all(runner: Runner, git: str, plan: CreatePlan, jobs: int) -> dict[str, str]:
@@ -69,8 +70,8 @@ def _precheck(runner: Runner, plan: CreatePlan) -> str:
     git = runner.which("git")
     runner.which("cmake")
     if plan.probe is not None:
-        tools, _ = hosttools.probe_target_tools(runner, plan.probe)
-        hosttools.check_target_prerequisites(
+        tools, _ = compilers.probe_target_tools(runner, plan.probe)
+        compilers.check_target_prerequisites(
             runner, plan.probe, tools, Workspace(plan.root).state_dir / "probe"
         )
     return git
@@ -144,7 +145,7 @@ def create_firmware(args: CreateArgs) -> Path:
             )
         (root / "COLCON_IGNORE").write_text("uros: the firmware folder is not a package\n")
         if args.build_dev:
-            hosttools.build_dev_workspace(Workspace(root), cfg, distro, runner, args.verbose)
+            devws.build_dev_workspace(Workspace(root), cfg, distro, runner, args.verbose)
     except (UrosError, KeyboardInterrupt):
         if not args.keep_partial:
             _remove_partial(root, plan.existed, plan.sources)

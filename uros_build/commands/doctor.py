@@ -32,6 +32,7 @@ from uros_build.run import machines
 from uros_build.sources.workspace import Workspace, check_extra_package
 from uros_build.sources.wsfiles import CONFIG, Lock, load_config, read_lock
 from uros_build.steps import inputs as inputs_step
+from uros_build.target import compilers
 from uros_build.target.profiles import TargetProfile
 
 OK, WARN, FAIL, SKIP = "ok", "warn", "FAIL", "skip"
@@ -361,13 +362,13 @@ def _empy_version() -> str | None:
 
 def probe_target(runner: Runner, profile: TargetProfile) -> list[Check]:
     try:
-        tools, _tool_dir = hosttools.probe_target_tools(runner, profile)
+        tools, _tool_dir = compilers.probe_target_tools(runner, profile)
     except MissingToolError as exc:
         return eval_target(profile, None, exc.message)
     problem = None
     with tempfile.TemporaryDirectory(prefix="uros-doctor-") as scratch:
         try:
-            hosttools.check_target_prerequisites(runner, profile, tools, Path(scratch))
+            compilers.check_target_prerequisites(runner, profile, tools, Path(scratch))
         except (MissingToolError, StepFailed) as exc:
             problem = exc.message
     return eval_target(profile, tools["gcc"], problem)

@@ -15,8 +15,8 @@ from pathlib import Path
 import uros_build
 from uros_build import __version__, console
 from uros_build.colcon import command as colcon
+from uros_build.colcon import devws, hoststage, hosttools
 from uros_build.colcon import fingerprint as fp
-from uros_build.colcon import hoststage, hosttools
 from uros_build.config.plan import BuildPlan
 from uros_build.files import write_if_changed
 from uros_build.proc import Runner
@@ -37,7 +37,7 @@ class Environment:
 def environment(ctx: Context) -> Environment:
     """colcon's environment (the sourced one scrubbed, said so) and ccache when it is used."""
     plan = ctx.plan
-    env, scrubbed = hosttools.colcon_env(plan.workspace, plan.config, plan.distro, ctx.facts.cmake_version)
+    env, scrubbed = devws.colcon_env(plan.workspace, plan.config, plan.distro, ctx.facts.cmake_version)
     if scrubbed:
         console.warn(f"ignoring the sourced environment for this build: {', '.join(scrubbed)}")
     # colcon prints its job events with flush=True, but its other output is block-buffered in a

@@ -5,7 +5,7 @@ dev workspace (built once, shared by every target)."""
 from __future__ import annotations
 
 from uros_build import console
-from uros_build.colcon import hosttools
+from uros_build.colcon import devws, hosttools
 from uros_build.colcon.hosttools import HostFacts
 from uros_build.config.plan import BuildPlan
 from uros_build.proc import Runner
@@ -65,10 +65,10 @@ def build_dev_workspace(ctx: Context) -> None:
     if (
         plan.config is None
         or not ws.dev_dir.is_dir()
-        or not hosttools.dev_needs_building(ws, plan.workspace_packages)
+        or not devws.dev_needs_building(ws, plan.workspace_packages)
     ):
         return
-    hosttools.build_dev_workspace(ws, plan.config, plan.distro, ctx.runner, plan.verbose, plan.jobs)
+    devws.build_dev_workspace(ws, plan.config, plan.distro, ctx.runner, plan.verbose, plan.jobs)
 
 
 def _say_selection(plan: BuildPlan) -> None:

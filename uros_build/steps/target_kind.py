@@ -14,14 +14,13 @@ from typing import Any, Protocol
 
 from uros_build import console
 from uros_build.colcon import fingerprint as fp
-from uros_build.colcon import hosttools
 from uros_build.colcon.hosttools import HostFacts
 from uros_build.colcon.installtree import forget_configured_flags
 from uros_build.config.plan import BuildPlan, ProfileTarget, ToolchainFileTarget, meta_transport
 from uros_build.files import write_if_changed
 from uros_build.output.buildinfo import Compiler, Flags, IdfInfo, RtosInfo
 from uros_build.proc import Runner
-from uros_build.target import abi
+from uros_build.target import abi, compilers
 from uros_build.target.profiles import TargetProfile
 from uros_build.target.toolchain import (
     CLOCK_HEADER_NAME,
@@ -105,7 +104,7 @@ class OwnToolchainFile:
     def bintools(self) -> BinTools:
         # the archiver CMake recorded for it (the target's); the host binutils read foreign ELF
         # archives too, as a fallback
-        return hosttools.bintools_from_build(self.plan.target_dir / "build") or BinTools("ar", "ranlib", "nm")
+        return compilers.bintools_from_build(self.plan.target_dir / "build") or BinTools("ar", "ranlib", "nm")
 
     def check_library(self, runner: Runner, library: Path, announce: bool = True) -> Mapping[str, Any]:
         return {"checked": False, "reason": "your own toolchain file: no target profile to compare with"}
@@ -190,7 +189,7 @@ class Profile:
         return checked
 
     def library_size(self, runner: Runner, library: Path) -> Mapping[str, int] | None:
-        return hosttools.size_totals(runner, tool_paths(self.profile, self.facts.tool_dir)["size"], library)
+        return compilers.size_totals(runner, tool_paths(self.profile, self.facts.tool_dir)["size"], library)
 
     def firmware_toolchain(self) -> str | None:
         profile = self.profile

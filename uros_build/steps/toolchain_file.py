@@ -12,8 +12,8 @@ from pathlib import Path
 
 from uros_build import __version__, console
 from uros_build.colcon import command as colcon
+from uros_build.colcon import compilerfacts
 from uros_build.colcon import fingerprint as fp
-from uros_build.colcon import hosttools
 from uros_build.colcon.hosttools import HostFacts
 from uros_build.config.plan import BuildPlan
 from uros_build.files import write_if_changed
@@ -26,7 +26,7 @@ from uros_build.target.toolchain import (
 )
 
 # 2: per-language CMakeDetermine<LANG>Compiler.cmake (1 put every language's facts in the toolchain);
-# 3: the archive rules name GCC's LTO plugin (hosttools.archive_plugin)
+# 3: the archive rules name GCC's LTO plugin (compilerfacts.archive_plugin)
 SEED_FORMAT = "3"
 
 
@@ -87,7 +87,7 @@ def seed_compilers(
         if recorded.strip() == key and (not plugin.strip() or os.path.isfile(plugin.strip())):
             return seed
     generator = colcon.generator(env)
-    found = hosttools.cmake_compiler_facts(
+    found = compilerfacts.cmake_compiler_facts(
         runner, cmake, toolchain_file, folder / "compiler-facts", generator, env
     )
     if found is None:

@@ -229,7 +229,7 @@ def seeded_toolchain_text(
     ``CMakeDetermine<LANG>Compiler.cmake`` when a project enables a language. A project that sets
     CMAKE_MODULE_PATH before project() finds its compilers itself, as without the seed.
 
-    With ``archive_plugin`` (hosttools.archive_plugin: GCC's LTO plugin, for GNU ar) the archive
+    With ``archive_plugin`` (compilerfacts.archive_plugin: GCC's LTO plugin, for GNU ar) the archive
     rules name it, so that ar loads it alone and not every plugin installed, and write the index
     with ``qcs`` in the same pass instead of a ranlib after: the same archive bytes, two processes
     fewer per static library. Where ``toolchain_file`` sets its own rules they stay."""
