@@ -97,3 +97,42 @@ def test_build_trees_and_uros_outputs_are_not_the_firmware(tmp_path: Path) -> No
 def test_describe_names_packages_and_types() -> None:
     use = firmware_scan.FirmwareUse({"b": frozenset({"msg/x"}), "a": frozenset({"srv/y", "msg/z"})})
     assert use.describe() == "a (msg/z, srv/y); b (msg/x)"
+
+
+def test_rclc_calls_with_their_line_and_arguments() -> None:
+    text = """#include <rclc/executor.h>
+    /* rclc_service_init_default(&s, &node, ts, "x");
+       in a comment */
+    // rclc_publisher_init_default(&p, &node, ts, "y");
+    RCCHECK(rclc_executor_init(&executor, &support.context, HANDLES + 1, &allocator));
+    printf("rclc_client_init_default(&c) failed, try again");
+    rclc_publisher_init_best_effort(&pub, &node,
+        ROSIDL_GET_MSG_TYPE_SUPPORT(std_msgs, msg, Int32), "a,b");
+    rclc_executor_add_parameter_server(&executor, &param_server, on_changed);
+    rclc_executor_add_timer( & app.executor , &timer);
+    """
+    calls = firmware_scan.scan_calls(text, "src/main.c")
+    assert [(c.function, c.where) for c in calls] == [
+        ("rclc_executor_init", "src/main.c:5"),
+        ("rclc_publisher_init_best_effort", "src/main.c:7"),
+        ("rclc_executor_add_parameter_server", "src/main.c:9"),
+        ("rclc_executor_add_timer", "src/main.c:10"),
+    ]
+    assert calls[0].args == ("&executor", "&support.context", "HANDLES + 1", "&allocator")
+    # a comma in a string or in a nested call does not split an argument
+    assert calls[1].args[2:] == ("ROSIDL_GET_MSG_TYPE_SUPPORT(std_msgs, msg, Int32)", '" "')
+    assert calls[3].args == ("& app.executor", "&timer")
+
+
+def test_object_like_defines_only() -> None:
+    text = "#define HANDLES (3 + 2) // three and two\n#define TWICE(x) ((x) * 2)\n#  define N 4\n"
+    assert firmware_scan.scan_defines(text) == {"HANDLES": "(3 + 2)", "N": "4"}
+
+
+def test_a_folder_s_calls_are_relative_to_it_and_the_first_define_wins(tmp_path: Path) -> None:
+    (tmp_path / "src").mkdir()
+    (tmp_path / "src" / "a.c").write_text('#define N 2\nrclc_node_init_default(&node, "n", "", &s);\n')
+    (tmp_path / "src" / "b.c").write_text("#define N 3\n\nrclc_timer_init_default(&t, &s, 1, cb);\n")
+    use = scan_folder(tmp_path)
+    assert [c.where for c in use.calls] == ["src/a.c:2", "src/b.c:3"]
+    assert use.defines == {"N": "2"}

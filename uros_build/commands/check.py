@@ -9,10 +9,11 @@ from pathlib import Path
 
 from uros_build import console
 from uros_build.errors import ConfigError, VerifyError
-from uros_build.output import msgsize, symbols
-from uros_build.output.buildinfo import read_build_info
+from uros_build.output import budget, fit, msgsize, symbols
+from uros_build.output.buildinfo import BuildInfo, read_build_info
 from uros_build.proc import Runner, new_run_log, user_log_dir
 from uros_build.sources import firmware_scan
+from uros_build.sources.options import known_options
 from uros_build.target import abi
 from uros_build.target.profiles import find_profile, load_profile_file
 
@@ -35,7 +36,12 @@ def check_library(
         if profile_path is not None
         else find_profile(str(target), alternative="or pass your own profile with --profile FILE")
     )
-    streams = _message_verdicts(library, for_firmware) if for_firmware is not None else []
+    firmware = _firmware(library, for_firmware) if for_firmware is not None else None
+    streams = (
+        msgsize.verdicts(library.resolve().parent, firmware[0], firmware[1].packages)
+        if firmware is not None
+        else []
+    )
     runner = Runner(new_run_log(user_log_dir(), "check"), verbose=verbose)
     try:
         summary = abi.check_library(runner, library.resolve(), profile)
@@ -62,6 +68,13 @@ def check_library(
         raise
     undefined = symbols.undefined_globals(found)
     known = symbols.firmware_symbols()
+    fitted = (
+        fit.library_fit(
+            library.resolve().parent, firmware[0], firmware[1], known_options(), budget.symbol_sizes(text)
+        )
+        if firmware is not None
+        else None
+    )
     if as_json:  # the warnings are in the summary too
         report = {
             "library": str(library),
@@ -71,12 +84,15 @@ def check_library(
         }
         if for_firmware is not None:
             report["messages"] = {name: {"warning": warn, "says": line} for name, warn, line in streams}
+        if fitted is not None:
+            report["entities"] = fit.report(fitted)
         sys.stdout.write(json.dumps(report, indent=2, sort_keys=True) + "\n")
     else:
         console.step(f"{library}: {abi.describe(summary)}")
     for warning in summary.get("warnings", ()):
         console.warn(warning)
     if as_json:
+        _verdict(fitted, library, for_firmware)
         return
     if _is_archive(library):
         _say_duplicates(duplicates, library)
@@ -88,16 +104,32 @@ def check_library(
         console.step(f"the message types {for_firmware} uses, against the library's XRCE-DDS streams:")
         for _, warn, line in streams:
             (console.warn if warn else console.info)(line)
+    if fitted is not None and for_firmware is not None:
+        fit.say(fitted, for_firmware, priced=True)
+    _verdict(fitted, library, for_firmware)
 
 
-def _message_verdicts(library: Path, firmware: Path) -> list[tuple[str, bool, str]]:
-    """(type, is it a warning, the line) for each message type the firmware's sources use, from
-    the output the library is in (its build-info.json and include tree)."""
+def _firmware(library: Path, firmware: Path) -> tuple[BuildInfo, firmware_scan.FirmwareUse]:
+    """The output's build-info and what the firmware's sources use (interface types, rclc calls)."""
     if not firmware.is_dir():
         raise ConfigError(f"--for-firmware {firmware}: no such folder", "pass your firmware's source folder")
     info = read_build_info(library.resolve().parent, "LIBRARY's folder")
     used = firmware_scan.scan_folder(firmware.resolve())
-    return msgsize.verdicts(library.resolve().parent, info, used.packages)
+    return info, used
+
+
+def _verdict(fitted: fit.Fit | None, library: Path, firmware: Path | None) -> None:
+    """Exit 5 when the firmware's calls take more of a pool than the library holds."""
+    if fitted is None or fitted.fits:
+        return
+    over = [limit for limit in fitted.limits if not limit.fits]
+    raise VerifyError(
+        f"--for-firmware {firmware}: creates more than {library.name} has room for: "
+        + ", ".join(f"{limit.needed} {limit.kind} ({limit.option}={limit.value})" for limit in over),
+        "build with "
+        + " ".join(f"--set {fit.RMW}.{limit.option}={limit.needed}" for limit in over)
+        + f" ({fit.APPROXIMATE})",
+    )
 
 
 def _say_duplicates(duplicates: tuple[symbols.Duplicate, ...], library: Path) -> None:

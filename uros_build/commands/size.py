@@ -274,14 +274,7 @@ def _linked_by_probe(map_file: str, library: str) -> Sizes:
 def _headers(out: Path, info: BuildInfo | None, names: set[str]) -> dict[str, dict[str, str]]:
     """header -> its whole-number defines, for the configured headers of the output's include tree
     that hold the options' values (rmw_microxrcedds_c/config.h, uxr/client/config.h)."""
-    if info is None:
-        return {}
-    found = {}
-    for name in sorted(n for n in names if n):
-        path = out / info.include.dir / name
-        if path.is_file():
-            found[name] = budget.header_defines(path.read_text(encoding="utf-8", errors="replace"))
-    return found
+    return budget.configured_headers(out / info.include.dir, names) if info is not None else {}
 
 
 def check_budget(

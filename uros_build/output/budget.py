@@ -12,6 +12,7 @@ from __future__ import annotations
 import re
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
+from pathlib import Path
 
 from uros_build.errors import ConfigError
 from uros_build.output.sizes import Sizes
@@ -27,6 +28,17 @@ _DEFINE = re.compile(r"^\s*#\s*define\s+([A-Za-z_][A-Za-z0-9_]*)\s+(-?[0-9]+)\s*
 def header_defines(text: str) -> dict[str, str]:
     """NAME -> value of every ``#define NAME <whole number>`` in a header's text."""
     return {m.group(1): m.group(2) for m in _DEFINE.finditer(text)}
+
+
+def configured_headers(include: Path, names: Iterable[str]) -> dict[str, dict[str, str]]:
+    """header -> its whole-number defines, for the configured headers of an include tree that
+    hold the options' values (rmw_microxrcedds_c/config.h, uxr/client/config.h); absent ones left out."""
+    found = {}
+    for name in sorted(n for n in names if n):
+        path = include / name
+        if path.is_file():
+            found[name] = header_defines(path.read_text(encoding="utf-8", errors="replace"))
+    return found
 
 
 def budget_value(value: str | None, flag: str) -> int | None:
@@ -66,6 +78,23 @@ class OptionCost:
     value_from: str = "default"  # "header", "meta" or "default"
 
 
+def value_in_force(
+    option: KnownOption,
+    cmake_options: Mapping[str, Mapping[str, str]],
+    headers: Mapping[str, Mapping[str, str]],
+) -> tuple[str, str]:
+    """(the value the library was built with, where from): its own header's define (``headers``:
+    header path -> its defines, from the output's include tree), else ``cmake_options`` (its
+    build-info.json's), else its upstream default."""
+    defined = headers.get(option.header, {}).get(option.macro or option.name)
+    if defined is not None:
+        return defined, "header"
+    meta = cmake_options.get(option.package, {}).get(option.name)
+    if meta is not None:
+        return meta, "meta"
+    return option.default, "default"
+
+
 def option_costs(
     known: Iterable[KnownOption],
     cmake_options: Mapping[str, Mapping[str, str]],
@@ -83,15 +112,7 @@ def option_costs(
     for option in known:
         if not option.pools or (option.transport and option.transport != transport):
             continue
-        defined = (headers or {}).get(option.header, {}).get(option.macro or option.name)
-        meta = cmake_options.get(option.package, {}).get(option.name)
-        value, value_from = (
-            (defined, "header")
-            if defined is not None
-            else (meta, "meta")
-            if meta is not None
-            else (option.default, "default")
-        )
+        value, value_from = value_in_force(option, cmake_options, headers or {})
         held = tuple(p for p in option.pools if sizes.get(p))
         if not value or not held:
             continue

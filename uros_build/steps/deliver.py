@@ -28,7 +28,7 @@ from uros_build.errors import (
     written_path,
 )
 from uros_build.files import locked, remove_tree
-from uros_build.output import contents, export, includes, msgsize, swap, symbols
+from uros_build.output import contents, export, fit, includes, msgsize, swap, symbols
 from uros_build.output import folders as outputs
 from uros_build.output.archive import MergeReport, merge_archives
 from uros_build.output.buildinfo import (
@@ -38,6 +38,7 @@ from uros_build.output.buildinfo import (
     read_build_info,
 )
 from uros_build.sources import clones
+from uros_build.sources.options import known_options
 from uros_build.sources.wsfiles import read_lock
 from uros_build.steps.colcon_run import Compiled
 from uros_build.steps.colcon_setup import ColconSetup
@@ -124,6 +125,9 @@ def say_done(ctx: Context, assembled: Assembled, left: list[str], started: float
             for _, warn, line in msgsize.verdicts(plan.output, assembled.info, firmware.packages):
                 if warn:
                     console.warn(line)
+            fitted = fit.library_fit(plan.output, assembled.info, firmware, known_options(), {})
+            for warn, line in fit.summary(fitted):
+                (console.warn if warn else console.info)(line)
     except KeyboardInterrupt as stop:
         raise interrupted(
             stop, "interrupted", f"the new output was already in place: {plan.output}"

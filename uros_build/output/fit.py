@@ -1,0 +1,482 @@
+"""Does the firmware's code fit the library? The entities its rclc calls create, against the
+library's ``RMW_UXRCE_MAX_*`` pools, and the handles its executors are given, against the number
+they were initialised for (pure: the firmware's calls in, the output's include tree and
+build-info.json read, lines out).
+
+rmw_microxrcedds takes every node, publisher, subscription, service, client, guard condition and
+wait set from a static pool of ``RMW_UXRCE_MAX_*`` slots (rmw_microxrcedds_c/src/types.c, humble);
+the call that finds its pool empty returns an error at run time. What each rclc call takes, read
+from the sources of humble (cited where each count is):
+
+- a parameter server: 5 services (rclc_parameter/src/rclc_parameter/parameter_server.c,
+  ``rclc_parameter_server_init_with_option``: get, get_types, set, list, describe) and 1 publisher
+  (``/parameter_events``, when ``notify_changed_over_dds``: true in the default options); in an
+  executor ``RCLC_EXECUTOR_PARAMETER_SERVER_HANDLES`` handles (5; rclc_parameter.h, and
+  ``rclc_executor_add_parameter_server_with_context`` adds the 5 services);
+- an action server: 3 services and 2 publishers (micro-ROS/rcl, rcl_action/src/rcl_action/
+  action_server.c: ``SERVICE_INIT(goal|cancel|result)``, ``PUBLISHER_INIT(feedback|status)``) and
+  the goal-expiry timer's guard condition (its ``rcl_timer_init``);
+- an action client: 3 clients and 2 subscriptions (rcl_action/src/rcl_action/action_client.c:
+  ``CLIENT_INIT(goal|cancel|result)``, ``SUBSCRIPTION_INIT(feedback|status)``);
+- a timer: 1 guard condition (micro-ROS/rcl, rcl/src/rcl/timer.c: ``rcl_timer_init`` calls
+  ``rcl_guard_condition_init``, which takes one from rmw's pool);
+- an executor: 1 wait set (rclc/src/rclc/executor.c: ``rcl_wait_set_init`` on its first spin);
+  every ``rclc_executor_add_*`` takes 1 handle, and the one past ``number_of_handles`` returns
+  RCL_RET_ERROR ("Buffer overflow of 'executor->handles'").
+
+A static count is approximate: a call in a loop, or in a helper called twice, counts once; a call
+an ``#if`` leaves out counts. ``uros probe --app DIR`` runs the firmware and proves it.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from uros_build import console
+from uros_build.output import budget
+from uros_build.output.buildinfo import BuildInfo
+from uros_build.sources.firmware_scan import Call, FirmwareUse
+from uros_build.sources.options import KnownOption
+
+APPROXIMATE = (
+    "a static count of the rclc calls in its sources: a call in a loop or in a helper called twice "
+    "counts once; `uros probe --app DIR` runs the firmware and proves it"
+)
+RMW = "rmw_microxrcedds"
+RMW_HEADER = "rmw_microxrcedds_c/config.h"
+# RCLC_EXECUTOR_PARAMETER_SERVER_HANDLES in humble's rclc_parameter.h; later rclc names it
+# RCLC_PARAMETER_EXECUTOR_HANDLES_NUMBER. Read from the library's own header when it has one.
+PARAMETER_HANDLES_MACROS = (
+    "RCLC_EXECUTOR_PARAMETER_SERVER_HANDLES",
+    "RCLC_PARAMETER_EXECUTOR_HANDLES_NUMBER",
+)
+PARAMETER_HANDLES_DEFAULT = 5
+PARAMETER_HEADERS = ("rclc_parameter/rclc_parameter.h", "rclc_parameter/rclc_parameter/rclc_parameter.h")
+
+# kind -> the option that sizes its pool
+LIMITS = (
+    ("nodes", "RMW_UXRCE_MAX_NODES"),
+    ("publishers", "RMW_UXRCE_MAX_PUBLISHERS"),
+    ("subscriptions", "RMW_UXRCE_MAX_SUBSCRIPTIONS"),
+    ("services", "RMW_UXRCE_MAX_SERVICES"),
+    ("clients", "RMW_UXRCE_MAX_CLIENTS"),
+    ("guard conditions", "RMW_UXRCE_MAX_GUARD_CONDITION"),
+    ("wait sets", "RMW_UXRCE_MAX_WAIT_SETS"),
+)
+# (the call's name prefix, what it is called in a line, kind -> how many it takes); first match wins
+_TAKES: tuple[tuple[str, str, Mapping[str, int]], ...] = (
+    ("rclc_node_init", "node", {"nodes": 1}),
+    ("rclc_publisher_init", "publisher", {"publishers": 1}),
+    ("rclc_subscription_init", "subscription", {"subscriptions": 1}),
+    ("rclc_service_init", "service", {"services": 1}),
+    ("rclc_client_init", "client", {"clients": 1}),
+    ("rclc_timer_init", "timer", {"guard conditions": 1}),
+    ("rclc_parameter_server_init", "parameter server", {"services": 5, "publishers": 1}),
+    ("rclc_action_server_init", "action server", {"services": 3, "publishers": 2, "guard conditions": 1}),
+    ("rclc_action_client_init", "action client", {"clients": 3, "subscriptions": 2}),
+    ("rclc_executor_init", "executor", {"wait sets": 1}),
+)
+
+
+def takes(function: str) -> tuple[str, Mapping[str, int]] | None:
+    """(what the call creates, kind -> slots it takes), or None for a call that creates nothing."""
+    if function.startswith("rclc_executor_add_"):
+        return None
+    for prefix, what, kinds in _TAKES:
+        if function.startswith(prefix):
+            return what, kinds
+    return None
+
+
+@dataclass(frozen=True)
+class Limit:
+    """One pool: what the firmware's calls take of it against the library's slots."""
+
+    kind: str
+    option: str
+    needed: int
+    uses: tuple[tuple[str, int, tuple[str, ...]], ...]  # (what, slots, where) per kind of call
+    value: int | None  # the library's slots (None: not a whole number, or not known)
+    value_from: str = "default"  # "header", "meta" or "default"
+    each: int | None = None  # RAM bytes one slot takes in this library (None: its pool not found)
+
+    @property
+    def fits(self) -> bool:
+        return self.value is None or self.needed <= self.value
+
+    @property
+    def extra_bytes(self) -> int | None:
+        if self.fits or self.each is None or self.value is None:
+            return None
+        return (self.needed - self.value) * self.each
+
+    def used_by(self) -> str:
+        """``5 for a parameter server at main.c:40, 2 for 2 services at main.c:30, main.c:31``."""
+        return ", ".join(f"{slots} for {_calls(what, where)}" for what, slots, where in self.uses)
+
+
+def _calls(what: str, where: Sequence[str]) -> str:
+    shown = ", ".join(where[:3]) + (", ..." if len(where) > 3 else "")
+    one = "an" if what[0] in "aeiou" else "a"
+    return f"{one if len(where) == 1 else len(where)} {what}{'s' if len(where) != 1 else ''} at {shown}"
+
+
+def count(calls: Iterable[Call]) -> dict[str, list[tuple[str, int, tuple[str, ...]]]]:
+    """kind -> [(what, slots, where)] for the firmware's calls, in the order of ``LIMITS``' kinds
+    and of the calls."""
+    found: dict[str, dict[str, tuple[int, list[str]]]] = {}
+    for call in calls:
+        taken = takes(call.function)
+        if taken is None:
+            continue
+        what, kinds = taken
+        for kind, slots in kinds.items():
+            total, where = found.setdefault(kind, {}).get(what, (0, []))
+            found[kind][what] = (total + slots, [*where, call.where])
+    return {
+        kind: [(what, total, tuple(where)) for what, (total, where) in found[kind].items()]
+        for kind, _ in LIMITS
+        if kind in found
+    }
+
+
+def limits(
+    use: FirmwareUse,
+    known: Mapping[str, KnownOption],
+    headers: Mapping[str, Mapping[str, str]],
+    meta: Mapping[str, str],
+    each: Mapping[str, int | None],
+) -> list[Limit]:
+    """Each pool the firmware's calls take from, with the library's value (``known``: the rmw's
+    options by name; ``headers``: header -> defines of the library's include tree; ``meta``: the
+    rmw's options in build-info.json; ``each``: option -> RAM bytes of one slot)."""
+    out = []
+    for kind, uses in count(use.calls).items():
+        name = dict(LIMITS)[kind]
+        option = known.get(name)
+        value, value_from = (
+            budget.value_in_force(option, {RMW: meta}, headers) if option is not None else (None, "default")
+        )
+        number = int(value) if value is not None and re.fullmatch(r"[0-9]+", value) else None
+        out.append(
+            Limit(kind, name, sum(s for _, s, _ in uses), tuple(uses), number, value_from, each.get(name))
+        )
+    return out
+
+
+# ---- executors -------------------------------------------------------------------------------
+
+_TOKEN = re.compile(r"\s*(?:(0[xX][0-9a-fA-F]+|[0-9]+)[uUlL]*|([A-Za-z_]\w*)|(.))")
+
+
+def evaluate(expr: str, defines: Mapping[str, str], depth: int = 0) -> int | None:
+    """A whole-number C expression of literals, ``#define``d names, ``+ - *`` and parentheses
+    (an executor's ``number_of_handles``), or None when it is anything else."""
+    if depth > 8:
+        return None
+    tokens: list[int | str] = []
+    for match in _TOKEN.finditer(expr.strip()):
+        number, name, other = match.groups()
+        if number is not None:
+            octal = len(number) > 1 and number[0] == "0" and number[1] not in "xX"
+            tokens.append(int(number, 8) if octal else int(number, 0))
+        elif name is not None:
+            if name not in defines:
+                return None
+            value = evaluate(defines[name], defines, depth + 1)
+            if value is None:
+                return None
+            tokens.append(value)
+        elif other is not None and other.strip():
+            if other not in "+-*()":
+                return None
+            tokens.append(other)
+    return _Parser(tokens).parse()
+
+
+class _Parser:
+    """expr := term (('+'|'-') term)*; term := unary ('*' unary)*; unary := '-' unary | atom."""
+
+    def __init__(self, tokens: list[int | str]) -> None:
+        self.tokens, self.at = tokens, 0
+
+    def parse(self) -> int | None:
+        try:
+            value = self._expr()
+        except (IndexError, ValueError):
+            return None
+        return value if self.at == len(self.tokens) else None
+
+    def _take(self) -> int | str:
+        token = self.tokens[self.at]
+        self.at += 1
+        return token
+
+    def _peek(self) -> int | str | None:
+        return self.tokens[self.at] if self.at < len(self.tokens) else None
+
+    def _expr(self) -> int:
+        value = self._term()
+        while self._peek() in ("+", "-"):
+            value = value + self._term() if self._take() == "+" else value - self._term()
+        return value
+
+    def _term(self) -> int:
+        value = self._unary()
+        while self._peek() == "*":
+            self._take()
+            value *= self._unary()
+        return value
+
+    def _unary(self) -> int:
+        token = self._take()
+        if token == "-":
+            return -self._unary()
+        if token == "(":
+            value = self._expr()
+            if self._take() != ")":
+                raise ValueError("unbalanced")
+            return value
+        if isinstance(token, int):
+            return token
+        raise ValueError(f"unexpected {token}")
+
+
+@dataclass(frozen=True)
+class Executor:
+    """An executor (by the name of its first argument) and the handles its adds take."""
+
+    name: str
+    init: Call | None  # None: added to, never initialised in the sources read
+    handles: int | None  # what it was initialised for (None: not a number uros can read)
+    adds: tuple[tuple[Call, int], ...] = field(default_factory=tuple)
+
+    @property
+    def given(self) -> int:
+        return sum(n for _, n in self.adds)
+
+    @property
+    def short(self) -> bool:
+        return self.handles is not None and self.given > self.handles
+
+
+def _object(arg: str) -> str:
+    """``&executor`` / ``& app.executor`` -> ``executor`` / ``app.executor``."""
+    return arg.lstrip("&* ").replace(" ", "")
+
+
+def executors(use: FirmwareUse, parameter_handles: int) -> list[Executor]:
+    """Each executor the firmware initialises or adds to, with its adds' handles: 1 each, a
+    parameter server's ``parameter_handles``."""
+    defines = {**{m: str(parameter_handles) for m in PARAMETER_HANDLES_MACROS}, **use.defines}
+    inits: dict[str, Call] = {}
+    adds: dict[str, list[tuple[Call, int]]] = {}
+    for call in use.calls:
+        if not call.args:
+            continue
+        name = _object(call.args[0])
+        if call.function == "rclc_executor_init":
+            inits.setdefault(name, call)
+        elif call.function.startswith("rclc_executor_add_"):
+            took = parameter_handles if "parameter_server" in call.function else 1
+            adds.setdefault(name, []).append((call, took))
+    out = []
+    for name in [*inits, *(n for n in adds if n not in inits)]:
+        init = inits.get(name)
+        handles = evaluate(init.args[2], defines) if init is not None and len(init.args) > 2 else None
+        out.append(Executor(name, init, handles, tuple(adds.get(name, ()))))
+    return out
+
+
+def executor_line(executor: Executor) -> tuple[bool, str]:
+    """(is it a warning, the line) for one executor."""
+    adds = executor.adds
+    given = executor.given
+    if executor.init is None:
+        return False, (
+            f"{executor.name}: {len(adds)} rclc_executor_add_* calls ({given} handles, first at "
+            f"{adds[0][0].where}); its rclc_executor_init is not in the sources read"
+        )
+    where, size = executor.init.where, executor.init.args[2] if len(executor.init.args) > 2 else "?"
+    if executor.handles is None:
+        return False, (
+            f"{where}: {executor.name} is initialised for {size} handles (not a number uros can read) "
+            f"and given {given}"
+        )
+    if not executor.short:
+        return (
+            False,
+            f"{where}: {executor.name} is initialised for {executor.handles} handles and given {given}",
+        )
+    running, failing = 0, adds[-1][0]
+    for call, handles in adds:
+        running += handles
+        if running > executor.handles:
+            failing = call
+            break
+    return True, (
+        f"{where}: {executor.name} is initialised for {executor.handles} handles and given {given}: "
+        f'{failing.function} at {failing.where} returns RCL_RET_ERROR ("Buffer overflow of '
+        f"'executor->handles'\"); initialise it for {given}"
+    )
+
+
+# ---- the library's side ----------------------------------------------------------------------
+
+
+def parameter_handles(headers: Mapping[str, Mapping[str, str]]) -> int:
+    """The handles a parameter server takes in an executor, from the library's rclc_parameter.h."""
+    for header in PARAMETER_HEADERS:
+        for macro in PARAMETER_HANDLES_MACROS:
+            value = headers.get(header, {}).get(macro)
+            if value is not None and value.isdigit():
+                return int(value)
+    return PARAMETER_HANDLES_DEFAULT
+
+
+@dataclass(frozen=True)
+class Fit:
+    """The firmware's calls against one library."""
+
+    limits: tuple[Limit, ...]
+    executors: tuple[Executor, ...]
+    has_rmw: bool
+    missing_packages: tuple[tuple[str, str], ...] = ()  # (package, what needs it)
+
+    @property
+    def fits(self) -> bool:
+        return all(limit.fits for limit in self.limits)
+
+
+def library_fit(
+    output: Path,
+    info: BuildInfo,
+    use: FirmwareUse,
+    known: Iterable[KnownOption],
+    nm_sizes: Mapping[str, int],
+) -> Fit:
+    """The firmware's calls against the output's library: its options read from its own include
+    tree and build-info.json, a slot's RAM from the pools' symbol sizes (``nm_sizes``; empty: not
+    priced)."""
+    rmw_options = {o.name: o for o in known if o.package == RMW}
+    names = {RMW_HEADER, *PARAMETER_HEADERS, *(o.header for o in rmw_options.values() if o.header)}
+    headers = budget.configured_headers(output / info.include.dir, names)
+    meta = dict(info.cmake_options.get(RMW, {}))
+    costs = budget.option_costs(rmw_options.values(), {RMW: meta}, None, nm_sizes, headers)
+    each = {c.option: c.each for c in costs}
+    found = limits(use, rmw_options, headers, meta, each)
+    packages = set(info.packages)
+    functions = {call.function for call in use.calls}
+    missing = []
+    if any(f.startswith("rclc_parameter_server_init") for f in functions):
+        missing += [
+            (p, "the parameter server") for p in ("rclc_parameter", "rcl_interfaces") if p not in packages
+        ]
+    if any(f.startswith("rclc_action_") for f in functions):
+        missing += [(p, "actions") for p in ("rcl_action", "action_msgs") if p not in packages]
+    return Fit(
+        tuple(found),
+        tuple(e for e in executors(use, parameter_handles(headers)) if e.adds or e.init),
+        RMW in packages,
+        tuple(missing),
+    )
+
+
+def missing_line(package: str, why: str) -> str:
+    return f"{why} needs {package}, which the library does not hold: build it with --packages {package}"
+
+
+def limit_line(limit: Limit, priced: bool = True) -> str:
+    """One pool's line: the count, what takes it, the library's value; when it does not fit, the
+    ``--set`` that fits and what it costs in RAM (``priced``: the pools' sizes were read; else
+    the line says where to see them)."""
+    have = (
+        f"{limit.option}={limit.value}"
+        if limit.value is not None
+        else f"{limit.option} not a number uros can read"
+    )
+    line = f"{limit.kind}: {limit.needed} ({limit.used_by()}); the library has {have}"
+    if limit.value_from != "header" and limit.value is not None:
+        line += f" ({'its build-info' if limit.value_from == 'meta' else 'upstream default'})"
+    if limit.fits:
+        return line
+    more = limit.needed - (limit.value or 0)
+    cost = (
+        f"+{limit.extra_bytes:,} B of RAM: {limit.each:,} B a slot, measured in this library"
+        if limit.extra_bytes is not None
+        else "its RAM: uros check LIBRARY --for-firmware DIR"
+        if not priced
+        else "RAM per slot not measured: its pool is not among the library's symbols"
+    )
+    return f"{line}: {more} too few; --set {RMW}.{limit.option}={limit.needed} fits ({cost})"
+
+
+def report(fit: Fit) -> dict[str, object]:
+    """The fit as JSON (sorted keys by the caller)."""
+    return {
+        "approximate": APPROXIMATE,
+        "fits": fit.fits,
+        "limits": {
+            limit.kind: {
+                "needed": limit.needed,
+                "option": limit.option,
+                "value": limit.value,
+                "value_from": limit.value_from,
+                "fits": limit.fits,
+                "set": None if limit.fits else f"{RMW}.{limit.option}={limit.needed}",
+                "extra_ram": limit.extra_bytes,
+                "slot_ram": limit.each,
+                "uses": [{"what": w, "slots": s, "where": list(where)} for w, s, where in limit.uses],
+            }
+            for limit in fit.limits
+        },
+        "executors": [
+            {
+                "name": e.name,
+                "init": e.init.where if e.init else None,
+                "handles": e.handles,
+                "given": e.given,
+                "short": e.short,
+                "adds": [{"call": c.function, "where": c.where, "handles": n} for c, n in e.adds],
+            }
+            for e in fit.executors
+        ],
+        "missing_packages": {p: why for p, why in fit.missing_packages},
+    }
+
+
+def say(fitted: Fit, firmware: Path, priced: bool) -> None:
+    """The entities the firmware's calls create against the library's pools, each executor's
+    handles: a warning a line for what does not fit, the rest as information."""
+    if not fitted.limits and not fitted.executors:
+        console.info(f"{firmware}: no rclc call that creates an entity ({APPROXIMATE})")
+        return
+    console.step(f"the entities {firmware} creates, against the library's pools ({APPROXIMATE}):")
+    if not fitted.has_rmw:
+        console.info(f"the library holds no {RMW}: its upstream defaults are shown")
+    for limit in fitted.limits:
+        (console.info if limit.fits else console.warn)(limit_line(limit, priced))
+    for executor in fitted.executors:
+        warn, line = executor_line(executor)
+        (console.warn if warn else console.info)(line)
+    for package, why in fitted.missing_packages:
+        console.warn(
+            f"{why} needs {package}, which the library does not hold: build it with --packages {package}"
+        )
+
+
+def summary(fitted: Fit, firmware: str = "DIR") -> list[tuple[bool, str]]:
+    """`uros build --for-firmware`'s few lines: (is it a warning, the line); what does not fit
+    a warning each, else one line that it fits."""
+    lines = [(True, limit_line(limit, priced=False)) for limit in fitted.limits if not limit.fits]
+    lines += [line for line in map(executor_line, fitted.executors) if line[0]]
+    lines += [(True, missing_line(package, why)) for package, why in fitted.missing_packages]
+    if not lines and fitted.limits:
+        counted = ", ".join(f"{limit.kind} {limit.needed} of {limit.value}" for limit in fitted.limits)
+        lines.append((False, f"the firmware's entities fit the library: {counted} ({APPROXIMATE})"))
+    elif lines:
+        lines.append((False, f"{APPROXIMATE}; `uros check LIBRARY --for-firmware {firmware}` says more"))
+    return lines
