@@ -100,6 +100,23 @@ from uros_build.config.settings import BuildArgs
     "(default: the core's, meta/rtos/freertos.yaml).",
 )  # fmt: skip
 @click.option(
+    "--ip-stack", type=click.Choice(["lwip"]), metavar="lwip",
+    help="Compile the udp transport against an IP stack: lwip, with --ip-stack-dir and "
+    "--ip-stack-config (needs --rtos; default: uros.yaml's ip_stack:; docs/network.md).",
+)  # fmt: skip
+@click.option(
+    "--ip-stack-dir",
+    type=PATH_ARG,
+    metavar="DIR",
+    help="The lwIP folder (holds src/include/lwip/ and contrib/).",
+)
+@click.option(
+    "--ip-stack-config",
+    type=PATH_ARG,
+    metavar="DIR",
+    help="The folder holding your lwipopts.h and arch/cc.h.",
+)
+@click.option(
     "--cache", metavar="URL",
     help="A team cache of outputs: file:///DIR or http(s)://HOST/PATH (GET/PUT: nginx WebDAV, "
     "bazel-remote, Artifactory...). An output built elsewhere with the same build key is taken "
@@ -142,6 +159,9 @@ def build(
     rtos_dir: Path | None,
     rtos_config: Path | None,
     rtos_port: str | None,
+    ip_stack: str | None,
+    ip_stack_dir: Path | None,
+    ip_stack_config: Path | None,
     cache: str | None,
     cache_upload: bool,
     ccache: bool | None,
@@ -173,6 +193,9 @@ def build(
             rtos_dir=rtos_dir,
             rtos_config=rtos_config,
             rtos_port=rtos_port,
+            ip_stack=ip_stack,
+            ip_stack_dir=ip_stack_dir,
+            ip_stack_config=ip_stack_config,
             rebuild=rebuild,
             packages=packages,
             for_firmware=for_firmware,

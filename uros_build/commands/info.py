@@ -56,6 +56,7 @@ def gather(out: Path) -> dict[str, Any]:
         "include": {"dir": info.include.dir, "files": info.include.files},
         "transport": info.transport,
         "rtos": dataclasses.asdict(info.rtos) if info.rtos else None,
+        "ip_stack": dataclasses.asdict(info.ip_stack) if info.ip_stack else None,
         "options": {k: dict(v) for k, v in info.cmake_options.items()},
         "packages": rows,
         "types": list(contents.interface_types(out / info.include.dir)),
@@ -98,6 +99,12 @@ def render(data: dict[str, Any]) -> str:
         )
     else:
         lines.append("rtos       none (bare metal)")
+    stack = data.get("ip_stack")
+    if stack:
+        lines.append(
+            f"ip stack   {stack['name']} (PLATFORM_NAME {stack['platform']}): {stack['dir']}, "
+            f"config {stack['config']} (headers sha256 {stack['headers_sha256'][:16]})"
+        )
     memory = contents.memory_options(data["options"])
     for i, (pkg, opts) in enumerate(memory.items()):
         values = ", ".join(f"{k}={v}" for k, v in opts.items())

@@ -42,6 +42,7 @@ from uros_build.sources.workspace import Workspace, check_folder_target, target_
 from uros_build.sources.wsfiles import CONFIG, WorkspaceConfig, load_config
 from uros_build.target import espidf
 from uros_build.target.espidf import IdfProject
+from uros_build.target.ipstack import IpStackHeaders, read_ip_stack
 from uros_build.target.profiles import (
     TargetProfile,
     derive_profile,
@@ -300,6 +301,7 @@ class BuildPlan:
     warnings: tuple[str, ...] = ()  # inputs that are valid but likely not what the user meant
     idf: IdfProject | None = None  # the ESP-IDF project micro-ROS is compiled against
     rtos: RtosHeaders | None = None  # the RTOS micro-ROS is compiled against (--rtos)
+    ip_stack: IpStackHeaders | None = None  # the IP stack the udp transport is compiled against
     rebuild: bool = False
     selection: Selection | None = None  # --packages/--for-firmware/uros.yaml packages: (None: all)
     force: bool = False  # --force: the output may be another target's, or hold the user's files
@@ -409,6 +411,66 @@ def rtos_headers(settings: Resolved, target: Target, idf: IdfProject | None) -> 
         profile,
         where,
     )
+
+
+def ip_stack_headers(
+    settings: Resolved,
+    target: Target,
+    idf: IdfProject | None,
+    rtos: RtosHeaders | None,
+    transport: str | None,
+) -> IpStackHeaders | None:
+    """The IP stack settings.py chose (--ip-stack, --ip-stack-dir, --ip-stack-config, else uros.yaml's
+    ip_stack keys), read and checked against the transport and the RTOS (target/ipstack.py)."""
+    stack = settings[rows.IP_STACK]
+    folders: tuple[rows.Setting[Any], ...] = (rows.IP_STACK_DIR, rows.IP_STACK_CONFIG)
+    where = {row.name: settings.chosen[row.name].source for row in (rows.IP_STACK, *folders)}
+    if stack.value is None:
+        for row in folders:
+            if settings.chosen[row.name].source == row.flag:
+                raise ConfigError(
+                    f"{row.flag} without --ip-stack", f"add --ip-stack lwip (or ip_stack: lwip in {CONFIG})"
+                )
+        return None
+    if target_profile(target) is None:
+        raise ConfigError(
+            f"{stack.source} {stack.value} with your own toolchain file {target.key}: "
+            "uros adds no flags to it",
+            "build for a target (uros build --toolchain cortex-m7 --ip-stack lwip ...) or a profile "
+            "(--profile), or put the stack's include folders and PLATFORM_NAME in your toolchain file",
+        )
+    if idf is not None:
+        raise ConfigError(
+            f"{stack.source} {stack.value} with --idf-build: an ESP-IDF project brings its own lwIP",
+            "leave --ip-stack out: --idf-build already compiles the udp transport against ESP-IDF's lwIP",
+        )
+    return read_ip_stack(
+        stack.value,
+        settings.value(rows.IP_STACK_DIR),
+        settings.value(rows.IP_STACK_CONFIG),
+        rtos,
+        transport,
+        target.key,
+        where,
+    )
+
+
+def udp_without_stack(
+    target: Target, idf: IdfProject | None, stack: IpStackHeaders | None, transport: str | None
+) -> list[str]:
+    """A warning for the udp transport on a profile's target that has no socket platform (no
+    --ip-stack, no ESP-IDF, no xrce_platform in the profile): the client's udp_transport.h then
+    has no platform ("field 'platform' has incomplete type")."""
+    profile = target_profile(target)
+    if transport != "udp" or stack is not None or idf is not None or profile is None:
+        return []
+    if profile.micro_ros.xrce_platform:
+        return []
+    return [
+        f"transport udp on {target.key} without an IP stack: the XRCE-DDS client has no socket code "
+        "for it; add --rtos freertos ... --ip-stack lwip --ip-stack-dir DIR --ip-stack-config DIR "
+        "(docs/network.md)"
+    ]
 
 
 _CMAKE_TRUE = ("ON", "TRUE", "1", "YES", "Y")
@@ -527,6 +589,7 @@ def plan_build(args: BuildArgs, env: Mapping[str, str] | None = None) -> BuildPl
     rtos = rtos_headers(settings, target, idf)
     meta = meta_for(get(rows.PRESET), target, transport, user_metas, list(sets), distro_preset)
     check_multithread(meta, target, idf, rtos)
+    ip_stack = ip_stack_headers(settings, target, idf, rtos, meta_transport(meta))
     if jobs is not None and jobs < 1:
         raise ConfigError(f"-j/--jobs {jobs}: must be 1 or more", "omit it to let colcon choose")
     packages = packages_mod.discover(ws.source_dir)
@@ -544,6 +607,7 @@ def plan_build(args: BuildArgs, env: Mapping[str, str] | None = None) -> BuildPl
             )
     origins = set_origins(cfg, ws.root, args.sets)
     warnings = unknown_packages(given_metas, sets, names, origins)
+    warnings += udp_without_stack(target, idf, ip_stack, meta_transport(meta))
     warnings += options_mod.check_sets(sets, options_mod.by_package(options_mod.known_options()), origins)
     selection = _select(args, settings[rows.PACKAGES], ws, packages, names)
     given_output, force = get(rows.OUTPUT), get(rows.FORCE)
@@ -567,6 +631,7 @@ def plan_build(args: BuildArgs, env: Mapping[str, str] | None = None) -> BuildPl
         warnings=tuple(warnings),
         idf=idf,
         rtos=rtos,
+        ip_stack=ip_stack,
         rebuild=get(rows.REBUILD),
         selection=selection,
         force=force,

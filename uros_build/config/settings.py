@@ -86,7 +86,8 @@ def _idf_build_of(cfg: WorkspaceConfig, root: Path) -> tuple[Path | None, str] |
 
 
 def _rtos_folder(key: str) -> Callable[[WorkspaceConfig, Path], tuple[Path | None, str] | None]:
-    """uros.yaml's rtos_dir / rtos_config: a folder relative to the workspace (or absolute)."""
+    """uros.yaml's rtos_dir / rtos_config / ip_stack_dir / ip_stack_config: a folder relative to the
+    workspace (or absolute)."""
 
     def read(cfg: WorkspaceConfig, root: Path) -> tuple[Path | None, str] | None:
         value = getattr(cfg, key)
@@ -211,6 +212,22 @@ RTOS_PORT: Setting[str | None] = Setting(
     "rtos_port", "--rtos-port", "rtos_port", None, None, "the core's (meta/rtos/freertos.yaml)",
     "the kernel's port folder under portable/ (GCC/ARM_CM4F), or an absolute folder",
 )  # fmt: skip
+IP_STACK: Setting[str | None] = Setting(
+    "ip_stack", "--ip-stack", "ip_stack", None, None, "none",
+    "the IP stack the udp transport is compiled against: lwip (needs an RTOS, ip_stack_dir and "
+    "ip_stack_config; docs/network.md)",
+)  # fmt: skip
+IP_STACK_DIR: Setting[Path | None] = Setting(
+    "ip_stack_dir", "--ip-stack-dir", "ip_stack_dir", None, None, "none",
+    "the IP stack's folder (lwIP: holds src/include/lwip/ and contrib/; uros.yaml's: relative to the "
+    "workspace)",
+    from_config=_rtos_folder("ip_stack_dir"),
+)  # fmt: skip
+IP_STACK_CONFIG: Setting[Path | None] = Setting(
+    "ip_stack_config", "--ip-stack-config", "ip_stack_config", None, None, "none",
+    "the folder holding your lwipopts.h and arch/cc.h (uros.yaml's: relative to the workspace)",
+    from_config=_rtos_folder("ip_stack_config"),
+)  # fmt: skip
 CACHE: Setting[str | None] = Setting(
     "cache", "--cache", "cache", None, None, "none",
     "the team cache of outputs: file:///DIR or http(s)://...; none: no cache for this build",
@@ -280,7 +297,7 @@ FREERTOS: Setting[str | None] = Setting(
 SETTINGS: tuple[Setting[Any], ...] = (
     WORKSPACE, TARGETS, PROFILE, COMPILER_PREFIX, CFLAGS, OUTPUT, DISTRO, TRANSPORT, PRESET, METAS, SETS,
     PACKAGES, FOR_FIRMWARE, PACKAGES_UP_TO, JOBS, IDF_BUILD, RTOS, RTOS_DIR, RTOS_CONFIG, RTOS_PORT,
-    CACHE, CACHE_TIMEOUT, CACHE_UPLOAD,
+    IP_STACK, IP_STACK_DIR, IP_STACK_CONFIG, CACHE, CACHE_TIMEOUT, CACHE_UPLOAD,
     CCACHE, FORCE, REBUILD, VERBOSE, HOST_STAGE, COMPILER_SEED, GEN_CACHE, GEN_CACHE_DIR, AGENT,
     ROS2_VENV,
     FREERTOS,
@@ -470,6 +487,9 @@ class BuildArgs:
     rtos_dir: Path | None = None  # its kernel's folder
     rtos_config: Path | None = None  # the folder of FreeRTOSConfig.h
     rtos_port: str | None = None  # the port folder, when not the core's
+    ip_stack: str | None = None  # --ip-stack lwip: the IP stack the udp transport is compiled against
+    ip_stack_dir: Path | None = None  # its folder
+    ip_stack_config: Path | None = None  # the folder of lwipopts.h and arch/cc.h
     cache: str | None = None  # --cache URL: a team cache of outputs (default: uros.yaml's cache:)
     cache_upload: bool = False  # --cache-upload: write this build's output to the cache
     ccache: bool | None = None  # --ccache/--no-ccache (None: ccache when it is installed)

@@ -87,6 +87,17 @@ class RtosInfo:
 
 
 @dataclass(frozen=True)
+class IpStackInfo:
+    """The IP stack the udp transport was compiled against (`uros build --ip-stack`; docs/network.md)."""
+
+    name: str  # "lwip"
+    dir: str  # the stack's folder
+    config: str  # the folder holding lwipopts.h and arch/cc.h
+    platform: str  # the XRCE-DDS client's PLATFORM_NAME (LwIP)
+    headers_sha256: str  # the stack's headers, its RTOS port's and the config folder's (target/ipstack.py)
+
+
+@dataclass(frozen=True)
 class BuildInfo:
     generated_by: str
     target: str
@@ -109,6 +120,8 @@ class BuildInfo:
     idf: IdfInfo | None = None
     # the RTOS micro-ROS was compiled against; None (written as null): none, bare metal
     rtos: RtosInfo | None = None
+    # the IP stack the udp transport was compiled against; None (null): none, or ESP-IDF's own
+    ip_stack: IpStackInfo | None = None
     # the CMake options (-D) of each package's cmake-args in the colcon.meta this build used
     cmake_options: Mapping[str, Mapping[str, str]] = field(default_factory=dict)
     # package -> {"repository", "commit"}: the clone it was built from and that clone's HEAD then
@@ -215,6 +228,7 @@ def parse_build_info(data: Any, source: str) -> BuildInfo:
         idf_target=_optional(top, "idf_target", source),
         idf=_idf(top.get("idf"), f"{source}: idf"),
         rtos=_rtos(top.get("rtos"), f"{source}: rtos"),
+        ip_stack=_ip_stack(top.get("ip_stack"), f"{source}: ip_stack"),
         cmake_options=_nested_strings(top.get("cmake_options"), f"{source}: cmake_options"),
         sources=_nested_strings(top.get("sources"), f"{source}: sources"),
         build_key=str(top.get("build_key", "")),
@@ -265,6 +279,14 @@ def _rtos(data: Any, where: str) -> RtosInfo | None:
     keys = ("name", "kernel", "port", "config", "headers_sha256")
     rtos = loader.mapping(data, where, required=keys)
     return RtosInfo(*(loader.string(rtos, key, where) for key in keys))
+
+
+def _ip_stack(data: Any, where: str) -> IpStackInfo | None:
+    if data is None:
+        return None
+    keys = ("name", "dir", "config", "platform", "headers_sha256")
+    stack = loader.mapping(data, where, required=keys)
+    return IpStackInfo(*(loader.string(stack, key, where) for key in keys))
 
 
 def read_build_info(out: Path, flag: str = "--from") -> BuildInfo:

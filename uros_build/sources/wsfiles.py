@@ -21,6 +21,7 @@ from uros_build.files import write_if_changed
 from uros_build.sources import distros as distros_mod
 from uros_build.sources.distros import Mirror, Source
 from uros_build.sources.meta import split_set
+from uros_build.target.ipstack import NAMES as IP_STACK_NAMES
 from uros_build.target.profiles import TRANSPORTS
 from uros_build.target.rtos import NAMES as RTOS_NAMES
 
@@ -61,6 +62,11 @@ class WorkspaceConfig:
     rtos_dir: str | None = None
     rtos_config: str | None = None
     rtos_port: str | None = None
+    # The IP stack the udp transport is compiled against (docs/network.md): `lwip`, its folder and
+    # the folder of lwipopts.h and arch/cc.h (relative to the workspace or absolute).
+    ip_stack: str | None = None
+    ip_stack_dir: str | None = None
+    ip_stack_config: str | None = None
     # A team cache of outputs (file:///DIR or http(s)://...): `uros build` takes a matching output
     # from it instead of building; only `uros build --cache-upload` writes to it.
     cache: str | None = None
@@ -101,6 +107,10 @@ def parse_config(data: Any, source: str) -> WorkspaceConfig:
         idf_build=loader.string(top, "idf_build", source) if top.get("idf_build") is not None else None,
         rtos=loader.one_of(top, "rtos", source, RTOS_NAMES) if top.get("rtos") is not None else None,
         **{k: _optional_string(top, k, source) for k in ("rtos_dir", "rtos_config", "rtos_port")},
+        ip_stack=loader.one_of(top, "ip_stack", source, IP_STACK_NAMES)
+        if top.get("ip_stack") is not None
+        else None,
+        **{k: _optional_string(top, k, source) for k in ("ip_stack_dir", "ip_stack_config")},
         cache=loader.string(top, "cache", source) if top.get("cache") is not None else None,
     )
 
@@ -145,6 +155,9 @@ def config_text(cfg: WorkspaceConfig) -> str:
         "rtos_dir": cfg.rtos_dir,
         "rtos_config": cfg.rtos_config,
         "rtos_port": cfg.rtos_port,
+        "ip_stack": cfg.ip_stack,
+        "ip_stack_dir": cfg.ip_stack_dir,
+        "ip_stack_config": cfg.ip_stack_config,
         "cache": cfg.cache,
     }
     data.update({k: v for k, v in optional.items() if v is not None})

@@ -242,6 +242,7 @@ def _build_info(
         idf_target=target.idf_target,
         idf=target.idf,
         rtos=target.rtos,
+        ip_stack=target.ip_stack,
         cmake_options=contents.cmake_options(plan.meta),
         sources=_sources(plan, built),
         build_key=inputs.key,

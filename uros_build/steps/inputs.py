@@ -59,6 +59,10 @@ def build_key(ctx: Context, toolchain_file: Path, parts: Mapping[str, str]) -> s
             "rtos": fp.digest_json(
                 [plan.rtos.name, list(plan.rtos.port), plan.rtos.headers_sha256] if plan.rtos else None
             ),
+            # the IP stack's headers (lwIP's, its port's, lwipopts.h and arch/cc.h) by content
+            "ip_stack": fp.digest_json(
+                [plan.ip_stack.name, plan.ip_stack.headers_sha256] if plan.ip_stack else None
+            ),
             "uros": fp.digest(__version__, *(p.read_bytes() for p in sorted(code.rglob("*.py")))),
         }
     )
@@ -115,6 +119,8 @@ def content_parts(plan: BuildPlan, sources_digest: str) -> dict[str, str]:
         "ESP-IDF project": fp.digest(repr(plan.idf)),
         # the RTOS's folders, port and headers (kernel, port, FreeRTOSConfig.h) by content
         "RTOS": fp.digest(repr(plan.rtos)),
+        # the IP stack's folders and headers (lwIP's, its port's, lwipopts.h, arch/cc.h) by content
+        "IP stack": fp.digest(repr(plan.ip_stack)),
         "packages": fp.digest_json([list(plan.requested), list(skipped)]),
         "output": fp.digest(str(plan.output)),
     }

@@ -37,6 +37,12 @@ def open_run(plan: BuildPlan) -> Runner:
             f"RTOS {rtos.name}: kernel {rtos.kernel}, port {' '.join(rtos.port)}, config {rtos.config} "
             f"(headers {rtos.headers_sha256[:12]})"
         )
+    if plan.ip_stack is not None:
+        stack = plan.ip_stack
+        console.info(
+            f"IP stack {stack.name} (PLATFORM_NAME {stack.platform}): {stack.dir}, config {stack.config} "
+            f"(headers {stack.headers_sha256[:12]})"
+        )
     _say_selection(plan)
     return runner
 

@@ -18,7 +18,7 @@ from uros_build.colcon.hosttools import HostFacts
 from uros_build.colcon.installtree import forget_configured_flags
 from uros_build.config.plan import BuildPlan, ProfileTarget, ToolchainFileTarget, meta_transport
 from uros_build.files import write_if_changed
-from uros_build.output.buildinfo import Compiler, Flags, IdfInfo, RtosInfo
+from uros_build.output.buildinfo import Compiler, Flags, IdfInfo, IpStackInfo, RtosInfo
 from uros_build.proc import Runner
 from uros_build.target import abi, compilers
 from uros_build.target.profiles import TargetProfile
@@ -47,6 +47,7 @@ class Described:
     idf_target: str | None = None
     idf: IdfInfo | None = None
     rtos: RtosInfo | None = None
+    ip_stack: IpStackInfo | None = None
 
 
 class TargetKind(Protocol):
@@ -158,6 +159,7 @@ class Profile:
             idf=self.plan.idf,
             transport=meta_transport(self.plan.meta),
             rtos=plan.rtos.portable() if plan.rtos is not None and portable else plan.rtos,
+            ip_stack=plan.ip_stack.portable() if plan.ip_stack is not None and portable else plan.ip_stack,
         )
 
     def write_toolchain(self) -> Path:
@@ -213,6 +215,7 @@ class Profile:
             ),
             idf_target=profile.idf_target or None,
             rtos=RtosInfo(**self.plan.rtos.record()) if self.plan.rtos is not None else None,
+            ip_stack=IpStackInfo(**self.plan.ip_stack.record()) if self.plan.ip_stack is not None else None,
         )
 
 

@@ -8,6 +8,7 @@ from pathlib import Path
 
 from uros_build import __version__, templating
 from uros_build.target.espidf import IdfProject
+from uros_build.target.ipstack import IpStackHeaders
 from uros_build.target.profiles import TargetProfile
 from uros_build.target.rtos import RtosHeaders
 
@@ -66,6 +67,9 @@ class ToolchainRequest:
     # The RTOS micro-ROS is compiled against (`uros build --rtos`): its define and include
     # folders, for micro-ROS only (never in the firmware's file).
     rtos: RtosHeaders | None = None
+    # The IP stack the udp transport is compiled against (`uros build --ip-stack`): its include
+    # folders and the client's PLATFORM_NAME for it, for micro-ROS only.
+    ip_stack: IpStackHeaders | None = None
 
 
 # The XRCE-DDS client's transports that run over IP, where its PLATFORM_NAME picks the socket API.
@@ -98,6 +102,10 @@ def microros_flags(req: ToolchainRequest) -> list[str]:
         # the XRCE-DDS client's multithread profile keys its FreeRTOS mutexes on this define and
         # includes FreeRTOS.h/semphr.h (target/rtos.py)
         flags += [f"-D{req.rtos.define}", *(f"-I{folder}" for folder in req.rtos.include_dirs)]
+    if req.ip_stack is not None:
+        # lwIP's headers, its POSIX compatibility headers (sys/socket.h, netdb.h) and its RTOS port
+        # for the client's socket code (target/ipstack.py)
+        flags += [f"-I{folder}" for folder in req.ip_stack.include_dirs]
     if req.prefix_map and (req.gcc_major is None or req.gcc_major >= _PREFIX_MAP_SINCE_GCC):
         # -ffile-prefix-map implies -fmacro-prefix-map (__FILE__) and -fdebug-prefix-map
         # (https://gcc.gnu.org/onlinedocs/gcc/Overall-Options.html#index-ffile-prefix-map).
@@ -149,6 +157,14 @@ def tool_paths(profile: TargetProfile, tool_dir: str | None) -> dict[str, str]:
     return {t: f"{prefix}{profile.tool(t)}" for t in ("gcc", "g++", "ar", "ranlib", "nm", "objcopy", "size")}
 
 
+def xrce_platform(req: ToolchainRequest, transport: str) -> str:
+    """The XRCE-DDS client's PLATFORM_NAME in the micro-ROS toolchain file: the IP stack's
+    (--ip-stack), else the profile's, for the IP transports only; "" for the firmware's file."""
+    if not req.micro_ros or transport not in _IP_TRANSPORTS:
+        return ""
+    return req.ip_stack.platform if req.ip_stack is not None else req.profile.micro_ros.xrce_platform
+
+
 def render_toolchain(req: ToolchainRequest) -> str:
     p = req.profile
     base = [*p.cpu_flags, *p.libc_flags, *(f"-D{d}" for d in p.defines)]
@@ -183,7 +199,7 @@ def render_toolchain(req: ToolchainRequest) -> str:
         link_unsafe=[] if req.micro_ros else link_unsafe_flags([*c_flags, *cxx_flags]),
         idf=idf,
         c_standard=c_standard,
-        xrce_platform=p.micro_ros.xrce_platform if req.micro_ros and transport in _IP_TRANSPORTS else "",
+        xrce_platform=xrce_platform(req, transport),
         map_build_dir=maps_build_dirs(req),
     )
 
