@@ -378,19 +378,28 @@ def idf_project(chosen: Chosen[Path | None], target: Target) -> IdfProject | Non
     return espidf.read_idf_build(folder, profile.idf_target, profile.name, flag)
 
 
+def _named(
+    settings: Resolved, main: rows.Setting[Any], folders: tuple[rows.Setting[Any], ...], example: str
+) -> dict[str, str]:
+    """How the user gave ``main`` (--rtos, --ip-stack) and its folder settings (setting name -> a
+    flag or a uros.yaml key, for the one-line errors); a folder flag without ``main`` is refused
+    (uros.yaml's folders without its key are only unused; the command line's are a slip)."""
+    if settings[main].value is None:
+        for row in folders:
+            if settings.chosen[row.name].source == row.flag:
+                raise ConfigError(
+                    f"{row.flag} without {main.flag}",
+                    f"add {main.flag} {example} (or {main.key}: {example} in {CONFIG})",
+                )
+    return {row.name: settings.chosen[row.name].source for row in (main, *folders)}
+
+
 def rtos_headers(settings: Resolved, target: Target, idf: IdfProject | None) -> RtosHeaders | None:
     """The RTOS settings.py chose (--rtos, --rtos-dir, --rtos-config, --rtos-port, else uros.yaml's
     rtos keys), read and checked against the target's core (target/rtos.py)."""
     rtos = settings[rows.RTOS]
-    folders: tuple[rows.Setting[Any], ...] = (rows.RTOS_DIR, rows.RTOS_CONFIG, rows.RTOS_PORT)
-    where = {row.name: settings.chosen[row.name].source for row in (rows.RTOS, *folders)}
+    where = _named(settings, rows.RTOS, (rows.RTOS_DIR, rows.RTOS_CONFIG, rows.RTOS_PORT), "freertos")
     if rtos.value is None:
-        for row in folders:
-            # uros.yaml's folders without rtos: are only unused; the command line's are a slip
-            if settings.chosen[row.name].source == row.flag:
-                raise ConfigError(
-                    f"{row.flag} without --rtos", f"add --rtos freertos (or rtos: freertos in {CONFIG})"
-                )
         return None
     profile = target_profile(target)
     if profile is None:
@@ -423,14 +432,8 @@ def ip_stack_headers(
     """The IP stack settings.py chose (--ip-stack, --ip-stack-dir, --ip-stack-config, else uros.yaml's
     ip_stack keys), read and checked against the transport and the RTOS (target/ipstack.py)."""
     stack = settings[rows.IP_STACK]
-    folders: tuple[rows.Setting[Any], ...] = (rows.IP_STACK_DIR, rows.IP_STACK_CONFIG)
-    where = {row.name: settings.chosen[row.name].source for row in (rows.IP_STACK, *folders)}
+    where = _named(settings, rows.IP_STACK, (rows.IP_STACK_DIR, rows.IP_STACK_CONFIG), "lwip")
     if stack.value is None:
-        for row in folders:
-            if settings.chosen[row.name].source == row.flag:
-                raise ConfigError(
-                    f"{row.flag} without --ip-stack", f"add --ip-stack lwip (or ip_stack: lwip in {CONFIG})"
-                )
         return None
     if target_profile(target) is None:
         raise ConfigError(

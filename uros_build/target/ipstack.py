@@ -26,7 +26,7 @@ from typing import Any
 
 from uros_build import loader, resources
 from uros_build.errors import ConfigError
-from uros_build.target.rtos import RtosHeaders, headers_digest
+from uros_build.target.rtos import RtosHeaders, headers_digest, placeholders
 
 NAMES = ("lwip",)  # the IP stacks uros knows (--ip-stack)
 # The XRCE-DDS transports that run over an IP stack.
@@ -84,20 +84,11 @@ class IpStackHeaders:
         """The same with placeholder folders (the portable build key's toolchain text): the stack
         as /ipstack/dir, the config folder as /ipstack/config."""
 
-        def swap(folder: str) -> str:
-            if folder == self.config:
-                return "/ipstack/config"
-            if folder == self.dir or folder.startswith(self.dir + "/"):
-                return "/ipstack/dir" + folder[len(self.dir) :]
-            return "/ipstack/other"
-
+        folders = placeholders(
+            self.include_dirs, (self.config, "/ipstack/config"), (self.dir, "/ipstack/dir"), "/ipstack/other"
+        )
         return IpStackHeaders(
-            self.name,
-            "/ipstack/dir",
-            "/ipstack/config",
-            self.platform,
-            tuple(swap(f) for f in self.include_dirs),
-            self.headers_sha256,
+            self.name, "/ipstack/dir", "/ipstack/config", self.platform, folders, self.headers_sha256
         )
 
     def record(self) -> Mapping[str, str]:

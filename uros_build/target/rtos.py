@@ -141,19 +141,14 @@ class RtosHeaders:
         """The same with placeholder folders (the portable build key's toolchain text): the kernel
         as /rtos/kernel, the config folder as /rtos/config."""
 
-        def swap(folder: str) -> str:
-            if folder == self.config:
-                return "/rtos/config"
-            if folder == self.kernel or folder.startswith(self.kernel + "/"):
-                return "/rtos/kernel" + folder[len(self.kernel) :]
-            return "/rtos/port"
-
         return RtosHeaders(
             self.name,
             "/rtos/kernel",
             self.port,
             "/rtos/config",
-            tuple(swap(f) for f in self.include_dirs),
+            placeholders(
+                self.include_dirs, (self.config, "/rtos/config"), (self.kernel, "/rtos/kernel"), "/rtos/port"
+            ),
             self.headers_sha256,
         )
 
@@ -166,6 +161,23 @@ class RtosHeaders:
             "config": self.config,
             "headers_sha256": self.headers_sha256,
         }
+
+
+def placeholders(
+    folders: tuple[str, ...], config: tuple[str, str], root: tuple[str, str], other: str
+) -> tuple[str, ...]:
+    """``folders`` with this machine's places replaced (the portable build key's toolchain text):
+    the config folder (``config``: folder, placeholder), the root's folder and those below it
+    (``root``), anything else ``other``."""
+
+    def swap(folder: str) -> str:
+        if folder == config[0]:
+            return config[1]
+        if folder == root[0] or folder.startswith(root[0] + "/"):
+            return root[1] + folder[len(root[0]) :]
+        return other
+
+    return tuple(swap(f) for f in folders)
 
 
 def headers_digest(folders: list[tuple[str, Path, tuple[str, ...]]]) -> str:
