@@ -178,6 +178,9 @@ def _env() -> jinja2.Environment:
     env.filters["meson_string"] = meson_string
     env.filters["meson_list"] = meson_list
     env.filters["python_literal"] = python_literal
+    # a shell script's words (the uros-python shim): one word each, never split or expanded
+    env.filters["sh_quote"] = shlex.quote
+    env.filters["sh_join"] = shlex.join
     return env
 
 

@@ -185,7 +185,15 @@ def test_every_template_value_goes_through_an_escape() -> None:
     own.add("c_standard")  # a whole number uros computes
     own.add('requires | join(" ")')  # a fixed list: lwip or nothing
     escapes = ("cmake_quote", "cmake_comment", "cmake_path", "cmake_flags", "cmake_link_flags")
-    escapes += ("make_flags", "pc_flags", "meson_string", "meson_list", "python_literal")
+    escapes += (
+        "make_flags",
+        "pc_flags",
+        "meson_string",
+        "meson_list",
+        "python_literal",
+        "sh_quote",
+        "sh_join",
+    )
     templates = Path(__file__).resolve().parents[2] / "templates"
     for path in sorted(templates.glob("*.j2")):
         for expr in re.findall(r"\{\{\s*(.*?)\s*\}\}", path.read_text()):

@@ -134,82 +134,37 @@ def shim_text(
     :func:`gencache.module_versions` of ``python``, found once by uros rather than on every run.
     ``stdlib_distutils``: ``python`` has a distutils of its own (before 3.12). ``answers``: what
     ``python`` wrote for each of FINDPYTHON_QUESTIONS (:func:`parse_answers`)."""
-    import shlex
-
-    q = shlex.quote
-    entry = (
-        f"import sys; sys.path.append({str(code_dir)!r}); "
-        "from uros_build.shim.pyshim import main; sys.exit(main(sys.argv[1:]))"
-    )
     import json
 
-    versions = json.dumps(dict(modules), sort_keys=True)
-    folders = " ".join(q(str(p)) for p in (cache_dir, target_dir, workspace))
-    # Compiled modules kept in the cache's folder, even where PYTHONDONTWRITEBYTECODE is set (it
-    # is, on some CI images): else every call compiles uros's cache modules (and a miss rosidl's,
-    # empy's and lark's) again, ~20 ms per call; no .pyc lands beside anyone's sources.
-    # https://docs.python.org/3/using/cmdline.html#cmdoption-X (pycache_prefix)
-    pycache = q(str(cache_dir / "pycache"))
-    call = f'{q(python)} -X pycache_prefix={pycache} -c {q(entry)} {folders} {q(versions)} "$@"'
-    # A compiled module cut short (a full disk while Python wrote it: its write is not checked)
-    # fails every later call that imports it ("marshal data too short"), even once space is back.
-    # So a failed call has the pycache folder checked by a Python that does not read it (-I -B, no
-    # prefix): what does not load is dropped, and the call runs once more. A call that fails for
-    # its own reasons fails as before (nothing dropped: its exit status).
-    repair = (
-        f"import sys; sys.path.append({str(code_dir)!r}); "
-        "from uros_build.shim.pyshim import drop_unloadable; "
-        "sys.exit(0 if drop_unloadable(sys.argv[1]) else 1)"
-    )
-    to_uros_function = [
-        "uros() {",
-        f"  PYTHONDONTWRITEBYTECODE= {call} && exit 0",
-        "  status=$?",
-        f"  {q(python)} -I -B -c {q(repair)} {pycache} || exit $status",
-        f"  PYTHONDONTWRITEBYTECODE= exec {call}",
-        "}",
-    ]
-    to_uros = 'uros "$@"'
-    probe = (
-        [
-            f'if [ "$1" = -c ]; then case "$2" in *{q(FINDPYTHON_PROBE)}*)',
-            "  SETUPTOOLS_USE_DISTUTILS=stdlib; export SETUPTOOLS_USE_DISTUTILS;; esac; fi",
-        ]
-        if stdlib_distutils
-        else []
-    )
+    from uros_build import templating
+
     given = dict(answers or {})
-    known = [
-        f"  {q(code)}) printf %s {q(answer)}; exit 0;;"
-        for code, answer in sorted(given.items())
-        if code in FINDPYTHON_QUESTIONS
-    ]
-    answered = ['if [ "$1" = -c ] && [ $# -eq 2 ]; then case "$2" in', *known, "esac; fi"] if known else []
-    if VERSION_FLAG in given:
-        version = q(given[VERSION_FLAG])
-        answered.append(f'if [ "$1" = {VERSION_FLAG} ] && [ $# -eq 1 ]; then printf %s {version}; exit 0; fi')
-    return "\n".join(
-        [
-            "#!/bin/sh",
-            f"# Written by {written_by}: the Python of this target's CMake builds. rosidl generator",
-            "# runs and ament's and rosidl_adapter's configure calls go through uros's caches",
-            "# (uros_build/shim/pyshim.py); FindPython's questions about the interpreter itself are",
-            "# answered with what it answered once for this build; all else is the real Python.",
-            *answered,
-            *to_uros_function,
-            f'if [ "$2" = {gencache.ARGUMENTS_FLAG} ] && [ -n "$3" ]; then',
-            f"  {to_uros}",
-            "fi",
-            'case "$1" in */package_templates/templates_2_cmake.py|*/core/package_xml_2_cmake.py)',
-            f"  {to_uros};;",
-            "esac",
-            'if [ "$1" = -m ] && [ "$2" = rosidl_adapter ]; then',
-            f"  {to_uros}",
-            "fi",
-            *probe,
-            f'exec {q(python)} "$@"',
-            "",
-        ]
+    return templating.render(
+        "uros-python.sh.j2",
+        written_by=written_by,
+        python=python,
+        # Compiled modules kept in the cache's folder, even where PYTHONDONTWRITEBYTECODE is set
+        # (it is, on some CI images): else every call compiles uros's cache modules (and a miss
+        # rosidl's, empy's and lark's) again, ~20 ms per call; no .pyc lands beside anyone's
+        # sources. https://docs.python.org/3/using/cmdline.html#cmdoption-X (pycache_prefix)
+        pycache=str(cache_dir / "pycache"),
+        entry=(
+            f"import sys; sys.path.append({str(code_dir)!r}); "
+            "from uros_build.shim.pyshim import main; sys.exit(main(sys.argv[1:]))"
+        ),
+        folders=[str(p) for p in (cache_dir, target_dir, workspace)],
+        versions=json.dumps(dict(modules), sort_keys=True),
+        repair=(
+            f"import sys; sys.path.append({str(code_dir)!r}); "
+            "from uros_build.shim.pyshim import drop_unloadable; "
+            "sys.exit(0 if drop_unloadable(sys.argv[1]) else 1)"
+        ),
+        answers=[(code, text) for code, text in sorted(given.items()) if code in FINDPYTHON_QUESTIONS],
+        version_flag=VERSION_FLAG,
+        version_answer=given.get(VERSION_FLAG),
+        arguments_flag=gencache.ARGUMENTS_FLAG,
+        stdlib_distutils=stdlib_distutils,
+        findpython_probe=FINDPYTHON_PROBE,
     )
 
 
