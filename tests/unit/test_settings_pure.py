@@ -17,6 +17,7 @@ from uros_build.config.settings import (
     build_settings,
     resolve_one,
 )
+from uros_build.errors import ConfigError
 from uros_build.sources.wsfiles import WorkspaceConfig
 
 ROOT = Path("/ws")
@@ -94,14 +95,19 @@ def test_the_command_line_then_the_environment_then_uros_yaml_then_the_default(
 
 
 @pytest.mark.parametrize("setting", [rows.HOST_STAGE, rows.COMPILER_SEED, rows.GEN_CACHE])
-def test_the_environment_switches_are_on_unless_off(setting: Setting[bool]) -> None:
+def test_the_environment_switches_take_the_usual_words_and_refuse_the_rest(setting: Setting[bool]) -> None:
+    """Round 5 (issue 43): UROS_HOST_STAGE=0 or false and UROS_GEN_CACHE=no were on (only `off` was off)."""
     assert setting.env is not None
     assert build_settings(BuildArgs(), None, ROOT, {})[setting] == Chosen(True, "default")
-    for text in ("off", "OFF", " Off "):
+    for text in ("off", "OFF", " Off ", "0", "false", "False", "no", "NO"):
         assert build_settings(BuildArgs(), None, ROOT, {setting.env: text})[setting] == Chosen(
             False, f"${setting.env}"
         )
-    assert build_settings(BuildArgs(), None, ROOT, {setting.env: "1"})[setting].value is True
+    for text in ("on", "1", "true", "YES"):
+        assert build_settings(BuildArgs(), None, ROOT, {setting.env: text})[setting].value is True
+    for text in ("maybe", "2", "disable", "of"):
+        with pytest.raises(ConfigError, match=rf"\${setting.env}='{text}' is no {setting.name} value"):
+            build_settings(BuildArgs(), None, ROOT, {setting.env: text})
 
 
 def test_the_generation_cache_folder_from_the_environment_else_the_xdg_cache() -> None:
@@ -148,13 +154,18 @@ def test_the_table_is_one_row_a_name_and_every_build_argument_is_a_row() -> None
         assert setting.meaning and setting.default_text, setting.name
 
 
-@pytest.mark.parametrize(
-    ("text", "seconds"),
-    [("2", 2.0), (" 0.5 ", 0.5), ("soon", 60.0), ("0", 60.0), ("-1", 60.0), ("86400", 60.0)],
-)
-def test_the_team_cache_wait_from_the_environment_a_bad_one_is_the_default(text: str, seconds: float) -> None:
+@pytest.mark.parametrize(("text", "seconds"), [("2", 2.0), (" 0.5 ", 0.5), ("86399", 86399.0)])
+def test_the_team_cache_wait_from_the_environment(text: str, seconds: float) -> None:
     chosen = build_settings(BuildArgs(), None, ROOT, {"UROS_CACHE_TIMEOUT": text})[rows.CACHE_TIMEOUT]
     assert chosen == Chosen(seconds, "$UROS_CACHE_TIMEOUT")
+
+
+@pytest.mark.parametrize("text", ["soon", "0", "-1", "86400", "nan", "inf", "1e999"])
+def test_a_team_cache_wait_that_is_none_is_refused_not_made_60_s(text: str) -> None:
+    """Round 5 (issue 43): UROS_CACHE_TIMEOUT=abc, -1 or 0 silently became 60 s."""
+    with pytest.raises(ConfigError, match=rf"\$UROS_CACHE_TIMEOUT='{text}' is no cache_timeout value") as err:
+        build_settings(BuildArgs(), None, ROOT, {"UROS_CACHE_TIMEOUT": text})
+    assert "more than 0 and less than 86400" in str(err.value.hint)
 
 
 def test_the_distro_is_uros_yaml_s_and_none_without_a_line() -> None:

@@ -91,7 +91,12 @@ def create_firmware(args: CreateArgs) -> Path:
         git = _precheck(runner, plan)
         if plan.previous is not None and not (root / PENDING).is_file():
             clones.check_untouched(
-                runner, git, root, plan.previous, plan.previous.repositories, "--force re-clones it"
+                runner,
+                git,
+                root,
+                plan.previous,
+                plan.previous.repositories,
+                "then run this command again: it re-clones the folder",
             )
     except UrosError:
         if not plan.existed:

@@ -32,13 +32,7 @@ def _check_complete(src: Path, info: BuildInfo, flag: str) -> None:
 def _check_folder(out: Path, kind: str) -> None:
     """A folder whose package the consumer of ``kind`` could not use is refused before anything is
     written (the consumers cannot be told the folder escaped: they find it themselves)."""
-    refused = export.folder_refusal(kind, str(out))
-    if refused is not None:
-        char, fmt, why = refused
-        raise ConfigError(
-            f"--output {out}: holds {char!r}, which {fmt} cannot use in the folder of a package ({why})",
-            f"export into a folder without {char!r} (or link one to it)",
-        )
+    export.refuse_package_folder(kind, out, "--output", "export into a folder without it")
 
 
 def _prepare(

@@ -29,6 +29,7 @@ from uros_build.config.settings import (
 from uros_build.errors import ConfigError, did_you_mean
 from uros_build.output import swap
 from uros_build.output import team_cache as cache_mod
+from uros_build.output.export import refuse_package_folder
 from uros_build.output.folders import check_output_dir, check_output_owner, is_uros_output, target_keys
 from uros_build.output.team_cache import CacheSettings
 from uros_build.sources import distros as distros_mod
@@ -382,14 +383,22 @@ def _named(
     settings: Resolved, main: rows.Setting[Any], folders: tuple[rows.Setting[Any], ...], example: str
 ) -> dict[str, str]:
     """How the user gave ``main`` (--rtos, --ip-stack) and its folder settings (setting name -> a
-    flag or a uros.yaml key, for the one-line errors); a folder flag without ``main`` is refused
-    (uros.yaml's folders without its key are only unused; the command line's are a slip)."""
+    flag or a uros.yaml key, for the one-line errors); a folder flag without ``main`` is refused,
+    and a uros.yaml folder key without ``main``'s key too: either was ignored without a word (a
+    kernel's folder built bare metal)."""
     if settings[main].value is None:
         for row in folders:
-            if settings.chosen[row.name].source == row.flag:
+            source = settings.chosen[row.name].source
+            if source == row.flag:
                 raise ConfigError(
                     f"{row.flag} without {main.flag}",
                     f"add {main.flag} {example} (or {main.key}: {example} in {CONFIG})",
+                )
+            if source != rows.DEFAULT:
+                raise ConfigError(
+                    f"{source} without {main.key}: (the build would ignore it)",
+                    f"add `{main.key}: {example}` to {CONFIG} (or pass {main.flag} {example}), "
+                    f"or remove {row.key}:",
                 )
     return {row.name: settings.chosen[row.name].source for row in (main, *folders)}
 
@@ -571,6 +580,8 @@ def plan_build(args: BuildArgs, env: Mapping[str, str] | None = None) -> BuildPl
     environment its settings are read from (None: this process's)."""
     ws = open_workspace(args.workspace)
     cfg = load_config(ws.root)
+    if cfg is not None:
+        ws.check_extra_sources(cfg)
     toolchain = args.toolchain
     if toolchain and args.toolchain_from != "--toolchain" and names_a_file(toolchain):
         toolchain = str(ws.root / toolchain)  # a file named in uros.yaml: from the workspace
@@ -617,6 +628,8 @@ def plan_build(args: BuildArgs, env: Mapping[str, str] | None = None) -> BuildPl
     out = (given_output or ws.default_output(target.key)).resolve()
     flag = "--output" if given_output else "the output folder"
     check_folder_target(out, flag)
+    # the output is a CMake package (microrosConfig.cmake, toolchain.cmake): as `uros export cmake`
+    refuse_package_folder("cmake", out, flag, "build into a folder without it (--output DIR)")
     check_output_dir(out, force, flag, ws.root)
     check_output_owner(out, target.key, force, flag)
     return BuildPlan(

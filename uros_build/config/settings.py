@@ -61,9 +61,17 @@ class Setting(Generic[T]):
     default_from_env: Callable[[Mapping[str, str]], T] | None = None
 
 
+_ON = ("on", "1", "true", "yes")
+_OFF = ("off", "0", "false", "no")
+
+
 def _switch(text: str) -> bool:
-    """An on/off switch of the environment: "off" (any case) is off, anything else on."""
-    return text.strip().lower() != "off"
+    """An on/off switch of the environment: on/1/true/yes or off/0/false/no (any case); any other
+    word is refused (ValueError), never taken as on: a switch that says ``0`` means off."""
+    word = text.strip().lower()
+    if word in _ON or word in _OFF:
+        return word in _ON
+    raise ValueError(f"set it to off (or 0, false, no) or on (or 1, true, yes), not {text.strip()!r}")
 
 
 def _path(text: str) -> Path:
@@ -97,13 +105,16 @@ def _rtos_folder(key: str) -> Callable[[WorkspaceConfig, Path], tuple[Path | Non
 
 
 def _seconds(text: str) -> float:
-    """A wait in seconds; one that is no number, not above 0 or a day or more: the default (a
-    typo in a CI variable must not make the team cache wait forever or never)."""
+    """A wait in seconds, more than 0 and less than a day; anything else is refused (ValueError):
+    a typo in a CI variable must neither make the team cache wait forever or never, nor be
+    replaced by the default without a word."""
     try:
         seconds = float(text)
     except ValueError:
-        return TIMEOUT_SECONDS
-    return seconds if 0 < seconds < 86400 else TIMEOUT_SECONDS
+        seconds = float("nan")
+    if not 0 < seconds < 86400:  # nan and inf too
+        raise ValueError(f"give seconds, more than 0 and less than 86400 (a day), not {text.strip()!r}")
+    return seconds
 
 
 def _user_cache(env: Mapping[str, str]) -> Path:
@@ -255,17 +266,18 @@ VERBOSE: Setting[bool] = Setting(
 )  # fmt: skip
 HOST_STAGE: Setting[bool] = Setting(
     "host_stage", None, None, "UROS_HOST_STAGE", True, "on",
-    "off: configure and install every package for each target (no host stage; docs/cache.md)",
+    "off (or 0, false, no): configure and install every package for each target (no host stage; "
+    "docs/cache.md)",
     from_env=_switch,
 )  # fmt: skip
 COMPILER_SEED: Setting[bool] = Setting(
     "compiler_seed", None, None, "UROS_COMPILER_SEED", True, "on",
-    "off: every package's configure finds the compilers itself",
+    "off (or 0, false, no): every package's configure finds the compilers itself",
     from_env=_switch,
 )  # fmt: skip
 GEN_CACHE: Setting[bool] = Setting(
     "gen_cache", None, None, "UROS_GEN_CACHE", True, "on",
-    "off: every generator run and configure call runs as CMake asks (no generation cache)",
+    "off (or 0, false, no): every generator run and configure call runs as CMake asks (no generation cache)",
     from_env=_switch,
 )  # fmt: skip
 GEN_CACHE_DIR: Setting[Path] = Setting(
@@ -354,12 +366,25 @@ def resolve_one(
         return Chosen(cast(T, given), str(setting.flag))
     text = env.get(setting.env) if setting.env and not blocked else None
     if text:  # an empty variable is an unset one
-        return Chosen(setting.from_env(text) if setting.from_env else cast(T, text), f"${setting.env}")
+        return Chosen(_from_env(setting, text), f"${setting.env}")
     if configured is not None:
         return Chosen(configured[0], where)
     if setting.default_from_env is not None:
         return Chosen(setting.default_from_env(env), DEFAULT)
     return Chosen(setting.default, DEFAULT)
+
+
+def _from_env(setting: Setting[T], text: str) -> T:
+    """The environment's text as the row's value; one it cannot be is one line naming the variable."""
+    if setting.from_env is None:
+        return cast(T, text)
+    try:
+        return setting.from_env(text)
+    except ValueError as bad:
+        raise ConfigError(
+            f"${setting.env}={text.strip()!r} is no {setting.name} value",
+            f"{bad} (or unset it: {setting.default_text})",
+        ) from None
 
 
 @dataclass(frozen=True)

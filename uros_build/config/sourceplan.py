@@ -288,6 +288,14 @@ def _check_lock_covers(lock: Lock, distro: Distro, where: str) -> None:
             f"pass --distro {lock.distro}, or a lock written for {distro.name}",
         )
     wanted = {f"{ws}/{r.path}" for ws, repos in ((DEV_WS, distro.dev), (MCU_WS, distro.mcu)) for r in repos}
+    unknown = sorted(set(lock.repositories) - wanted)
+    if unknown:  # it would be skipped without a word: the lock is another workspace's, or edited
+        raise ConfigError(
+            f"{where}: locks {len(unknown)} repositor{'y' if len(unknown) == 1 else 'ies'} that "
+            f"{distro.name} does not have ({', '.join(unknown[:3])}{', ...' if len(unknown) > 3 else ''})",
+            f"pass the uros.lock that `uros create-firmware` wrote for {distro.name}, or remove "
+            f"{'that entry' if len(unknown) == 1 else 'those entries'} from it",
+        )
     missing = sorted(wanted - set(lock.repositories))
     if missing:
         raise ConfigError(

@@ -36,7 +36,11 @@ _FOLDER_RULES = {
     "make": ("make", _WHY_SHELL.format(tool="microros.mk")),
     # Meson decodes pkgconf's output as UTF-8 before undoing its byte escapes (e-acute: \\303\\251)
     "meson": ("Meson", "Meson reads pkg-config's answer, which escapes every non-ASCII byte, as UTF-8"),
-    "cmake": ("CMake", "CMake splits the folder at ';' into a list and reads '\\' as an escape"),
+    "cmake": (
+        "CMake",
+        "CMake splits the folder at ';' into a list, reads '\\' as an escape, and its Makefiles "
+        "generator writes '\"' unescaped",
+    ),
 }
 _FOLDER_KINDS = {"esp-idf": "cmake", "zephyr": "cmake"}
 
@@ -50,7 +54,7 @@ def folder_refusal(kind: str, folder: str) -> tuple[str, str, str] | None:
     fmt, why = _FOLDER_RULES[rule]
     for char in folder:
         if rule == "cmake":
-            bad = char in ";\\"
+            bad = char in ';\\"'
         elif rule == "meson":
             bad = char not in _SHELL_SAFE
         else:
@@ -58,6 +62,18 @@ def folder_refusal(kind: str, folder: str) -> tuple[str, str, str] | None:
         if bad:
             return char, fmt, why
     return None
+
+
+def refuse_package_folder(kind: str, folder: Path, flag: str, fix: str) -> None:
+    """One line, before anything is written, for a folder whose package the consumer of ``kind``
+    could not use (folder_refusal): `uros export` and `uros build --output` (its CMake package)."""
+    refused = folder_refusal(kind, str(folder))
+    if refused is not None:
+        char, fmt, why = refused
+        raise ConfigError(
+            f"{flag} {folder}: holds {char!r}, which {fmt} cannot use in the folder of a package ({why})",
+            f"{fix} (or link one to it)",
+        )
 
 
 ESP_IDF_COMPONENT_FILE = "CMakeLists.txt"

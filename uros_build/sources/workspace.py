@@ -264,13 +264,38 @@ class Workspace:
 
     # -- extra packages ------------------------------------------------------------------------
 
+    def kept_copy(self, src: Path) -> Path | None:
+        """The copy in mcu_ws/extra_packages of an extra package whose folder ``src`` is gone (the
+        copy is named by its package; a package named as its folder is found), else None."""
+        copy = self.extra_dir / src.name
+        return copy if (copy / "package.xml").is_file() else None
+
+    def check_extra_sources(self, cfg: WorkspaceConfig) -> None:
+        """uros.yaml's extra packages are folders, or were (their copy builds on): one that never
+        was is refused before anything runs, not left out of the build."""
+        for entry in cfg.extra_packages:
+            self._source_or_copy(Path(entry))
+
+    def _source_or_copy(self, src: Path) -> Path:
+        """An extra package's folder, else the copy uros kept of it, else one line."""
+        found = src if src.is_dir() else self.kept_copy(src)
+        if found is None:
+            raise ConfigError(
+                f"{self.root / CONFIG}: extra_packages: {src} is no folder, and mcu_ws/{EXTRA} has no "
+                "copy of it",
+                "fix the path (a ROS 2 package's folder), or remove it from extra_packages:",
+            )
+        return found
+
     def sync_extra_packages(self, cfg: WorkspaceConfig) -> None:
         """Copy each extra package's folder into mcu_ws/extra_packages, changed files only."""
         for entry in cfg.extra_packages:
             src = Path(entry)
-            if not src.is_dir():
+            found = self._source_or_copy(src)
+            if found != src:
                 console.warn(
-                    f"{self.root / CONFIG}: extra package {src} is gone; keeping the copy in mcu_ws/{EXTRA}"
+                    f"{self.root / CONFIG}: extra package {src} is gone; building the copy uros made of it, "
+                    f"{found.relative_to(self.root)}"
                 )
                 continue
             name = check_extra_package(src, f"{self.root / CONFIG}: extra_packages")

@@ -16,6 +16,7 @@ from uros_build.defaults import BUILD_INFO
 from uros_build.errors import (
     ConfigError,
     VerifyError,
+    interrupted,
 )
 from uros_build.files import remove_tree
 from uros_build.output import cache_store, export
@@ -185,5 +186,14 @@ def take(ctx: Context, key: str) -> Assembled | None:
 
 def upload_if_asked(ctx: Context, key: str, entries: list[str]) -> None:
     """The output uploaded as the entry ``key`` when the build asks (--cache-upload)."""
-    if ctx.plan.cache is not None and ctx.plan.cache.upload:
-        _upload(ctx.plan, key, entries)
+    plan = ctx.plan
+    if plan.cache is not None and plan.cache.upload:
+        try:
+            _upload(plan, key, entries)
+        except KeyboardInterrupt as stop:  # Ctrl-C, SIGTERM, SIGHUP: the new output is in place already
+            raise interrupted(
+                stop,
+                f"the upload of entry {key[:16]} to the team cache {plan.cache.url.shown} was interrupted",
+                f"this build's output is in place in {plan.output}; the cache holds no usable entry for it "
+                "(its manifest is written last): run the same uros build --cache-upload again to upload it",
+            ) from None
