@@ -366,10 +366,19 @@ class Runner:
         runs each command in a group of its own), with further signals held until that is done."""
         with signals_held():
             _stop(proc)
-            if self.owner:
-                stopped = stop_processes(marked_processes(self.owner))
-                if stopped:
-                    self.log(f"stopped {len(stopped)} more processes: {' '.join(map(str, stopped))}")
+            self.stop_marked()
+
+    def stop_marked(self) -> list[int]:
+        """Stop every process still running that this runner started, or that those started (its
+        UROS_OWNER mark, inherited): what a program left behind, such as a peer's child or a daemon
+        it double-forked. Returns the pids signalled."""
+        if not self.owner:
+            return []
+        with signals_held():
+            stopped = stop_processes(marked_processes(self.owner))
+        if stopped:
+            self.log(f"stopped {len(stopped)} more processes: {' '.join(map(str, stopped))}")
+        return stopped
 
     def _interrupted(
         self, proc: subprocess.Popen[str], step: str, started: float, cause: BaseException

@@ -9,11 +9,15 @@ import json
 import os
 import shutil
 import subprocess
+import sys
+import tempfile
 from pathlib import Path
 
 import filelock
 import pytest
-from uros_helpers import Background, humble_mirror_args, run_uros
+from uros_helpers import Background, humble_mirror_args, run_uros, run_uros_here
+
+from uros_build.run import stages
 
 pytestmark = pytest.mark.integration
 
@@ -140,9 +144,76 @@ def test_no_agent_on_the_link_is_a_clear_error(humble: Path) -> None:
     assert code == 5 and "timeout: the firmware did not finish" in err
 
 
-def test_without_an_agent_or_qemu_the_probe_says_what_to_install(m7_build: Path) -> None:
+def _probeable(m7_build: Path, dest: Path) -> Path:
+    """A copy of the fixture workspace whose output's build-info.json lists the packages the probe
+    firmware uses (run/stages.PACKAGES; the fixture's own are fx_*): a library uros would go on to
+    probe, for the checks that come after that one. Returns the copy's output."""
+    ws = dest / "ws"
+    shutil.copytree(m7_build, ws, symlinks=True)
+    info = ws / "build" / "cortex-m7" / "build-info.json"
+    data = json.loads(info.read_text(encoding="utf-8"))
+    data["packages"] = sorted({*data["packages"], *stages.PACKAGES})
+    info.write_text(json.dumps(data, indent=2, sort_keys=True) + "\n", encoding="utf-8")
+    return ws / "build" / "cortex-m7"
+
+
+def test_a_library_without_what_the_probe_firmware_uses_is_named_before_building(m7_build: Path) -> None:
+    """Issue 43: a library without rcl, rclc or std_msgs failed in the compiler (`rcl/rcl.h: No such
+    file`); build-info.json's packages say so before anything runs, in one line with the fix."""
+    out = m7_build / "build" / "cortex-m7"
+    proc = run_uros_here("probe", str(out), check=False)
+    assert proc.returncode == 2, proc.stderr
+    line = _one_error(proc)
+    assert (
+        f"the library {out.resolve()} lacks microxrcedds_client, rcl, rclc, rcutils, rmw_microxrcedds, std_msgs"
+        in line
+    )
+    assert f"uros build -w {m7_build.resolve()} --toolchain cortex-m7 --packages std_msgs" in proc.stderr
+    assert not list((m7_build / ".uros").glob("probe/cortex-m7-*/build")), "nothing may be built"
+
+
+def test_an_empty_freertos_is_refused_not_bare_metal(m7_build: Path) -> None:
+    """Issue 43: `--freertos ''` probed bare metal without a word."""
+    proc = run_uros_here("probe", str(m7_build / "build" / "cortex-m7"), "--freertos", "", check=False)
+    assert proc.returncode == 2, proc.stderr
+    assert "--freertos '': names no FreeRTOS-Kernel folder" in _one_error(proc)
+
+
+def test_a_workspace_this_user_cannot_write_is_one_line(m7_build: Path) -> None:
+    """Issue 43: a non-root user probing a root-owned workspace got an internal error (PermissionError
+    on .uros/probe/locks). As root the test probes as nobody, keeping only the right to read
+    (CAP_DAC_READ_SEARCH: this venv may be in root's home); otherwise the folder is made read-only."""
+    folder = Path(tempfile.mkdtemp(prefix="uros-perm-"))
+    try:
+        folder.chmod(0o755)
+        out = _probeable(m7_build, folder)
+        for root, dirs, files in os.walk(folder):  # readable by all, as a workspace usually is
+            for name in dirs:
+                (Path(root) / name).chmod(0o755)
+            for name in files:
+                (Path(root) / name).chmod((Path(root) / name).stat().st_mode | 0o444)
+        argv = [sys.executable, "-m", "uros_build", "probe", str(out), "--agent", "/no/such/agent"]
+        if os.geteuid() == 0:
+            if shutil.which("setpriv") is None:
+                pytest.skip("setpriv (util-linux) is not installed")
+            caps = ["--inh-caps=+dac_read_search", "--ambient-caps=+dac_read_search"]
+            argv = ["setpriv", "--reuid=65534", "--regid=65534", "--clear-groups", *caps, *argv]
+        else:
+            (out.parents[1] / ".uros").mkdir(exist_ok=True)
+            (out.parents[1] / ".uros").chmod(0o555)
+        proc = subprocess.run(argv, capture_output=True, text=True, env={**os.environ, "HOME": str(folder)})
+        assert proc.returncode == 2, proc.stderr
+        line = _one_error(proc)
+        assert "uros probe: cannot write " in line and "Permission denied" in line, line
+        assert "sudo" in proc.stderr or "chmod" in proc.stderr
+    finally:
+        (folder / "ws" / ".uros").chmod(0o755) if (folder / "ws" / ".uros").is_dir() else None
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+def test_without_an_agent_or_qemu_the_probe_says_what_to_install(m7_build: Path, tmp_path: Path) -> None:
     env = {k: v for k, v in os.environ.items() if k != "UROS_AGENT"}
-    proc = run_uros("probe", str(m7_build / "build" / "cortex-m7"), env=env, check=False)
+    proc = run_uros("probe", str(_probeable(m7_build, tmp_path)), env=env, check=False)
     assert proc.returncode == 3, proc.stderr
     errors = [x for x in proc.stderr.splitlines() if x.startswith("error:")]
     assert len(errors) == 1 and ("qemu-system-arm" in errors[0] or "no Micro XRCE-DDS Agent" in errors[0])
@@ -156,13 +227,13 @@ def _one_error(proc: subprocess.CompletedProcess[str]) -> str:
     return errors[0]
 
 
-@pytest.mark.parametrize("timeout", ["0", "-1", "nan"])
+@pytest.mark.parametrize("timeout", ["0", "-1", "nan", "1e-09", "0.5"])
 def test_a_timeout_that_is_no_time_is_refused(m7_build: Path, timeout: str) -> None:
     """Issue 34, item 7: `--timeout 0`/`-1` ran the firmware and then gave a false "the firmware
-    did not finish" verdict about a good library."""
-    proc = run_uros("probe", str(m7_build / "build" / "cortex-m7"), "--timeout", timeout, check=False)
+    did not finish" verdict about a good library; issue 43: `--timeout 1e-9` started QEMU."""
+    proc = run_uros_here("probe", str(m7_build / "build" / "cortex-m7"), "--timeout", timeout, check=False)
     assert proc.returncode == 2, proc.stderr
-    assert f"--timeout {timeout}: must be a number of seconds more than 0" in _one_error(proc)
+    assert f"--timeout {timeout}: must be a number of seconds, at least 1" in _one_error(proc)
 
 
 def test_an_output_and_a_toolchain_that_names_another_target_are_refused(m7_build: Path) -> None:
@@ -175,16 +246,17 @@ def test_an_output_and_a_toolchain_that_names_another_target_are_refused(m7_buil
     )
 
 
-def test_a_second_probe_of_a_target_waits_for_the_first(m7_build: Path) -> None:
+def test_a_second_probe_of_a_target_waits_for_the_first(m7_build: Path, tmp_path: Path) -> None:
     """Issue 34, item 7: two probes at once shared one work folder (one removed the other's
     firmware and console log) and blamed a good library. A probe holds a lock per target; the
     second waits and says for whom (here the first is this test, holding the lock; after it the
     second goes on, and stops at the agent it was given, which does not exist)."""
-    lock = m7_build / ".uros" / "probe" / "locks" / "cortex-m7" / ".lock"
+    out = _probeable(m7_build, tmp_path)
+    lock = out.parents[1] / ".uros" / "probe" / "locks" / "cortex-m7" / ".lock"
     lock.parent.mkdir(parents=True, exist_ok=True)
     with filelock.FileLock(str(lock)):
         (lock.parent / ".lock.owner").write_text(f"{os.getpid()}\n")
-        run = Background("probe", str(m7_build / "build" / "cortex-m7"), "--agent", "/no/such/agent")
+        run = Background("probe", str(out), "--agent", "/no/such/agent")
         run.wait_for("waiting for another uros probe of cortex-m7")
         assert any(f"(pid {os.getpid()})" in line for line in run.lines)
         assert not any(line.startswith("error:") for line in run.lines)  # waiting, not failing

@@ -5,6 +5,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pytest
+
+from uros_build.errors import ConfigError
 from uros_build.run import stages
 from uros_build.run.session import RESTART_ASKED, _Console
 from uros_build.run.stages import ConsoleLine, Stage
@@ -130,3 +133,13 @@ def test_the_agents_middleware_is_chosen_in_one_place() -> None:
     assert middleware_for(peer=False, euid=0) == "dds"
     assert middleware_for(peer=False, euid=1000) == "ced"
     assert middleware_for(peer=True, euid=0) == "dds"
+
+
+def test_the_probe_firmware_s_packages_are_checked_in_the_library() -> None:
+    """Issue 43: a library without rcl/rclc/std_msgs failed in the compiler; named before building."""
+    stages.check_packages([*stages.PACKAGES, "example_interfaces"], Path("/o"), "cortex-m7", None)
+    with pytest.raises(ConfigError, match=r"the library /o lacks rclc, std_msgs, which") as caught:
+        stages.check_packages(
+            [p for p in stages.PACKAGES if p not in ("rclc", "std_msgs")], Path("/o"), "m7", None
+        )
+    assert "uros build --toolchain m7 --packages std_msgs" in str(caught.value.hint)

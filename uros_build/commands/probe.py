@@ -9,10 +9,13 @@ agent on that terminal → QEMU's exit status (the firmware's main()) → one li
 
 from __future__ import annotations
 
+import contextlib
+import errno
 import json
 import math
 import os
 import sys
+from collections.abc import Iterator
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
@@ -32,7 +35,14 @@ from uros_build.run.firmware import build_firmware
 from uros_build.run.machines import qemu_hint
 from uros_build.run.peer import peer_verdict
 from uros_build.run.report import probe_base, probe_work, write_report
-from uros_build.run.session import PeerRun, SessionSpec, middleware_for, run_session
+from uros_build.run.session import (
+    PeerRun,
+    SessionSpec,
+    middleware_for,
+    run_owner,
+    run_session,
+    stop_left_running,
+)
 from uros_build.sources.packages import discover
 from uros_build.sources.workspace import Workspace, workspace_of_output
 
@@ -63,7 +73,7 @@ class ProbeReport:
     run_log: str
     peer_status: int | None = None  # --peer: the peer's exit status (None: none ran, or it did not finish)
     # the firmware's status and every stage judged (a host-judged stage can fail a status 0; without
-    # root the service stage's status 7 can pass): what `uros size` counts
+    # root the service stage's status 7 can pass), and with --peer the peer's: what `uros size` counts
     passed: bool = False
     peer_log: str | None = None
 
@@ -91,10 +101,12 @@ def probe(
     app: AppRequest | None = None,
 ) -> ProbeReport | app_mod.AppReport:
     check_timeout(timeout)
+    check_freertos(freertos)
     duration_ms = app_mod.check_duration(app.duration) if app is not None else 0
     defines = app_mod.parse_defines(app.defines) if app is not None else ()
     if peer is not None:
         check_peer(peer, os.geteuid())
+        peerenv.cache_root(resolve_outside(ROS2_VENV).value)  # a file there: refused before anything runs
     finish_killed_swaps(output, workspace)
     out = resolve_output(output, workspace, toolchain).resolve()
     info = read_build_info(out, "OUTPUT")
@@ -107,13 +119,16 @@ def probe(
         missing = app_mod.missing_packages(plan.app, info.packages)
         if missing:
             raise app_mod.missing_packages_error(plan.app, missing, out, ws.root if ws is not None else None)
+    else:  # the probe firmware's own packages (it would fail in the compiler without them)
+        stages_mod.check_packages(info.packages, out, info.target, ws.root if ws is not None else None)
     machine = probe_mod.machine_for(info.target, probe_mod.load_machines(), board)
     rtos = _freertos(info, freertos)
     base = probe_base(out, info.target)
     # One probe of a target at a time: two at once shared the work folder (one deleted the other's
     # firmware and console log) and blamed a good library ("no agent answered", "an entity could not
     # be created"); the second waits, and says for whom.
-    with locked(base / "probe" / "locks" / info.target, info.target, command="uros probe"):
+    with _probe_lock(base, info.target):
+        stop_left_running(_owner(base, info.target))
         if plan is not None:
             return _probe_app(plan, out, info, machine, base, (agent, timeout, as_json, verbose), peer, rtos)
         return _probe(out, info, machine, base, agent, timeout, as_json, verbose, peer, rtos)
@@ -155,7 +170,7 @@ def _peer_run(runner: Runner, script: Path, out: Path, info: BuildInfo, work: Pa
     own = None
     if ws is not None and ws.extra_dir.is_dir():
         own = [p.name for p in discover(ws.extra_dir)]
-    root = resolve_outside(ROS2_VENV).value.expanduser()
+    root = resolve_outside(ROS2_VENV).value
     return peerenv.prepare(runner, script.resolve(), root, source, own, info.packages, work / "peer.log")
 
 
@@ -165,13 +180,64 @@ def _freertos(info: BuildInfo, given: str | None) -> freertos_mod.FreeRtos | Non
     return freertos_mod.choose(info.target, info.rtos, given, env)
 
 
+# Less is no run at all: 0 or less gave "the firmware did not finish" about a good library, 1e-9
+# started QEMU for nothing (QEMU alone takes longer to open the firmware's link).
+MIN_TIMEOUT = 1.0
+
+
 def check_timeout(timeout: float) -> None:
-    """--timeout is a number of seconds more than 0 (0 or less gave "the firmware did not finish")."""
-    if not (math.isfinite(timeout) and timeout > 0):
+    """--timeout is a number of seconds, at least MIN_TIMEOUT."""
+    if not (math.isfinite(timeout) and timeout >= MIN_TIMEOUT):
         raise ConfigError(
-            f"--timeout {timeout:g}: must be a number of seconds more than 0",
-            "e.g. --timeout 60",
+            f"--timeout {timeout:g}: must be a number of seconds, at least {MIN_TIMEOUT:g}",
+            "e.g. --timeout 60 (the built-in probe's run takes 6-15 s)",
         )
+
+
+def check_freertos(given: str | None) -> None:
+    """--freertos names a folder: an empty one probed bare metal without a word."""
+    if given is not None and not given.strip():
+        raise ConfigError(
+            f"--freertos {given!r}: names no FreeRTOS-Kernel folder",
+            "give the kernel's checkout (--freertos PATH), or leave --freertos out to probe bare metal",
+        )
+
+
+@contextlib.contextmanager
+def _probe_lock(base: Path, target: str) -> Iterator[None]:
+    """The probe's lock of ``target`` (in the workspace's .uros/): a folder this user cannot write
+    (a root-owned workspace) is one line naming the fix, not a PermissionError."""
+    held = contextlib.ExitStack()
+    try:
+        held.enter_context(locked(base / "probe" / "locks" / target, target, command="uros probe"))
+    except OSError as exc:
+        if exc.errno not in (errno.EACCES, errno.EPERM, errno.EROFS):
+            raise
+        raise _not_writable(exc, base) from None
+    with held:
+        yield
+
+
+def _not_writable(exc: OSError, base: Path) -> ConfigError:
+    where = Path(exc.filename) if exc.filename else base
+    found = next((p for p in (where, *where.parents) if p.exists()), base)
+    owner, me = found.stat().st_uid, os.geteuid()
+    if owner == me:  # a read-only mount, or the folder's own mode
+        return ConfigError(
+            f"uros probe: cannot write {where} ({exc.strerror})",
+            f"make {base} writable (chmod -R u+w {base}), or probe a copy of the workspace",
+        )
+    whose = "it belongs" if found == where else f"{found} belongs"
+    return ConfigError(
+        f"uros probe: cannot write {where} ({exc.strerror}): {whose} to {_user(owner)}, not {_user(me)}",
+        f"run uros probe as {_user(owner)} (e.g. with sudo), or make the folder yours: "
+        f"sudo chown -R $(id -un) {base}",
+    )
+
+
+def _user(uid: int) -> str:
+    """root, or the uid (pwd, which names the others, is POSIX only: uros imports on Windows)."""
+    return "root" if uid == 0 else f"uid {uid}"
 
 
 def check_toolchain_matches(toolchain: str, key: str, out: Path, target: str) -> None:
@@ -201,7 +267,7 @@ def _probe(
         work = work.with_name(f"{work.name}-{machine.board.name}")
     on = f" on FreeRTOS ({rtos.why})" if rtos else ""
     title = f"uros probe: {out} ({info.target}) in QEMU {machine.machine}{on}"
-    runner = _open_run(work, info.target, machine, title, verbose)
+    runner = _open_run(work, base, info.target, machine, title, verbose)
     if rtos is not None:
         console.info(f"FreeRTOS kernel {rtos.kernel}, port {rtos.port.relative_to(rtos.kernel)}, heap_4")
         mismatch = freertos_mod.config_differs(rtos)
@@ -233,11 +299,15 @@ def _probe(
     stages = stages_mod.stages_of(ran.lines, ran.restarts, middleware)
     failed = stages_mod.failed(stages)
     ok = stages_mod.passed(status, stages)
+    verdict = stages_mod.failure_line(failed) if failed else probe_mod.verdict(0 if ok else status)
+    if peer_run is not None:  # the judged verdict (every stage, not the exit status) and the peer's
+        judged = peer_verdict(ok, verdict, ran.peer_status)
+        ok, verdict = judged.passed, judged.text
     report = ProbeReport(
         target=info.target,
         machine=machine.machine,
         status=status,
-        verdict=stages_mod.failure_line(failed) if failed else probe_mod.verdict(0 if ok else status),
+        verdict=verdict,
         seconds=round(seconds, 2),
         heap_bytes=used[0] if used else None,
         stack_bytes=used[1] if used else None,
@@ -276,10 +346,18 @@ def _probe(
     return report
 
 
-def _open_run(work: Path, target: str, machine: probe_mod.Machine, title: str, verbose: bool) -> Runner:
-    """The work folder, the run's log and its first lines."""
+def _owner(base: Path, target: str) -> str:
+    """What marks every process of a probe of ``target`` (run/session.run_owner)."""
+    return run_owner(base / "probe" / "locks" / target)
+
+
+def _open_run(
+    work: Path, base: Path, target: str, machine: probe_mod.Machine, title: str, verbose: bool
+) -> Runner:
+    """The work folder, the run's log and its first lines; every process the run starts is marked
+    as the probe's of ``target`` (stopped with the run, or by the next run if this one is killed)."""
     work.mkdir(parents=True, exist_ok=True)
-    runner = Runner(new_run_log(work / "log", "probe", target), verbose=verbose)
+    runner = Runner(new_run_log(work / "log", "probe", target), verbose=verbose, owner=_owner(base, target))
     console.step(title)
     if machine.note:
         console.info(f"{machine.machine}: {machine.note}")
@@ -305,7 +383,7 @@ def _probe_app(
     title = f"uros probe --app {plan.app.folder}: {out} ({info.target}) in QEMU {machine.machine}{on}"
     if rtos is not None:  # the FreeRTOS firmware keeps its own work folder
         work = work.with_name(f"{work.name}-freertos")
-    runner = _open_run(work, info.target, machine, title, verbose)
+    runner = _open_run(work, base, info.target, machine, title, verbose)
     qemu_program = runner.which(machine.board.qemu, qemu_hint(machine.board.qemu))
     agent_program = _agent(agent, runner)
     peer_run = _peer_run(runner, peer, out, info, work) if peer is not None else None
@@ -316,7 +394,7 @@ def _probe_app(
     )  # fmt: skip
     report = app_mod.app_report(info.target, machine.machine, plan, ran, runner, "freertos" if rtos else None)
     if peer_run is not None:  # the app's verdict and the peer's together
-        judged = peer_verdict(0 if report.passed else report.status, report.verdict, ran.session.peer_status)
+        judged = peer_verdict(report.passed, report.verdict, ran.session.peer_status)
         report = replace(report, passed=judged.passed, verdict=judged.text)
     if as_json:
         sys.stdout.write(json.dumps(asdict(report), indent=2, sort_keys=True) + "\n")
@@ -336,15 +414,13 @@ def _probe_app(
 
 
 def _peer_report(report: ProbeReport, target: str, machine: str, as_json: bool) -> ProbeReport:
-    """The firmware's verdict and the peer's together; both logs named in the line."""
-    judged = peer_verdict(report.status, report.verdict, report.peer_status)
-    report = replace(report, verdict=judged.text)
+    """The run's verdict with a peer (already judged: report.passed); both logs named in the line."""
     if as_json:
         sys.stdout.write(json.dumps(asdict(report), indent=2, sort_keys=True) + "\n")
     logs = f"the firmware's console: {report.console_log}; the peer's log: {report.peer_log}"
-    if not judged.passed:
+    if not report.passed:
         raise VerifyError(
-            f"uros probe {target} ({machine}) with a peer: {judged.text}",
+            f"uros probe {target} ({machine}) with a peer: {report.verdict}",
             f"{logs}; the agent's log: {report.agent_log}",
         )
     console.step(

@@ -1,6 +1,7 @@
 """A private network namespace for a run whose agent speaks DDS: loopback only, multicast on, so a
 test never sees (nor disturbs) another DDS participant on the machine, and two runs at once do not
-discover each other. Pure argv builders; run/session.py runs them through the one runner.
+discover each other. Pure argv builders (run/session.py runs them through the one runner), and
+the processes in a namespace, read from /proc (what a run left in it, stopped at its end).
 
 The namespace is held by one process (``unshare --net sleep``); every program that must be in it
 (``ip`` to bring loopback up, the agent, a host ROS 2 peer) is started through ``nsenter`` into that
@@ -48,10 +49,34 @@ def check_root(euid: int, what: str) -> None:
         raise ConfigError(f"{what}: needs root for its own network namespace (unshare -n)", ROOT_HINT)
 
 
+def namespace_id(pid: int) -> str | None:
+    """The network namespace process ``pid`` is in (``net:[4026532...]``), or None: it is gone."""
+    try:
+        return os.readlink(namespace_of(pid))
+    except OSError:
+        return None
+
+
+def members(namespace: str, proc: Path = Path("/proc")) -> list[int]:
+    """The processes in ``namespace`` (a :func:`namespace_id`), other than uros itself: once the run
+    is over, what its programs left in it (a daemon a peer double-forked keeps the namespace alive,
+    whatever its environment). Reads /proc only; the caller stops them (proc.stop_processes)."""
+    me = os.getpid()
+    found = []
+    for entry in proc.iterdir() if proc.is_dir() else ():
+        if not entry.name.isdigit() or int(entry.name) == me:
+            continue
+        try:
+            if os.readlink(entry / "ns" / "net") == namespace:
+                found.append(int(entry.name))
+        except OSError:  # gone meanwhile
+            continue
+    return sorted(found)
+
+
 def entered(pid: int) -> bool:
     """Whether the holder has left uros's own network namespace (unshare done): before that, a
     program nsenter'ed into it would run on the machine's network."""
-    try:
-        return os.readlink(namespace_of(pid)) != os.readlink("/proc/self/ns/net")
-    except OSError:
-        return False
+    mine = namespace_id(os.getpid())
+    held = namespace_id(pid)
+    return held is not None and held != mine

@@ -14,10 +14,12 @@ interface package is generated against them: :func:`fix_wheel_cmake` points them
 
 from __future__ import annotations
 
+import errno
 import json
 import os
 import re
 import shutil
+import signal
 import sys
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
@@ -38,6 +40,7 @@ PARTIAL = "uros-ros2-env.partial"  # written first: the folder is uros's, and un
 FIX_VERSION = 1
 INTERFACE_GROUP = "rosidl_interface_packages"
 
+VARIABLE = "UROS_ROS2_VENV"  # config/settings.py's ROS2_VENV: where the environments are kept
 PIP_HINT = (
     "pip needs PyPI (or a mirror: PIP_INDEX_URL) to make the ROS 2 peer environment once; offline, "
     "point UROS_ROS2_VENV at a folder where `uros probe --peer` made it before"
@@ -330,6 +333,67 @@ def peer_env(env: Mapping[str, str], venv: Path, prefixes: Sequence[Path], pytho
     return out
 
 
+def cache_root(given: Path) -> Path:
+    """The folder the environments are kept in (UROS_ROS2_VENV), absolute: a relative one named
+    another folder for the peer than for uros (it gave a peer that never saw a sample); a file there
+    is one line, not an internal error."""
+    root = Path(os.path.abspath(given.expanduser()))
+    if root.exists() and not root.is_dir():
+        raise ConfigError(
+            f"{VARIABLE} {root}: is not a folder",
+            f"set {VARIABLE} to a folder (uros makes it, and the peer's environment in it), or unset it",
+        )
+    return root
+
+
+# What the environment's own Python imports before the peer runs (argv: the interface packages):
+# rclpy with its C extension (librcl, librmw), the middleware's library, and each package's
+# messages with their C type support; what a deleted module or a truncated library breaks.
+_CHECK = """
+import ctypes, importlib, importlib.util, sys
+import rclpy
+from rclpy.impl.implementation_singleton import rclpy_implementation
+ctypes.CDLL("librmw_fastrtps_cpp.so")
+for package in sys.argv[1:]:
+    importlib.import_module(package)
+    for kind in ("msg", "srv", "action"):
+        if importlib.util.find_spec(f"{package}.{kind}") is None:
+            continue
+        module = importlib.import_module(f"{package}.{kind}")
+        types = [t for t in vars(module).values() if hasattr(type(t), "__import_type_support__")]
+        if types:
+            type(types[0]).__import_type_support__()
+print("uros: the ROS 2 environment imports")
+"""
+
+
+def check_env(
+    runner: Runner, venv: Path, env: Mapping[str, str], packages: Sequence[str], made: Sequence[Path]
+) -> None:
+    """The environment works before the peer runs: its Python is there and imports rclpy, the
+    middleware and ``packages``' messages. A damaged one (a module deleted, a library cut short, the
+    Python gone) is uros's cache, named with its removal, not "the peer failed"."""
+    python = venv / "bin" / "python3"
+    remove = " ".join(str(p) for p in (venv, *made))
+    hint = f"remove it (rm -rf {remove}): the next `uros probe --peer` makes it again"
+    if not (python.is_file() and os.access(python, os.X_OK)):
+        raise StepFailed(
+            f"uros probe --peer: the ROS 2 peer environment {venv} is damaged: no {python}", hint
+        )
+    try:
+        runner.query([str(python), "-c", _CHECK, *packages], env=env, step="check the ROS 2 peer environment")
+    except StepFailed as exc:
+        code = exc.code or 0
+        why = (
+            f"its Python died of {signal.Signals(-code).name}"
+            if code < 0 and -code in signal.valid_signals()
+            else f"importing rclpy and {', '.join(packages)} failed (exit {code}): {exc.cause}"
+        )
+        raise StepFailed(
+            f"uros probe --peer: the ROS 2 peer environment {venv} is damaged: {why}", hint
+        ) from None
+
+
 def prepare(
     runner: Runner,
     script: Path,
@@ -342,12 +406,23 @@ def prepare(
     """The peer's run: the venv (made or as before), the interface packages of the library that it
     lacks built for the host (from ``source_dir``, the workspace's sources; None: an output outside
     a workspace, the wheels' packages only), the argv and the environment."""
-    venv = ensure_venv(runner, load_spec(), root)
-    prefixes: list[Path] = []
-    if source_dir is not None:
-        wanted = interface_packages(discover(source_dir), library, packages_in(venv), own)
-        prefixes = build_interfaces(runner, venv, wanted, root)
-    else:
-        console.info("the output is not in a workspace: the peer has the wheels' interface packages only")
+    root = cache_root(root)
+    wanted: list[PackageInfo] = []
+    try:
+        venv = ensure_venv(runner, load_spec(), root)
+        prefixes: list[Path] = []
+        if source_dir is not None:
+            wanted = interface_packages(discover(source_dir), library, packages_in(venv), own)
+            prefixes = build_interfaces(runner, venv, wanted, root)
+        else:
+            console.info("the output is not in a workspace: the peer has the wheels' interface packages only")
+    except OSError as exc:  # uros's own writes into the cache (a full disk is cli's to say)
+        if exc.errno in (errno.ENOSPC, errno.EDQUOT):
+            raise
+        raise ConfigError(
+            f"{VARIABLE} {root}: cannot write {exc.filename or root} ({exc.strerror})",
+            f"set {VARIABLE} to a folder uros may write (the peer's ROS 2 environment is made there once)",
+        ) from None
     env = peer_env(os.environ, venv, prefixes, python_version())
+    check_env(runner, venv, env, ["std_msgs", *(p.name for p in wanted)], prefixes)
     return PeerRun(tuple(peer_argv(venv, script)), env, log)

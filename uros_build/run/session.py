@@ -17,8 +17,9 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
+from uros_build import console
 from uros_build.errors import StepFailed
-from uros_build.proc import Background, Runner
+from uros_build.proc import Background, Runner, stop_leftovers, stop_processes
 from uros_build.run import machines, netns
 from uros_build.run.stages import ConsoleLine
 
@@ -45,6 +46,38 @@ def middleware_for(peer: bool, euid: int) -> str:
     repliers); without root CED, with no network at all. A peer speaks DDS (it refuses non-root
     itself, before anything is built)."""
     return "dds" if peer or euid == 0 else "ced"
+
+
+def run_owner(lock: Path) -> str:
+    """The UROS_OWNER mark of every process a probe run starts (proc.Runner's owner), from the
+    folder of the lock one probe of a target holds: a build's mark is its target folder, so a probe
+    never stops a build's processes, nor a build a probe's."""
+    return f"uros probe {lock}"
+
+
+def stop_left_running(owner: str) -> None:
+    """With the probe's lock held: stop what an earlier run that was killed (SIGKILL: no finally
+    ran) left running, such as a peer's child, as `uros build` does for its target."""
+    stopped = stop_leftovers(owner)
+    if stopped:
+        console.warn(
+            f"stopped {len(stopped)} processes left running by an earlier uros probe that was killed "
+            f"(pids {' '.join(map(str, stopped))})"
+        )
+
+
+def _stop_the_rest(runner: Runner, namespace: str | None) -> None:
+    """Once the run's own programs are stopped: whatever they started that still runs, by its mark
+    (a peer's plain child) and by the run's network namespace (a daemon, even one that cleared its
+    environment), so nothing of the run outlives it nor keeps its namespace alive."""
+    stopped = runner.stop_marked()
+    if namespace is not None:
+        stopped += stop_processes(netns.members(namespace))
+    if stopped:
+        console.warn(
+            f"stopped {len(stopped)} processes the run's programs left running (pids "
+            f"{' '.join(map(str, stopped))}): a peer must end what it starts"
+        )
 
 
 @dataclass(frozen=True)
@@ -146,7 +179,13 @@ def run_session(
     started = time.monotonic()
     middleware = "dds" if peer is not None else spec.middleware  # a peer speaks DDS
     holder = _namespace(runner, work) if middleware == "dds" else None
-    qemu = runner.start([qemu_program, *argv[1:]], step="QEMU", output=qemu_log)
+    namespace = netns.namespace_id(holder.proc.pid) if holder is not None else None
+    try:
+        qemu = runner.start([qemu_program, *argv[1:]], step="QEMU", output=qemu_log)
+    except BaseException:
+        if holder is not None:
+            holder.stop()
+        raise
     agents: list[Background] = []
     peer_proc = None
     peer_status = None
@@ -201,6 +240,7 @@ def run_session(
         for proc in (peer_proc, *agents, holder):
             if proc is not None:
                 proc.stop()
+        _stop_the_rest(runner, namespace)
     seconds = time.monotonic() - started
     if machine.board.console_stdout and qemu_log.is_file():  # console.log as on every machine
         console_log.write_text(qemu_log.read_text(encoding="utf-8", errors="replace"), encoding="utf-8")

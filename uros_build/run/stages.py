@@ -12,8 +12,14 @@ from __future__ import annotations
 import re
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, replace
+from pathlib import Path
+
+from uros_build.errors import ConfigError
 
 RESULTS = ("pass", "fail", "skip")
+# The packages the probe firmware includes (templates/probe/*.c: rcl/, rclc/, rcutils/, rmw_microros/,
+# uxr/, std_msgs/); example_interfaces is the service stage's, which says `skip` without it.
+PACKAGES = ("microxrcedds_client", "rcl", "rclc", "rcutils", "rmw_microxrcedds", "std_msgs")
 SERVICE_STATUS = 7  # templates/probe/stages.h PROBE_SERVICE
 CED_SERVICE = (
     "the agent's CED middleware makes no XRCE repliers: the service stage needs its DDS middleware, which "
@@ -127,3 +133,18 @@ def describe(stages: Iterable[Stage]) -> str:
 
 def failure_line(stage: Stage) -> str:
     return f"stage {stage.name} failed: {stage.detail}"
+
+
+def check_packages(library: Iterable[str], out: Path, target: str, workspace: Path | None) -> None:
+    """The library holds what the probe firmware includes (build-info.json's packages), before
+    anything is built: without them it failed in the compiler (`rcl/rcl.h: No such file`)."""
+    have = set(library)
+    missing = [p for p in PACKAGES if p not in have]
+    if not missing:
+        return
+    ws = f" -w {workspace}" if workspace is not None else ""
+    raise ConfigError(
+        f"uros probe: the library {out} lacks {', '.join(missing)}, which the probe firmware uses",
+        f"build a micro-ROS library with them: `uros build{ws} --toolchain {target} --packages std_msgs` "
+        "(std_msgs and the core: rcl, rclc, the XRCE-DDS client and its rmw)",
+    )
