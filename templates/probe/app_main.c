@@ -12,6 +12,7 @@
 #include <sys/types.h>
 #include <uxr/client/transport.h>
 
+#include "link.h"
 #include "probe.h"
 
 bool probe_open(struct uxrCustomTransport *transport);
@@ -81,7 +82,7 @@ __attribute__((weak)) unsigned sleep(unsigned seconds) {
 
 int main(void) {
   printf("uros-probe: app runner boot\n");
-  rmw_uros_set_custom_transport(true, NULL, probe_open, probe_close, probe_write, probe_read);
+  if (probe_transport_setup() != 0) return APP_NO_AGENT;
   rcutils_allocator_t board_heap = rcutils_get_zero_initialized_allocator();
   board_heap.allocate = microros_allocate;
   board_heap.deallocate = microros_deallocate;
@@ -92,7 +93,7 @@ int main(void) {
     return APP_RETURNED;
   }
   uint32_t start = probe_millis();
-  while (rmw_uros_ping_agent(100, 1) != RMW_RET_OK) {
+  while (probe_ping(100, 1) != RMW_RET_OK) {
     if (probe_millis() - start > UROS_APP_AGENT_WAIT_MS) {
       printf("uros-probe: FAIL no agent answered within %d ms\n", UROS_APP_AGENT_WAIT_MS);
       return APP_NO_AGENT;

@@ -19,6 +19,7 @@
 #include <stdio.h>
 #include <uxr/client/transport.h>
 
+#include "link.h"
 #include "probe.h"
 #include "stages.h"
 
@@ -61,7 +62,7 @@ void probe_spin_for(rclc_executor_t *executor, uint32_t ms) {
 
 int probe_session_open(probe_session_t *session) {
   session->allocator = rcl_get_default_allocator();
-  EXPECT(rclc_support_init(&session->support, 0, NULL, &session->allocator), PROBE_NO_SESSION, "no session");
+  EXPECT(probe_support_init(&session->support, &session->allocator), PROBE_NO_SESSION, "no session");
   session->node = rcl_get_zero_initialized_node();
   EXPECT(rclc_node_init_default(&session->node, "uros_probe", "", &session->support), PROBE_NO_ENTITY, "node");
   return 0;
@@ -115,7 +116,7 @@ int probe_loop_samples(probe_loop_t *loop, int want, uint32_t ms, int *sent, uin
 
 static int wait_for_agent(void) {
   uint32_t start = probe_millis();
-  while (rmw_uros_ping_agent(100, 1) != RMW_RET_OK) {
+  while (probe_ping(100, 1) != RMW_RET_OK) {
     if (probe_millis() - start > PROBE_AGENT_WAIT_MS) {
       printf("uros-probe: FAIL no agent answered within %d ms\n", PROBE_AGENT_WAIT_MS);
       probe_stage("session", "fail", "no agent answered within %d ms", PROBE_AGENT_WAIT_MS);
@@ -132,7 +133,7 @@ int main(void) {
   /* unbuffered: each line reaches the console when it is printed (uros times them as they appear) */
   setvbuf(stdout, NULL, _IONBF, 0);
   printf("uros-probe: boot\n");
-  rmw_uros_set_custom_transport(true, NULL, probe_open, probe_close, probe_write, probe_read);
+  if (probe_transport_setup() != 0) return PROBE_NO_AGENT;
   int status = wait_for_agent();
   if (status != 0) return status;
 

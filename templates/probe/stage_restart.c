@@ -10,6 +10,7 @@
 #include <rmw_microros/rmw_microros.h>
 #include <stdio.h>
 
+#include "link.h"
 #include "probe.h"
 #include "stages.h"
 
@@ -20,7 +21,7 @@
 int stage_restart(probe_session_t *session, probe_loop_t *loop) {
   printf("uros-probe: restart the agent\n");
   uint32_t asked = probe_millis();
-  while (rmw_uros_ping_agent(50, 1) == RMW_RET_OK) {
+  while (probe_ping(50, 1) == RMW_RET_OK) {
     if (probe_millis() - asked > PROBE_RESTART_GONE_MS) {
       probe_stage("restart", "fail", "the agent still answered %u ms after the firmware asked for a restart",
                   PROBE_RESTART_GONE_MS);
@@ -42,7 +43,7 @@ int stage_restart(probe_session_t *session, probe_loop_t *loop) {
   probe_ignore(rcl_node_fini(&session->node));
   (void)rclc_support_fini(&session->support);
   rcl_reset_error();
-  while (rmw_uros_ping_agent(100, 1) != RMW_RET_OK) {
+  while (probe_ping(100, 1) != RMW_RET_OK) {
     if (probe_millis() - lost > PROBE_RESTART_BACK_MS) {
       probe_stage("restart", "fail", "the agent did not answer again within %u ms", PROBE_RESTART_BACK_MS);
       return PROBE_RESTART;

@@ -4,6 +4,7 @@
 #include <stdbool.h>
 #include <uxr/client/transport.h>
 
+#include "link.h"
 #include "probe.h"
 
 bool probe_open(struct uxrCustomTransport *transport) {
@@ -43,4 +44,15 @@ size_t probe_read(struct uxrCustomTransport *transport, uint8_t *data, size_t le
     }
   }
   return got;
+}
+
+int probe_transport_setup(void) {
+  rmw_uros_set_custom_transport(true, NULL, probe_open, probe_close, probe_write, probe_read);
+  return 0;
+}
+
+rmw_ret_t probe_ping(int timeout_ms, uint8_t attempts) { return rmw_uros_ping_agent(timeout_ms, attempts); }
+
+rcl_ret_t probe_support_init(rclc_support_t *support, rcl_allocator_t *allocator) {
+  return rclc_support_init(support, 0, NULL, allocator);
 }

@@ -21,7 +21,7 @@ from pathlib import Path
 
 from uros_build import console
 from uros_build.config.plan import finish_killed_swaps, folder_key, resolve_output
-from uros_build.config.settings import AGENT, FREERTOS, ROS2_VENV, resolve_outside
+from uros_build.config.settings import AGENT, FREERTOS, LWIP, ROS2_VENV, resolve_outside
 from uros_build.errors import ConfigError, MissingToolError, VerifyError
 from uros_build.files import locked
 from uros_build.output.buildinfo import BuildInfo, read_build_info
@@ -30,6 +30,7 @@ from uros_build.run import app as app_mod
 from uros_build.run import freertos as freertos_mod
 from uros_build.run import machines as probe_mod
 from uros_build.run import netns, peerenv
+from uros_build.run import network as network_mod
 from uros_build.run import stages as stages_mod
 from uros_build.run.firmware import build_firmware
 from uros_build.run.machines import qemu_hint
@@ -38,6 +39,7 @@ from uros_build.run.report import probe_base, probe_work, write_report
 from uros_build.run.session import (
     PeerRun,
     SessionSpec,
+    free_udp_port,
     middleware_for,
     run_owner,
     run_session,
@@ -76,6 +78,7 @@ class ProbeReport:
     # root the service stage's status 7 can pass), and with --peer the peer's: what `uros size` counts
     passed: bool = False
     peer_log: str | None = None
+    pcap: str | None = None  # over UDP: the board's frames (QEMU's filter-dump); None: the serial link
 
 
 def _agent(given: str | None, runner: Runner) -> str:
@@ -265,7 +268,10 @@ def _probe(
     work = probe_work(base, info.target, out)
     if machine.chosen:  # another board of the target keeps its own work folder (firmware, console, logs)
         work = work.with_name(f"{work.name}-{machine.board.name}")
+    network = network_mod.choose(info.ip_stack, machine, rtos is not None, resolve_outside(LWIP, None).value)
     on = f" on FreeRTOS ({rtos.why})" if rtos else ""
+    if network is not None:
+        on += " over UDP (lwIP on the LAN9118)"
     title = f"uros probe: {out} ({info.target}) in QEMU {machine.machine}{on}"
     runner = _open_run(work, base, info.target, machine, title, verbose)
     if rtos is not None:
@@ -273,22 +279,33 @@ def _probe(
         mismatch = freertos_mod.config_differs(rtos)
         if mismatch:
             console.warn(mismatch)
+    if network is not None:
+        console.info(f"lwIP {network.lwip}, the probe's lwipopts.h ({network_mod.probe_config()})")
+        mismatch = network_mod.config_differs(network)
+        if mismatch:
+            console.warn(mismatch)
     qemu_program = runner.which(machine.board.qemu, qemu_hint(machine.board.qemu))
     agent_program = _agent(agent, runner)
     peer_run = _peer_run(runner, peer, out, info, work) if peer is not None else None
-    elf = build_firmware(
-        runner, probe_mod.firmware_sources(), work, out, "uros_probe", verbose, machine,
-        defines=freertos_mod.cmake_defines(rtos), folders=freertos_mod.firmware_folders(rtos),
-    )  # fmt: skip
     # the agent's DDS middleware: its CED one creates no XRCE requesters or repliers (the service
     # stage's rclc_service_init_default returned 1 with -m ced), so it runs in a namespace of its own;
     # that needs root: without, the CED middleware and no service stage (said so), not a refusal
     middleware = middleware_for(peer_run is not None, os.geteuid())
+    # over UDP the agent's port is the firmware's to know: fixed in the run's own namespace, else free
+    port = network_mod.NAMESPACE_PORT if middleware == "dds" else free_udp_port()
+    elf = build_firmware(
+        runner, probe_mod.firmware_sources(), work, out, "uros_probe", verbose, machine,
+        defines=[*freertos_mod.cmake_defines(rtos), *network_mod.cmake_defines(network, port)],
+        folders=[*freertos_mod.firmware_folders(rtos), *network_mod.firmware_folders(network)],
+    )  # fmt: skip
     if middleware == "ced":
         console.info(
             "not root: the agent runs its CED middleware (no network namespace); " + stages_mod.CED_SERVICE
         )
-    spec = SessionSpec(middleware=middleware, restart_agent=True)
+    pcap = work / network_mod.PCAP if network is not None else None
+    spec = SessionSpec(
+        middleware=middleware, restart_agent=True, udp_port=port if network is not None else None, pcap=pcap
+    )
     ran = run_session(
         runner, qemu_program, machine, elf, agent_program, work, timeout, peer=peer_run, spec=spec
     )
@@ -320,6 +337,7 @@ def _probe(
         peer_status=ran.peer_status,
         peer_log=str(ran.peer_log) if ran.peer_log else None,
         passed=ok,
+        pcap=str(pcap) if pcap is not None else None,
     )
     # kept for `uros size`, which counts a passed run's heap and stack against a chip's RAM
     write_report(work, asdict(report), info.library.sha256)
@@ -341,6 +359,8 @@ def _probe(
         console.info(f"stage {skipped.name} skipped: {skipped.detail}")
     if rtos is not None:
         console.info(freertos_mod.describe_run(text))
+    if pcap is not None:
+        console.info(network_mod.describe_run(text, pcap))
     if limits:
         console.info(probe_mod.describe_limits(limits))
     return report
@@ -383,6 +403,9 @@ def _probe_app(
     title = f"uros probe --app {plan.app.folder}: {out} ({info.target}) in QEMU {machine.machine}{on}"
     if rtos is not None:  # the FreeRTOS firmware keeps its own work folder
         work = work.with_name(f"{work.name}-freertos")
+    network = network_mod.choose(info.ip_stack, machine, rtos is not None, resolve_outside(LWIP, None).value)
+    if network is not None:
+        title += " over UDP (lwIP on the LAN9118)"
     runner = _open_run(work, base, info.target, machine, title, verbose)
     qemu_program = runner.which(machine.board.qemu, qemu_hint(machine.board.qemu))
     agent_program = _agent(agent, runner)
@@ -390,7 +413,7 @@ def _probe_app(
     compiler = info.compiler.path if info.compiler is not None else None
     ran = app_mod.run_app(
         runner, plan, out, compiler, qemu_program, machine, agent_program, work, timeout, verbose, peer_run,
-        rtos,
+        rtos, network,
     )  # fmt: skip
     report = app_mod.app_report(info.target, machine.machine, plan, ran, runner, "freertos" if rtos else None)
     if peer_run is not None:  # the app's verdict and the peer's together

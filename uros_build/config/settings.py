@@ -304,6 +304,12 @@ FREERTOS: Setting[str | None] = Setting(
     "$UROS_FREERTOS names the kernel only when a FreeRTOS library's own is gone",
     commands=("probe",),
 )  # fmt: skip
+LWIP: Setting[str | None] = Setting(
+    "lwip", None, None, "UROS_LWIP", None, "none",
+    "an lwIP tree: `uros probe` of a library built with --ip-stack lwip compiles it when the library's "
+    "own lwIP folder is gone",
+    commands=("probe",),
+)  # fmt: skip
 
 # The table, in the order `uros build -v` prints it and docs/settings.md lists it.
 SETTINGS: tuple[Setting[Any], ...] = (
@@ -312,7 +318,7 @@ SETTINGS: tuple[Setting[Any], ...] = (
     IP_STACK, IP_STACK_DIR, IP_STACK_CONFIG, CACHE, CACHE_TIMEOUT, CACHE_UPLOAD,
     CCACHE, FORCE, REBUILD, VERBOSE, HOST_STAGE, COMPILER_SEED, GEN_CACHE, GEN_CACHE_DIR, AGENT,
     ROS2_VENV,
-    FREERTOS,
+    FREERTOS, LWIP,
 )  # fmt: skip
 
 

@@ -31,8 +31,9 @@ from uros_build.output.sizes import Sizes, parse_berkeley
 from uros_build.proc import Runner
 from uros_build.run import freertos as freertos_mod
 from uros_build.run import machines
+from uros_build.run import network as network_mod
 from uros_build.run.firmware import build_firmware
-from uros_build.run.session import PeerRun, Session, SessionSpec, middleware_for, run_session
+from uros_build.run.session import PeerRun, Session, SessionSpec, free_udp_port, middleware_for, run_session
 from uros_build.target.toolsearch import bintools_beside
 
 # app_main.c's and the board's own exit statuses (70, 71: run/machines.VERDICTS); an app's own should
@@ -232,23 +233,29 @@ def run_app(
     verbose: bool,
     peer: PeerRun | None = None,
     rtos: freertos_mod.FreeRtos | None = None,
+    network: network_mod.Network | None = None,
 ) -> AppRun:
-    """Build the app firmware against ``out``, measure it, run it against the agent."""
+    """Build the app firmware against ``out``, measure it, run it against the agent (``network``:
+    over UDP through lwIP, docs/network.md)."""
     app, defines, duration_ms = plan.app, plan.defines, plan.duration_ms
     staged = work / "app-src"
     shutil.rmtree(staged, ignore_errors=True)
     shutil.copytree(resources.templates_dir() / "probe", staged)
     (staged / "CMakeLists.txt").write_text(app_cmake(app, defines, duration_ms), encoding="utf-8")
+    middleware = middleware_for(peer is not None, os.geteuid())
+    port = network_mod.NAMESPACE_PORT if middleware == "dds" else free_udp_port()
     elf = build_firmware(
         runner, staged, work, out, "uros_app", verbose, machine,
-        defines=freertos_mod.cmake_defines(rtos), folders=freertos_mod.firmware_folders(rtos),
+        defines=[*freertos_mod.cmake_defines(rtos), *network_mod.cmake_defines(network, port)],
+        folders=[*freertos_mod.firmware_folders(rtos), *network_mod.firmware_folders(network)],
     )  # fmt: skip
     size = runner.query([bintools_beside(compiler_path).size, str(elf)], step="size of the app firmware")
     sizes = elf_sizes(size)
     wait = session_timeout(timeout, duration_ms)
     # without root (no namespace to run DDS in) the agent's CED middleware, as for the built-in probe:
     # an app's topics need no DDS, its services do (said so)
-    spec = SessionSpec(middleware=middleware_for(peer is not None, os.geteuid()))
+    pcap = work / network_mod.PCAP if network is not None else None
+    spec = SessionSpec(middleware=middleware, udp_port=port if network is not None else None, pcap=pcap)
     if spec.middleware == "ced":
         console.info(
             "not root: the agent runs its CED middleware (no network namespace): services cannot be created"

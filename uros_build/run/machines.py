@@ -36,6 +36,17 @@ class Region:
     length: int
 
 
+NICS = ("lan9118",)  # the NIC models the probe drives over UDP (templates/probe/net/<model>.c)
+
+
+@dataclass(frozen=True)
+class Nic:
+    """The board's Ethernet controller the probe drives over UDP (meta/probe/machines.yaml: nic)."""
+
+    model: str  # QEMU's -net nic,model=
+    base: int  # its registers' address
+
+
 @dataclass(frozen=True)
 class Board:
     """One QEMU machine as the probe firmware sees it (meta/probe/machines.yaml: boards)."""
@@ -55,6 +66,7 @@ class Board:
     rom: Region
     ram: Region
     stack: int
+    nic: Nic | None = None  # None: no NIC the probe drives (the serial link only)
 
 
 @dataclass(frozen=True)
@@ -90,7 +102,7 @@ def _region(data: Mapping[str, Any], key: str, where: str) -> Region:
 
 _BOARD_KEYS = {
     "qemu", "machine", "cpu", "qemu_args", "arch", "uart", "console", "link", "reg_shift", "clock_hz",
-    "rom", "ram", "stack", "sources",
+    "rom", "ram", "stack", "sources", "nic",
 }  # fmt: skip
 
 
@@ -120,7 +132,12 @@ def parse_board(name: str, entry: Any, where: str) -> Board:
     clock = loader.integer(item, "clock_hz", where)
     if clock < 1000:
         raise ConfigError(f"{where}: clock_hz: {clock} is less than 1 kHz (the firmware counts milliseconds)")
+    nic = None
+    if item.get("nic") is not None:
+        entry = loader.mapping(item.get("nic"), f"{where}: nic", {"model", "base"}, ("model", "base"))
+        nic = Nic(loader.one_of(entry, "model", f"{where}: nic", NICS), _size(entry, "base", f"{where}: nic"))
     return Board(
+        nic=nic,
         name=name,
         qemu=loader.one_of(item, "qemu", where, QEMU_PROGRAMS),
         machine=machine,
@@ -247,6 +264,8 @@ def machine_header(machine: Machine) -> str:
         lines.append("#define PROBE_CONSOLE_SEMIHOSTING 1")
     else:
         lines.append(f"#define PROBE_CONSOLE_BASE {board.console:#010x}u")
+    if board.nic is not None:
+        lines.append(f"#define PROBE_NIC_BASE {board.nic.base:#010x}u")
     lines += [f"#define PROBE_{step.upper().replace('-', '_')} 1" for step in machine.startup]
     return "\n".join([*lines, "#endif", ""])
 
@@ -264,11 +283,19 @@ def memory_script(board: Board) -> str:
     )
 
 
-def qemu_argv(machine: Machine, elf: Path, console_log: Path) -> list[str]:
+def qemu_argv(machine: Machine, elf: Path, console_log: Path, pcap: Path | None = None) -> list[str]:
     """The link UART on a new pseudo-terminal (the agent's end), the console to a file (a second UART,
     or semihosting's console on one-UART machines), and semihosting so that the firmware's exit
-    status is QEMU's."""
+    status is QEMU's. ``pcap``: the probe over UDP, the board's NIC on QEMU's user network (no root;
+    the guest reaches the host's loopback at 10.0.2.2) with its frames recorded in that file."""
     board = machine.board
+    if pcap is not None and board.nic is not None:
+        net = [
+            "-netdev", "user,id=n0",
+            "-net", f"nic,model={board.nic.model},netdev=n0",
+            "-object", f"filter-dump,id=f0,netdev=n0,file={pcap}",
+        ]  # fmt: skip
+        return [*qemu_argv(machine, elf, console_log)[:-2], *net, "-kernel", str(elf)]
     argv = [board.qemu, "-M", board.machine, *(["-cpu", board.cpu] if board.cpu else []), *board.qemu_args]
     argv += ["-nographic", "-monitor", "none"]
     if board.console_stdout:
@@ -313,6 +340,11 @@ def agent_argv(agent: str, pty: str, middleware: str = "dds") -> list[str]:
     """The Micro XRCE-DDS Agent on the firmware's serial link; -v6 logs every message in hex. `-m`
     names the middleware, dds (Fast DDS, the agent's default) or ced (no network)."""
     return [agent, "serial", "--dev", pty, "-b", "115200", "-m", middleware, "-v6"]
+
+
+def agent_udp_argv(agent: str, port: int, middleware: str = "dds") -> list[str]:
+    """The Micro XRCE-DDS Agent on UDP over IPv4 (`udp4 -p PORT`), for the probe over UDP."""
+    return [agent, "udp4", "-p", str(port), "-m", middleware, "-v6"]
 
 
 _PTY = re.compile(r"char device redirected to (/dev/pts/\d+) \(label link\)")

@@ -12,6 +12,7 @@ firmware says it lost it, starts it again on the same terminal."""
 
 from __future__ import annotations
 
+import socket
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -38,6 +39,17 @@ class SessionSpec:
 
     middleware: str = "dds"  # the agent's -m: dds (Fast DDS, in a namespace of its own) or ced
     restart_agent: bool = False  # stop and start the agent when the firmware asks (RESTART_ASKED)
+    # the probe over UDP (run/network.py): the agent on `udp4 -p udp_port`, QEMU's user network for
+    # the board's NIC (in the run's namespace when there is one) and its frames recorded in pcap
+    udp_port: int | None = None
+    pcap: Path | None = None
+
+
+def free_udp_port() -> int:
+    """A UDP port on the host's loopback that nothing uses now (the agent's, without a namespace)."""
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
+        sock.bind(("127.0.0.1", 0))
+        return int(sock.getsockname()[1])
 
 
 def middleware_for(peer: bool, euid: int) -> str:
@@ -175,13 +187,17 @@ def run_session(
 ) -> Session:
     console_log, qemu_log, agent_log = work / "console.log", work / "qemu.log", work / "agent.log"
     console_log.unlink(missing_ok=True)
-    argv = machines.qemu_argv(machine, elf, console_log)
+    udp = spec.udp_port is not None
+    argv = machines.qemu_argv(machine, elf, console_log, spec.pcap if udp else None)
     started = time.monotonic()
     middleware = "dds" if peer is not None else spec.middleware  # a peer speaks DDS
     holder = _namespace(runner, work) if middleware == "dds" else None
     namespace = netns.namespace_id(holder.proc.pid) if holder is not None else None
+    qemu_argv = [qemu_program, *argv[1:]]
+    if udp and holder is not None:  # the user network's 10.0.2.2 is the loopback of QEMU's namespace
+        qemu_argv = netns.enter_argv(holder.proc.pid, qemu_argv)
     try:
-        qemu = runner.start([qemu_program, *argv[1:]], step="QEMU", output=qemu_log)
+        qemu = runner.start(qemu_argv, step="QEMU", output=qemu_log)
     except BaseException:
         if holder is not None:
             holder.stop()
@@ -192,13 +208,16 @@ def run_session(
     lines: list[ConsoleLine] = []
     restarts: list[tuple[float, float]] = []
     try:
-        pty = _wait_for_pty(qemu_log, qemu, 10.0)
-        if pty is None:
-            raise StepFailed(
-                f"QEMU {machine.machine} did not open the firmware's link (no pseudo-terminal)",
-                f"its output is in {qemu_log}",
-            )
-        agent_argv = machines.agent_argv(agent_program, pty, middleware)
+        if spec.udp_port is not None:
+            agent_argv = machines.agent_udp_argv(agent_program, spec.udp_port, middleware)
+        else:
+            pty = _wait_for_pty(qemu_log, qemu, 10.0)
+            if pty is None:
+                raise StepFailed(
+                    f"QEMU {machine.machine} did not open the firmware's link (no pseudo-terminal)",
+                    f"its output is in {qemu_log}",
+                )
+            agent_argv = machines.agent_argv(agent_program, pty, middleware)
         if holder is not None:  # Fast DDS in the namespace: the peer's participants find the agent's
             agent_argv = netns.enter_argv(holder.proc.pid, agent_argv)
         agents.append(runner.start(agent_argv, step="the agent", output=agent_log))

@@ -20,6 +20,7 @@
 #include "FreeRTOS.h"
 #include "semphr.h"
 #include "task.h"
+#include "link.h"
 #include "probe.h"
 
 #ifndef PROBE_TWO_TASKS_SAMPLES
@@ -156,7 +157,7 @@ static void on_b(const void *message) { check_sample(&lanes[1], (const std_msgs_
 
 int probe_two_tasks(void) {
   uint32_t start = probe_millis();
-  while (rmw_uros_ping_agent(100, 1) != RMW_RET_OK) {
+  while (probe_ping(100, 1) != RMW_RET_OK) {
     if (probe_millis() - start > 5000u) STAGE_FAIL("no agent answered");
   }
   rcl_allocator_t allocator = rcl_get_default_allocator();
@@ -167,7 +168,7 @@ int probe_two_tasks(void) {
   const rosidl_message_type_support_t *type = ROSIDL_GET_MSG_TYPE_SUPPORT(std_msgs, msg, String);
   static const char *const topics[2] = {"uros_probe_a", "uros_probe_b"};
   rclc_subscription_callback_t callbacks[2] = {on_a, on_b};
-  if (rclc_support_init(&support, 0, NULL, &allocator) != RCL_RET_OK) STAGE_FAIL("no session");
+  if (probe_support_init(&support, &allocator) != RCL_RET_OK) STAGE_FAIL("no session");
   if (rclc_node_init_default(&node, "uros_probe_tasks", "", &support) != RCL_RET_OK) STAGE_FAIL("node");
   if (rclc_executor_init(&executor, &support.context, 2, &allocator) != RCL_RET_OK) STAGE_FAIL("executor");
   for (int i = 0; i < 2; i++) {

@@ -1,0 +1,143 @@
+"""The probe over UDP (docs/network.md): a library whose UDP transport was compiled against an IP
+stack (build-info.json's ``ip_stack``, written by ``uros build --ip-stack lwip``) runs the probe's
+stages through that stack on an emulated NIC: lwIP on FreeRTOS over the board's LAN9118
+(templates/probe/net/), QEMU's user network (no root: the guest reaches the host's loopback at
+10.0.2.2), the agent on ``udp4 -p PORT``, the board's frames in a pcap beside console.log.
+
+Which lwIP tree, the firmware's configure definitions and folders, and what the console says of the
+network. Pure: nothing here starts a process.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+from uros_build import resources
+from uros_build.errors import ConfigError
+from uros_build.output.buildinfo import IpStackInfo
+from uros_build.run.machines import Machine
+from uros_build.target.rtos import headers_digest
+
+AGENT_IP = "10.0.2.2"  # QEMU's user network: the host's loopback as the guest sees it
+BOARD_IP = "10.0.2.15"  # templates/probe/net/udp.c: a static address in QEMU's 10.0.2.0/24
+NAMESPACE_PORT = 8888  # the agent's port inside the run's own network namespace (nothing else there)
+PCAP = "board.pcap"
+
+_LWIP_HINT = (
+    "give an lwIP tree (git clone --branch STABLE-2_2_1_RELEASE https://github.com/lwip-tcpip/lwip) "
+    "with $UROS_LWIP"
+)
+
+
+@dataclass(frozen=True)
+class Network:
+    lwip: Path  # the lwIP tree the firmware compiles (src/, contrib/ports/freertos/)
+    library_config: Path | None  # the folder of the lwipopts.h the library was compiled with
+
+
+def check_lwip(folder: Path, where: str) -> Path:
+    missing = [
+        name
+        for name in ("src/core/init.c", "contrib/ports/freertos/sys_arch.c")
+        if not (folder / name).is_file()
+    ]
+    if missing:
+        raise ConfigError(f"{where} {folder}: not an lwIP tree (no {missing[0]})", _LWIP_HINT)
+    return folder
+
+
+def choose(stack: IpStackInfo | None, machine: Machine, rtos: bool, env: str | None) -> Network | None:
+    """The network the probe runs over, or None (the serial link): ``stack`` is build-info.json's
+    ``ip_stack`` (None: the library has none). ``rtos``: the probe runs on
+    FreeRTOS (a library with an IP stack was built for it); ``env``: $UROS_LWIP, used only where the
+    library's own lwIP folder is gone."""
+    if stack is None:
+        return None
+    if stack.name != "lwip":
+        raise ConfigError(f"uros probe: the library's IP stack is {stack.name!r}; the probe runs lwIP only")
+    if machine.board.nic is None:
+        raise ConfigError(
+            f"uros probe: the library talks UDP and QEMU {machine.machine} has no NIC the probe drives",
+            "probe it on a board with a LAN9118 (meta/probe/machines.yaml: nic): --board mps2-an500 "
+            "or mps2-an385",
+        )
+    if not rtos:
+        raise ConfigError(
+            "uros probe: the library talks UDP through lwIP, whose sockets need FreeRTOS",
+            "build it with --rtos freertos (docs/network.md), or probe with --freertos KERNEL",
+        )
+    recorded = Path(stack.dir)
+    if (recorded / "src" / "core" / "init.c").is_file():
+        lwip = check_lwip(recorded, "build-info.json's ip_stack.dir")
+    elif env:
+        lwip = check_lwip(Path(env).expanduser(), "$UROS_LWIP")
+    else:
+        raise ConfigError(f"uros probe: the library's lwIP tree {recorded} is gone", _LWIP_HINT)
+    return Network(lwip, Path(stack.config))
+
+
+def cmake_defines(network: Network | None, port: int) -> list[str]:
+    """The probe firmware's configure definitions for UDP: lwIP's tree, the agent's port."""
+    if network is None:
+        return []
+    return [
+        f"-DUROS_LWIP_DIR={network.lwip}",
+        f"-DUROS_PROBE_NET_DEFINES=UROS_PROBE_AGENT_PORT_NUMBER={port}",
+    ]
+
+
+def firmware_folders(network: Network | None) -> list[str]:
+    """The probe sources' sub-folders the UDP firmware needs: the netif and transport, lwipopts.h."""
+    return ["net", "lwip"] if network is not None else []
+
+
+def probe_config() -> Path:
+    """The probe's own lwipopts.h and arch/cc.h (a library for the probe over UDP is built with
+    --ip-stack-config this folder)."""
+    return resources.templates_dir() / "probe" / "lwip"
+
+
+def _config_digest(folder: Path) -> str:
+    return headers_digest([("config", folder, ()), ("arch", folder / "arch", ())])
+
+
+def config_differs(network: Network) -> str | None:
+    """A warning when the library was compiled with another lwipopts.h or arch/cc.h than the probe's
+    lwIP runs with: the socket calls' structures (sockaddr, timeval) must agree."""
+    if network.library_config is None:
+        return None
+    theirs = network.library_config
+    if not (theirs / "lwipopts.h").is_file():
+        return f"the library's lwipopts.h ({theirs}) is gone: the probe's own is used"
+    if _config_digest(theirs) == _config_digest(probe_config()):
+        return None
+    return (
+        f"the library was compiled with the lwIP config in {theirs}, the probe's lwIP runs with its own "
+        f"({probe_config()}): they must agree on the socket API's options (IPv4/IPv6, SO_RCVTIMEO, timeval)"
+    )
+
+
+_UP = re.compile(
+    r"uros-probe: network up in (\d+) ms: lwIP on the LAN9118 \(([0-9a-f:]+)\), (\S+), agent at udp (\S+)"
+)
+
+
+def network_up(console: str) -> tuple[int, str, str, str] | None:
+    """(ms to bring the network up, the board's MAC, its address, the agent's address:port)."""
+    found = _UP.search(console)
+    return (int(found[1]), found[2], found[3], found[4]) if found else None
+
+
+def describe_run(console: str, pcap: Path) -> str:
+    """What the UDP run adds to the verdict: the network as the firmware brought it up, the pcap."""
+    up = network_up(console)
+    if up is None:
+        return f"UDP: the firmware did not bring its network up; the board's frames: {pcap}"
+    ms, mac, ip, agent = up
+    size = f" ({pcap.stat().st_size:,} B)" if pcap.is_file() else ""
+    return (
+        f"UDP: lwIP on the LAN9118 ({mac}), {ip} -> agent {agent}, up in {ms} ms; "
+        f"the board's frames: {pcap}{size}"
+    )
