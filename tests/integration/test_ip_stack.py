@@ -136,6 +136,7 @@ def test_uros_yaml_names_the_ip_stack(tmp_path: Path) -> None:
         ("no stack given", "--ip-stack lwip", "--ip-stack-dir DIR"),
         ("a folder without --ip-stack", "--ip-stack-dir", "--ip-stack lwip"),
         ("uros.yaml's folder", "uros.yaml: ip_stack_dir", "src/include/lwip/sockets.h"),
+        ("the UDP profile off", "UCLIENT_PROFILE_UDP=OFF", "leave the option out"),
     ],
 )
 def test_bad_ip_stack_input_is_one_line_naming_the_flag(
@@ -161,6 +162,8 @@ def test_bad_ip_stack_input_is_one_line_naming_the_flag(
         flags = flags[:10] + flags[12:]
     elif case == "a folder without --ip-stack":
         flags = flags[:8] + flags[10:12]
+    elif case == "the UDP profile off":
+        flags += ["--set", "microxrcedds_client.UCLIENT_PROFILE_UDP=OFF"]
     elif case == "uros.yaml's folder":
         (ws / "uros.yaml").write_text(
             "transport: udp\nrtos: freertos\nrtos_dir: ../FreeRTOS-Kernel\nrtos_config: ../app/Core/Inc\n"

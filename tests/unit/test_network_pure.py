@@ -96,3 +96,11 @@ def test_the_console_s_network_line_is_read(tmp_path: Path) -> None:
     assert network.network_up(text) == (3, "52:54:00:12:34:56", "10.0.2.15", "10.0.2.2:8888")
     assert "up in 3 ms" in network.describe_run(text, tmp_path / "board.pcap")
     assert "did not bring its network up" in network.describe_run("uros-probe: boot\n", tmp_path / "x.pcap")
+
+
+def test_an_app_without_an_address_is_told_where_the_library_looks() -> None:
+    note = network.default_address_note({}, 8888)
+    assert note is not None and "127.0.0.1:8888" in note and "RMW_UXRCE_DEFAULT_UDP_IP=10.0.2.2" in note
+    ours = {"rmw_microxrcedds": {"RMW_UXRCE_DEFAULT_UDP_IP": "10.0.2.2"}}
+    assert network.default_address_note(ours, 8888) is None
+    assert network.default_address_note(ours, 40000) is not None

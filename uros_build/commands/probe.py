@@ -413,7 +413,7 @@ def _probe_app(
     compiler = info.compiler.path if info.compiler is not None else None
     ran = app_mod.run_app(
         runner, plan, out, compiler, qemu_program, machine, agent_program, work, timeout, verbose, peer_run,
-        rtos, network,
+        rtos, network, info.cmake_options,
     )  # fmt: skip
     report = app_mod.app_report(info.target, machine.machine, plan, ran, runner, "freertos" if rtos else None)
     if peer_run is not None:  # the app's verdict and the peer's together

@@ -467,6 +467,20 @@ def ip_stack_headers(
     )
 
 
+def check_udp_profile(meta: meta_mod.Meta, stack: IpStackHeaders | None) -> None:
+    """--ip-stack with the client's UDP profile off: the transport the stack carries would not be
+    compiled (rmw_microxrcedds' udp transport then has no uxr_init_udp_transport): said before
+    anything runs."""
+    value = meta_option(meta, "microxrcedds_client", "UCLIENT_PROFILE_UDP")
+    if stack is None or value is None or value.upper() in _CMAKE_TRUE:
+        return
+    raise ConfigError(
+        f"microxrcedds_client.UCLIENT_PROFILE_UDP={value} with --ip-stack {stack.name}: "
+        "the XRCE-DDS client would compile no UDP transport for the stack to carry",
+        "leave the option out (transport udp turns it on), or build without --ip-stack",
+    )
+
+
 def udp_without_stack(
     target: Target, idf: IdfProject | None, stack: IpStackHeaders | None, transport: str | None
 ) -> list[str]:
@@ -604,6 +618,7 @@ def plan_build(args: BuildArgs, env: Mapping[str, str] | None = None) -> BuildPl
     meta = meta_for(get(rows.PRESET), target, transport, user_metas, list(sets), distro_preset)
     check_multithread(meta, target, idf, rtos)
     ip_stack = ip_stack_headers(settings, target, idf, rtos, meta_transport(meta))
+    check_udp_profile(meta, ip_stack)
     if jobs is not None and jobs < 1:
         raise ConfigError(f"-j/--jobs {jobs}: must be 1 or more", "omit it to let colcon choose")
     packages = packages_mod.discover(ws.source_dir)

@@ -234,6 +234,7 @@ def run_app(
     peer: PeerRun | None = None,
     rtos: freertos_mod.FreeRtos | None = None,
     network: network_mod.Network | None = None,
+    cmake_options: Mapping[str, Mapping[str, str]] | None = None,
 ) -> AppRun:
     """Build the app firmware against ``out``, measure it, run it against the agent (``network``:
     over UDP through lwIP, docs/network.md)."""
@@ -255,6 +256,9 @@ def run_app(
     # without root (no namespace to run DDS in) the agent's CED middleware, as for the built-in probe:
     # an app's topics need no DDS, its services do (said so)
     pcap = work / network_mod.PCAP if network is not None else None
+    note = network_mod.default_address_note(cmake_options or {}, port) if network is not None else None
+    if note:
+        console.info(note)
     spec = SessionSpec(middleware=middleware, udp_port=port if network is not None else None, pcap=pcap)
     if spec.middleware == "ced":
         console.info(

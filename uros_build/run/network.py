@@ -11,6 +11,7 @@ network. Pure: nothing here starts a process.
 from __future__ import annotations
 
 import re
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -91,6 +92,24 @@ def cmake_defines(network: Network | None, port: int) -> list[str]:
 def firmware_folders(network: Network | None) -> list[str]:
     """The probe sources' sub-folders the UDP firmware needs: the netif and transport, lwipopts.h."""
     return ["net", "lwip"] if network is not None else []
+
+
+def default_address_note(cmake_options: Mapping[str, Mapping[str, str]], port: int) -> str | None:
+    """What an app finds when it calls rclc_support_init without rmw_uros_options_set_udp_address:
+    the library's RMW_UXRCE_DEFAULT_UDP_IP/_PORT (meta/options.yaml); a note when that is not where
+    the probe runs the agent (10.0.2.2:PORT), None when it is."""
+    options = cmake_options.get("rmw_microxrcedds", {})
+    ip = options.get("RMW_UXRCE_DEFAULT_UDP_IP", "127.0.0.1")
+    default_port = options.get("RMW_UXRCE_DEFAULT_UDP_PORT", "8888")
+    if ip == AGENT_IP and default_port == str(port):
+        return None
+    return (
+        f"the agent is at udp {AGENT_IP}:{port}; the library's default address is {ip}:{default_port} "
+        "(RMW_UXRCE_DEFAULT_UDP_IP/_PORT): an app that does not call rmw_uros_options_set_udp_address "
+        f"finds no agent there (build with --set rmw_microxrcedds.RMW_UXRCE_DEFAULT_UDP_IP={AGENT_IP}, "
+        "or set the address in the app: seed 000 takes -D CONFIG_UROS_AGENT_IP=... "
+        "-D CONFIG_UROS_AGENT_PORT=...)"
+    )
 
 
 def probe_config() -> Path:

@@ -1,0 +1,121 @@
+"""The probe over UDP (issue 39 item 2): a library whose UDP transport was compiled against lwIP
+(`uros build --transport udp --rtos freertos ... --ip-stack lwip ...`) runs every probe stage through
+lwIP on the LAN9118 of QEMU's mps2-an500, QEMU's user network carrying the board's frames to an agent
+on `udp4 -p PORT` (the board's frames kept in board.pcap); the seeds' apps run over it too.
+
+Real Humble (UROS_HUMBLE_WS, a built Humble workspace, copied here; or UROS_MIRROR to create one), a
+real FreeRTOS-Kernel (UROS_FREERTOS, V11.x), a real lwIP tree (UROS_LWIP, STABLE-2_2_1_RELEASE) and a
+real Micro XRCE-DDS Agent (UROS_AGENT); without them every test skips. One library is built (the probe's
+FreeRTOSConfig.h and lwipopts.h, 2 publishers and 2 subscriptions, the multithread profile, the agent's
+address as the default one, which seed 001's app uses)."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import struct
+import subprocess
+from pathlib import Path
+
+import pytest
+from uros_helpers import humble_mirror_args, run_uros
+
+from uros_build.run import freertos, network
+
+pytestmark = pytest.mark.integration
+
+MIRROR = os.environ.get("UROS_MIRROR")
+AGENT = os.environ.get("UROS_AGENT")
+KERNEL = os.environ.get("UROS_FREERTOS")
+LWIP = os.environ.get("UROS_LWIP")
+HUMBLE_WS = os.environ.get("UROS_HUMBLE_WS")
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
+_RUNS = pytest.mark.skipif(
+    not ((MIRROR or HUMBLE_WS) and AGENT and KERNEL and LWIP and shutil.which("qemu-system-arm")),
+    reason="set UROS_FREERTOS (a FreeRTOS-Kernel V11 checkout), UROS_LWIP (an lwIP STABLE-2_2_1 tree), "
+    "UROS_AGENT (a MicroXRCEAgent) and UROS_HUMBLE_WS (a built Humble workspace) or UROS_MIRROR, and "
+    "install qemu-system-arm",
+)
+# the seeds' agent address is the probe's fixed one in the run's own namespace: root only
+_ROOT = pytest.mark.skipif(os.geteuid() != 0, reason="the agent's port is fixed only in a namespace (root)")
+
+
+@pytest.fixture(scope="module")
+def udp_library(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    fw = tmp_path_factory.mktemp("probe-udp") / "fw"
+    if HUMBLE_WS:
+        subprocess.run(["cp", "-a", HUMBLE_WS, str(fw)], check=True)  # never build in the shared one
+    else:
+        assert MIRROR
+        run_uros("create-firmware", "--distro", "humble", "-w", str(fw), *humble_mirror_args(MIRROR))
+    out = fw.parent / "udp"
+    run_uros(
+        "build", "--toolchain", "cortex-m7", "-w", str(fw), "-j", "2", "--output", str(out),
+        "--packages", "std_msgs", "--packages", "example_interfaces",
+        "--transport", "udp",
+        "--rtos", "freertos", "--rtos-dir", str(KERNEL), "--rtos-config", str(freertos.probe_config().parent),
+        "--ip-stack", "lwip", "--ip-stack-dir", str(LWIP), "--ip-stack-config", str(network.probe_config()),
+        "--set", "microxrcedds_client.UCLIENT_PROFILE_MULTITHREAD=ON",
+        "--set", "rmw_microxrcedds.RMW_UXRCE_MAX_PUBLISHERS=2",
+        "--set", "rmw_microxrcedds.RMW_UXRCE_MAX_SUBSCRIPTIONS=2",
+        "--set", f"rmw_microxrcedds.RMW_UXRCE_DEFAULT_UDP_IP={network.AGENT_IP}",
+    )  # fmt: skip
+    return out
+
+
+def _udp_frames(pcap: Path, port: int) -> int:
+    """The IPv4 UDP frames to or from ``port`` in a pcap file (libpcap's format, Ethernet)."""
+    data, offset, found = pcap.read_bytes(), 24, 0
+    while offset + 16 <= len(data):
+        length = struct.unpack("<I", data[offset + 8 : offset + 12])[0]
+        frame = data[offset + 16 : offset + 16 + length]
+        offset += 16 + length
+        if frame[12:14] == b"\x08\x00" and frame[23] == 17:
+            ihl = (frame[14] & 15) * 4
+            ports = struct.unpack(">HH", frame[14 + ihl : 18 + ihl])
+            found += port in ports
+    return found
+
+
+@_RUNS
+def test_every_stage_runs_over_udp(udp_library: Path) -> None:
+    proc = run_uros("probe", str(udp_library), "--json", "--agent", str(AGENT), check=False)
+    report = json.loads(proc.stdout)
+    assert proc.returncode == 0 and report["passed"], proc.stderr
+    stages = report["stages"]
+    for name in ("session", "samples", "limits", "fragmentation", "service", "time", "restart", "two_tasks"):
+        assert stages[name]["result"] == "pass", (name, stages[name])
+    console = Path(report["console_log"]).read_text()
+    assert "lwIP on the LAN9118" in console and "agent at udp 10.0.2.2:" in console
+    agent_log = Path(report["agent_log"]).read_text()
+    assert "UDPv4AgentLinux" in agent_log and "[==>> UDP <<==]" in agent_log
+    pcap = Path(report["pcap"])
+    port = int(console.split("agent at udp 10.0.2.2:")[1].split()[0])
+    assert _udp_frames(pcap, port) > 100  # the session's every message went through the board's NIC
+    assert "UDP: lwIP on the LAN9118" in proc.stderr
+
+
+@_RUNS
+@_ROOT
+def test_seed_000_s_app_sets_the_agent_s_address_at_run_time(udp_library: Path) -> None:
+    """examples/esp32s3-idf/app/app.c unchanged: menuconfig's CONFIG_UROS_AGENT_IP/PORT as -D."""
+    proc = run_uros(
+        "probe", str(udp_library), "--json", "--agent", str(AGENT), "--app", str(EXAMPLES / "esp32s3-idf" / "app"),
+        "-D", "HSB_LOOPBACK", "-D", "HSB_EXIT_AFTER=2", "-D", "HSB_STATE_PERIOD_MS=200",
+        "-D", f'CONFIG_UROS_AGENT_IP="{network.AGENT_IP}"', "-D", f'CONFIG_UROS_AGENT_PORT="{network.NAMESPACE_PORT}"',
+        check=False,
+    )  # fmt: skip
+    report = json.loads(proc.stdout)
+    assert proc.returncode == 0 and report["passed"], proc.stderr
+
+
+@_RUNS
+@_ROOT
+def test_seed_001_s_app_finds_the_agent_at_the_library_s_default_address(udp_library: Path) -> None:
+    proc = run_uros(
+        "probe", str(udp_library), "--json", "--agent", str(AGENT), "--app", str(EXAMPLES / "stm32h7-custom"),
+        check=False,
+    )  # fmt: skip
+    report = json.loads(proc.stdout)
+    assert proc.returncode == 0 and report["passed"], proc.stderr
