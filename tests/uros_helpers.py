@@ -301,3 +301,14 @@ def line_result(log: Path) -> tuple[int, str]:
     err = Path(f"{log}.err").read_text()
     assert "Traceback" not in err, err
     return int(Path(f"{log}.rc").read_text()), err
+
+
+def humble_copy(fw: Path, built: str | None, mirror: str | None) -> Path:
+    """A Humble workspace at ``fw`` of a test module's own: a copy of ``built`` (UROS_HUMBLE_WS, never
+    built in itself), else a new one from ``mirror`` (UROS_MIRROR)."""
+    if built:
+        subprocess.run(["cp", "-a", built, str(fw)], check=True)
+    else:
+        assert mirror
+        run_uros("create-firmware", "--distro", "humble", "-w", str(fw), *humble_mirror_args(mirror))
+    return fw

@@ -14,11 +14,10 @@ from __future__ import annotations
 import json
 import os
 import shutil
-import subprocess
 from pathlib import Path
 
 import pytest
-from uros_helpers import humble_mirror_args, run_uros
+from uros_helpers import humble_copy, run_uros
 
 from uros_build.run import freertos
 
@@ -42,13 +41,7 @@ TWO_OF_EACH = (
 @pytest.fixture(scope="module")
 def humble(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A Humble workspace of this module's own: a copy of UROS_HUMBLE_WS, or a new one from the mirror."""
-    fw = tmp_path_factory.mktemp("probe-freertos") / "fw"
-    if HUMBLE_WS:
-        subprocess.run(["cp", "-a", HUMBLE_WS, str(fw)], check=True)  # never build in the shared one
-    else:
-        assert MIRROR
-        run_uros("create-firmware", "--distro", "humble", "-w", str(fw), *humble_mirror_args(MIRROR))
-    return fw
+    return humble_copy(tmp_path_factory.mktemp("probe-freertos") / "fw", HUMBLE_WS, MIRROR)
 
 
 @pytest.fixture(scope="module")

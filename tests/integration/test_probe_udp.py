@@ -15,11 +15,10 @@ import json
 import os
 import shutil
 import struct
-import subprocess
 from pathlib import Path
 
 import pytest
-from uros_helpers import humble_mirror_args, run_uros
+from uros_helpers import humble_copy, run_uros
 
 from uros_build.run import freertos, network
 
@@ -43,12 +42,7 @@ _ROOT = pytest.mark.skipif(os.geteuid() != 0, reason="the agent's port is fixed 
 
 @pytest.fixture(scope="module")
 def udp_library(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    fw = tmp_path_factory.mktemp("probe-udp") / "fw"
-    if HUMBLE_WS:
-        subprocess.run(["cp", "-a", HUMBLE_WS, str(fw)], check=True)  # never build in the shared one
-    else:
-        assert MIRROR
-        run_uros("create-firmware", "--distro", "humble", "-w", str(fw), *humble_mirror_args(MIRROR))
+    fw = humble_copy(tmp_path_factory.mktemp("probe-udp") / "fw", HUMBLE_WS, MIRROR)
     out = fw.parent / "udp"
     run_uros(
         "build", "--toolchain", "cortex-m7", "-w", str(fw), "-j", "2", "--output", str(out),
