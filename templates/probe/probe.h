@@ -8,6 +8,8 @@
 uint32_t probe_millis(void);
 size_t probe_heap_used(void);
 size_t probe_stack_used(void);
+/* Every end of the run passes it first (board.c's _exit): the status QEMU exits with. */
+int probe_exit_status(int status);
 
 /* The UART the agent talks to (polled). */
 void probe_link_init(void);

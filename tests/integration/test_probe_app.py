@@ -91,6 +91,50 @@ def test_duration_and_defines_only_with_an_app(m7_build: Path) -> None:
     )
 
 
+def test_an_app_folder_that_is_a_symlink_loop_is_one_line(m7_build: Path, tmp_path: Path) -> None:
+    """Issue 43: a link loop as --app was an internal error (Path.resolve's RuntimeError)."""
+    out = m7_build / "build" / "cortex-m7"
+    (tmp_path / "a").symlink_to(tmp_path / "b")
+    (tmp_path / "b").symlink_to(tmp_path / "a")
+    proc = run_uros("probe", str(out), "--app", str(tmp_path / "a"), check=False)
+    assert proc.returncode == 2, proc.stderr
+    assert f"--app {tmp_path / 'a'}: cannot be followed" in _one_error(proc)
+
+
+@pytest.mark.parametrize(
+    ("define", "said"),
+    [
+        ("UROS_APP_DURATION_MS=1", "UROS_APP_DURATION_MS is the probe board's own"),
+        ("PROBE_CLOCK_HZ=1", "PROBE_CLOCK_HZ is the probe board's own"),
+        ('MSG="a\nb"', "holds the control character '\\n'"),
+    ],
+)
+def test_the_runners_macros_and_line_breaks_are_refused_up_front(
+    m7_build: Path, tmp_path: Path, define: str, said: str
+) -> None:
+    """Issue 43: `-D UROS_APP_DURATION_MS=1` made any app "run for the whole --duration"; a line break
+    in a value failed deep in make. Both are one line now, before any process starts."""
+    out = m7_build / "build" / "cortex-m7"
+    app = _app(tmp_path / "app", "void appMain(void *arg) { (void)arg; }\n")
+    env = {k: v for k, v in os.environ.items() if k != "UROS_AGENT"}  # refused before any tool is looked for
+    proc = run_uros("probe", str(out), "--app", str(app), "-D", define, env=env, check=False)
+    assert proc.returncode == 2, proc.stderr
+    assert said in _one_error(proc)
+
+
+@pytest.mark.parametrize("name", ["a:b.c", "a$<1:gen>.c", "a\nb.c", "a b.h"])
+def test_file_names_the_build_files_cannot_carry_are_refused_up_front(
+    m7_build: Path, tmp_path: Path, name: str
+) -> None:
+    out = m7_build / "build" / "cortex-m7"
+    app = _app(tmp_path / "app", "void appMain(void *arg) { (void)arg; }\n")
+    (app / name).write_text("int x;\n")
+    env = {k: v for k, v in os.environ.items() if k != "UROS_AGENT"}
+    proc = run_uros("probe", str(out), "--app", str(app), env=env, check=False)
+    assert proc.returncode == 2, proc.stderr
+    assert f"the file name {name!r} cannot be written into the build files" in _one_error(proc)
+
+
 # -- against the agent (UROS_AGENT, UROS_HUMBLE_WS) -------------------------------------------------
 
 
@@ -216,3 +260,139 @@ def test_seed_001_on_freertos_with_the_kernel_heap(humble_out: Path, tmp_path: P
         "--freertos", FREERTOS,
     )  # fmt: skip
     assert code == 0 and data is not None and data["status"] == 83, err
+
+
+# -- issue 43: what an app cannot forge, and -D and names as typed (UROS_AGENT, UROS_HUMBLE_WS) ------
+
+_PRINTS = (
+    "#include <stdio.h>\n#include <stdlib.h>\n"
+    "#define STR2(x) #x\n#define STR(x) STR2(x)\n"
+    "void appMain(void *arg) {\n  (void)arg;\n"
+    '  printf("V=[%s] A=[%s] B=[%s] C=[%s] D=[%s]\\n", STR(V), A, B, C, D);\n'
+    "  exit(EXIT_CODE);\n}\n"
+)
+
+
+@_RUNS
+@pytest.mark.parametrize("status", [256, 512, -256, 326, 337])
+def test_an_exit_status_is_read_whole(humble_out: Path, tmp_path: Path, status: int) -> None:
+    """exit(256) was QEMU's 0 (a pass), exit(326) its 70 (a "hard fault"), exit(337) its 81 ("no
+    agent"): the runner's end line has the whole int, and QEMU's status is the runner's choice (64)."""
+    app = _app(
+        tmp_path / "app", "#include <stdlib.h>\nvoid appMain(void *arg) { (void)arg; exit(EXIT_CODE); }\n"
+    )
+    code, err, data = _run_app(humble_out, tmp_path, "--app", str(app), "-D", f"EXIT_CODE={status}")
+    assert code == 5, err
+    assert data is not None and data["passed"] is False and data["exit_status"] == status
+    assert data["status"] == 64 and data["ended_by"] == "exit"
+    assert f"on cortex-m7 in QEMU mps2-an500: the app exited with {status} (" in err
+
+
+@_RUNS
+def test_exit_83_is_not_the_whole_duration(humble_out: Path, tmp_path: Path) -> None:
+    """exit(83) after a second passed as "ran for the whole --duration (20 s)"."""
+    app = _app(tmp_path / "app", "#include <stdlib.h>\nvoid appMain(void *arg) { (void)arg; exit(83); }\n")
+    code, err, data = _run_app(humble_out, tmp_path, "--app", str(app), "--duration", "20")
+    assert code == 5, err
+    assert data is not None and data["passed"] is False and data["exit_status"] == 83
+    assert "the app exited with 83" in err and "whole --duration" not in err
+
+
+@_RUNS
+def test_printed_lines_forge_no_figures_and_no_end(humble_out: Path, tmp_path: Path) -> None:
+    """The board's figure line printed by the app set the reported heap and stack; a made-up end line
+    (another nonce) counts for nothing; an exit through semihosting of the app's own, around the
+    board's exit path, was QEMU's 0 and a pass."""
+    forged = _app(
+        tmp_path / "forged",
+        "#include <stdio.h>\n#include <stdlib.h>\nvoid appMain(void *arg) {\n  (void)arg;\n"
+        '  printf("\\nuros-probe: heap 1 B, stack 1 B\\n");\n'
+        '  printf("uros-probe-0123456789abcdef0123456789abcdef: end exit 0 heap 1 B stack 1 B\\n");\n'
+        "  exit(0);\n}\n",
+    )
+    code, err, data = _run_app(humble_out, tmp_path, "--app", str(forged))
+    assert code == 0 and data is not None and data["passed"] is True, err
+    assert int(str(data["heap_bytes"])) > 1 and int(str(data["stack_bytes"])) > 1
+    around = _app(
+        tmp_path / "around",
+        "#include <stdint.h>\nvoid appMain(void *arg) {\n  (void)arg;\n  uint32_t block[2] = {0x20026u, 0u};\n"
+        '  register uint32_t r0 __asm("r0") = 0x20u;\n  register const void *r1 __asm("r1") = block;\n'
+        '  __asm volatile("bkpt 0xAB" : "+r"(r0) : "r"(r1) : "memory");\n}\n',
+    )
+    code, err, data = _run_app(humble_out, tmp_path, "--app", str(around))
+    assert code == 5, err
+    assert data is not None and data["status"] == 0 and data["passed"] is False
+    assert "without the runner's end line" in err
+
+
+@_RUNS
+@pytest.mark.parametrize(
+    ("files", "said"),
+    [
+        (
+            {
+                "app.c": "#include <stddef.h>\n#include <stdlib.h>\nsize_t probe_heap_used(void) { return 1; }\n"
+                "void appMain(void *arg) { (void)arg; exit(0); }\n"
+            },
+            "app.c defines probe_heap_used, which the probe's board defines",
+        ),
+        (
+            {
+                "app.c": "#include <stddef.h>\n#include <stdlib.h>\nsize_t probe_stack_used(void) { return 1; }\n"
+                "void appMain(void *arg) { (void)arg; exit(0); }\n"
+            },
+            "app.c defines probe_stack_used, which the probe's board defines",
+        ),
+        (
+            {"app.c": "int main(void) { return 0; }\nvoid appMain(void *arg) { (void)arg; }\n"},
+            "app.c defines main, which the probe's board defines (its runner is main",
+        ),
+        (
+            {"app.c": "void _exit(int s) { (void)s; for (;;) {} }\nvoid appMain(void *arg) { (void)arg; }\n"},
+            "app.c defines _exit, which the probe's board defines",
+        ),
+        (
+            {
+                "a.c": "void appMain(void *arg) { (void)arg; }\n",
+                "b.c": "void appMain(void *arg) { (void)arg; }\n",
+            },
+            "appMain is defined in both a.c and b.c",
+        ),
+        (
+            {"app.c": "/*\nvoid appMain(void *arg) {\n}\n*/\nvoid other(void) {}\n"},
+            "no C file defines void appMain(void *arg) once compiled (app.c: only in a comment",
+        ),
+    ],
+)
+def test_what_the_apps_objects_define_is_checked_before_qemu(
+    humble_out: Path, tmp_path: Path, files: dict[str, str], said: str
+) -> None:
+    """A weak board function the app defines was taken silently (forged figures); main, _exit and a
+    second appMain were collect2's "ld returned 1 exit status"; an appMain only in a comment passed the
+    scan and failed in the linker."""
+    app = tmp_path / "app"
+    app.mkdir()
+    for name, text in files.items():
+        (app / name).write_text(text)
+    code, err, data = _run_app(humble_out, tmp_path, "--app", str(app))
+    assert code == 2 and data is None, err
+    assert said in _one_error(subprocess.CompletedProcess([], code, "", err))
+    assert "QEMU" not in err.split("error:", 1)[1]
+
+
+@_RUNS
+def test_defines_and_names_reach_the_compiler_as_typed(humble_out: Path, tmp_path: Path) -> None:
+    """`-D 'MSG="a#b"'` was dropped, `V=0;V=3` two defines, `$(id)` expanded by make, `$<1:gen>` by
+    CMake, `"a;b"` split; a folder named with a line break, ':' or `$<` failed in make or CMake; the
+    app's own time.h broke the board's compile."""
+    app = _app(tmp_path / "we\nird:$<1:x>#;$(id) folder", _PRINTS)
+    (app / "time.h").write_text('#error "the app\'s time.h shadowed the system one"\n')
+    code, err, data = _run_app(
+        humble_out, tmp_path, "--app", str(app),
+        "-D", "V=0;V=3", "-D", 'A="a#b"', "-D", 'B="$(id)"', "-D", 'C="$<1:gen>"', "-D", 'D="a;b \\" \'c\'"',
+        "-D", "EXIT_CODE=0",
+    )  # fmt: skip
+    assert data is not None, err
+    assert code == 0 and data["passed"] is True, err + _console(data)
+    assert "V=[0;V=3] A=[a#b] B=[$(id)] C=[$<1:gen>] D=[a;b \" 'c']" in _console(data)
+    assert "we\\nird" in err  # the folder shown on one line

@@ -4,13 +4,16 @@ defines and --duration checked, the firmware's CMakeLists escaped, the verdicts,
 
 from __future__ import annotations
 
+import shlex
 from pathlib import Path
 
 import pytest
 
 from uros_build.commands import probe as probe_cmd
 from uros_build.errors import ConfigError, StepFailed
+from uros_build.output.symbols import NmSymbol
 from uros_build.run import app
+from uros_build.run.stages import ConsoleLine
 from uros_build.target.toolsearch import bintools_beside
 
 REPO = Path(__file__).resolve().parents[2]
@@ -106,8 +109,34 @@ def test_defines_are_c_macro_names() -> None:
     for bad in ("1X", "A-B=1", "", "X Y"):
         with pytest.raises(ConfigError, match="is not a C macro name"):
             app.parse_defines([bad])
-    with pytest.raises(ConfigError, match="control character"):
-        app.parse_defines(["X=\x01"])
+    for bad in ("X=\x01", 'MSG="a\nb"', "X=a\rb"):
+        with pytest.raises(ConfigError, match="control character") as raised:
+            app.parse_defines([bad])
+        assert "\n" not in raised.value.message
+
+
+@pytest.mark.parametrize("name", ["UROS_APP_DURATION_MS=1", "UROS_APP_NONCE", "PROBE_CLOCK_HZ=1", "UROS_X"])
+def test_the_runners_macro_names_are_refused(name: str) -> None:
+    with pytest.raises(ConfigError, match="is the probe board's own") as raised:
+        app.parse_defines([name])
+    assert "--duration" in (raised.value.hint or "")
+
+
+def test_the_response_file_gives_the_compiler_each_define_as_typed() -> None:
+    """GCC reads @file as libiberty's buildargv does: a backslash takes the next character as it is
+    (POSIX shlex splits the same way for text without control characters)."""
+    defines = [
+        'MSG="a#b"',
+        "EXIT_CODE=0;EXIT_CODE=3",
+        "X=$(id)",
+        "Y=$<1:gen>",
+        'Z="a;b"',
+        "Q='\\ `x` ${Y}'",
+        "E=",
+    ]
+    text = app.response_file(defines)
+    assert shlex.split(text) == [f"-D{d}" for d in defines]
+    assert app.response_file([]) == ""
 
 
 @pytest.mark.parametrize("duration", [0.0, -1.0, float("nan"), float("inf"), 90000.0])
@@ -131,46 +160,173 @@ def test_define_or_duration_without_app_is_refused() -> None:
         probe_cmd.app_request(None, ("X",), None)
 
 
-def test_the_cmakelists_escapes_paths_and_defines(tmp_path: Path) -> None:
-    folder = _app(tmp_path, APP_MAIN, name="a$b.c")
-    scanned = app.scan_app(folder)
-    text = app.app_cmake(scanned, ['TOPIC="x${y}"', "N=1"], 3000)
-    assert f'"{folder}/a\\$b.c"' in text
-    assert '"TOPIC=\\"x\\${y}\\""' in text
-    assert '"UROS_APP_DURATION_MS=3000"' in text
-    assert "add_executable(uros_probe app_main.c transport.c ${probe_board}" in text
-    assert "target_sources(uros_probe PRIVATE allocators.c)" in text  # bare metal; FreeRTOS: the kernel heap
-    assert app.app_cmake(scanned, ['TOPIC="x${y}"', "N=1"], 3000) == text  # deterministic
+NONCE = "0123456789abcdef0123456789abcdef"
 
 
-def test_a_path_cmake_cannot_use_is_refused(tmp_path: Path) -> None:
-    folder = tmp_path / "a;b"
+def test_the_cmakelists_names_no_path_of_the_users(tmp_path: Path) -> None:
+    folder = tmp_path / "we\nird:$<1:x>;#${y}$(id)"
     folder.mkdir()
     (folder / "app.c").write_text(APP_MAIN)
-    with pytest.raises(ConfigError, match="CMake cannot use a path containing ';'"):
-        app.app_cmake(app.scan_app(folder), [], 0)
+    (folder / "b-2.c").write_text("int b;\n")
+    scanned = app.scan_app(folder)
+    text = app.app_cmake(scanned, ['TOPIC="x${y}"', "N=1"], 3000, NONCE)
+    body = [line for line in text.splitlines() if not line.startswith("#")]
+    assert not any("ird" in line for line in body), "the folder is reached through app/"
+    assert '"app/app.c"' in text and '"app/b-2.c"' in text
+    assert "TOPIC" not in text, "the app's -D are in the response file, not in a build file"
+    assert '"@${CMAKE_CURRENT_SOURCE_DIR}/app-defines.rsp"' in text
+    assert "app-defines.rsp" not in app.app_cmake(scanned, [], 3000, NONCE)
+    # the runner's duration and nonce reach app_main.c alone, never the app's objects
+    assert (
+        'set_property(SOURCE app_main.c APPEND PROPERTY COMPILE_DEFINITIONS "UROS_APP_DURATION_MS=3000"'
+        in text
+    )
+    assert f'"UROS_APP_NONCE=\\"{NONCE}\\""' in text and text.count(NONCE) == 1
+    # the board's include path has no folder of the app's, the app's none of the board's
+    board = "target_include_directories(uros_probe PRIVATE ${CMAKE_CURRENT_SOURCE_DIR} ${CMAKE_CURRENT_SOURCE_DIR}/board)"
+    assert board in text and "target_include_directories(uros_app_code" not in text
+    assert "target_sources(uros_probe PRIVATE allocators.c)" in text  # bare metal; FreeRTOS: the kernel heap
+    assert app.app_cmake(scanned, ['TOPIC="x${y}"', "N=1"], 3000, NONCE) == text  # deterministic
+
+
+@pytest.mark.parametrize("name", ["a:b.c", "a b.c", "a$<1:x>.c", "a\nb.c", "-x.c", "a#.h", "é.c"])
+def test_a_file_name_the_build_files_cannot_carry_is_refused(tmp_path: Path, name: str) -> None:
+    folder = _app(tmp_path, APP_MAIN)
+    (folder / name).write_text("int x;\n")
+    with pytest.raises(ConfigError, match="cannot be written into the build files") as raised:
+        app.scan_app(folder)
+    assert "\n" not in raised.value.message
+
+
+def test_a_symlink_loop_is_one_line(tmp_path: Path) -> None:
+    (tmp_path / "a").symlink_to(tmp_path / "b")
+    (tmp_path / "b").symlink_to(tmp_path / "a")
+    with pytest.raises(ConfigError, match="cannot be followed"):
+        app.scan_app(tmp_path / "a")
+
+
+def _end(kind: str, status: int, seen: float = 10.0) -> app.RunEnd:
+    return app.RunEnd(kind, status, 100, 200, seen)
+
+
+def test_the_end_line_is_the_runners_with_this_runs_nonce() -> None:
+    lines = [
+        ConsoleLine(1.0, f"uros-probe-{NONCE}: start"),
+        ConsoleLine(2.0, "uros-probe: heap 1 B, stack 1 B"),
+        ConsoleLine(2.1, "uros-probe-ffffffffffffffffffffffffffffffff: end exit 0 heap 1 B stack 1 B"),
+        ConsoleLine(3.0, f"uros-probe-{NONCE}: end exit 256 heap 1932 B stack 1872 B"),
+    ]
+    assert app.run_end(lines, NONCE) == app.RunEnd("exit", 256, 1932, 1872, 3.0)
+    assert app.app_started(lines, NONCE) == 1.0
+    assert app.run_end(lines[:3], NONCE) is None
+    twice = [*lines, ConsoleLine(4.0, f"uros-probe-{NONCE}: end exit 0 heap 1 B stack 1 B")]
+    assert app.run_end(twice, NONCE) is None
+
+
+@pytest.mark.parametrize(
+    ("end", "code"),
+    [
+        (_end("exit", 0), 0),
+        (_end("exit", 63), 63),
+        (_end("exit", 64), app.OUT_OF_RANGE),
+        (_end("exit", 256), app.OUT_OF_RANGE),
+        (_end("exit", -256), app.OUT_OF_RANGE),
+        (_end("exit", 83), app.OUT_OF_RANGE),
+        (_end("fault", 70), app.CRASHED),
+        (_end("board", 71), 71),
+        (_end("board", 84), app.NO_HEAP),
+        (_end("board", 3), 127),
+        (_end("no-agent", 81), app.NO_AGENT),
+        (_end("returned", 82), app.RETURNED),
+        (_end("duration", 83), app.DURATION_OVER),
+    ],
+)
+def test_the_status_qemu_must_give_for_each_end(end: app.RunEnd, code: int) -> None:
+    assert app.expected_code(end) == code
 
 
 def test_verdicts() -> None:
-    assert app.verdict(0, 0) == (True, "exit(0)")
-    assert app.verdict(3, 0) == (False, "the app exited with 3")
-    passed, said = app.verdict(app.DURATION_OVER, 5000)
+    assert app.verdict(0, _end("exit", 0), 0) == (True, "exit(0)")
+    assert app.verdict(3, _end("exit", 3), 0) == (False, "the app exited with 3")
+    for status in (256, 512, -256, 326, 337, 83):
+        assert app.verdict(app.OUT_OF_RANGE, _end("exit", status), 0) == (
+            False,
+            f"the app exited with {status}",
+        )
+        assert app.verdict(status % 256, _end("exit", status), 0)[0] is False  # QEMU's mod 256 disagrees
+    # QEMU's status alone passes nothing: no end line, or one that does not match it
+    assert "without the runner's end line" in app.verdict(0, None, 0)[1]
+    assert app.verdict(0, None, 0)[0] is False
+    assert app.verdict(0, _end("exit", 3), 0)[0] is False
+    assert app.verdict(app.DURATION_OVER, _end("exit", 0), 5000)[0] is False
+    passed, said = app.verdict(app.DURATION_OVER, _end("duration", 83, seen=16.0), 5000, started=10.0)
     assert passed and "ran for the whole --duration (5 s)" in said and "not that it did its job" in said
-    assert app.verdict(app.RETURNED, 0)[0] is False
-    assert "appMain returned without exit(status)" in app.verdict(app.RETURNED, 0)[1]
-    assert "crashed" in app.verdict(app.CRASHED, 0)[1]
-    assert "no agent answered" in app.verdict(app.NO_AGENT, 0)[1]
-    assert app.verdict(None, 0) == (False, "timeout: the app neither exited nor crashed within --timeout")
-    assert app.verdict(None, 5000)[0] is False
+    # the board's clock said 5 s, uros's saw 1 s: not a pass
+    passed, said = app.verdict(app.DURATION_OVER, _end("duration", 83, seen=11.0), 5000, started=10.0)
+    assert not passed and "uros's clock saw 1.0 s" in said
+    assert app.verdict(app.DURATION_OVER, _end("duration", 83), 5000, started=None)[0] is False
+    assert app.verdict(app.DURATION_OVER, _end("duration", 83, seen=99.0), 0, started=1.0)[0] is False
+    assert "appMain returned without exit(status)" in app.verdict(app.RETURNED, _end("returned", 82), 0)[1]
+    assert "crashed" in app.verdict(app.CRASHED, _end("fault", 70), 0)[1]
+    assert "no agent answered" in app.verdict(app.NO_AGENT, _end("no-agent", 81), 0)[1]
+    assert "unaligned" in app.verdict(71, _end("board", 71), 0)[1]
+    assert app.verdict(None, None, 0) == (
+        False,
+        "timeout: the app neither exited nor crashed within --timeout",
+    )
+    assert app.verdict(None, _end("exit", 0), 5000)[0] is False
+
+
+def _nm(*symbols: str) -> tuple[NmSymbol, ...]:
+    return tuple(NmSymbol("x.o", name, kind) for name, kind in (s.split() for s in symbols))
+
+
+BOARD = _nm("main T", "_exit T", "probe_heap_used W", "probe_millis W", "usleep W", "sleep W", "appMain U")
+
+
+def test_the_app_may_not_define_what_the_board_does() -> None:
+    ok = {"app.c": _nm("appMain T", "usleep T", "helper T", "rcl_init U")}
+    assert app.symbol_conflicts(Path("/a"), ok, BOARD) is None
+    for name, kind in (("probe_heap_used", "T"), ("main", "T"), ("_exit", "T"), ("probe_millis", "W")):
+        found = app.symbol_conflicts(Path("/a"), {"app.c": _nm("appMain T", f"{name} {kind}")}, BOARD)
+        assert found is not None and f"app.c defines {name}, which the probe's board defines" in found.message
+    two = app.symbol_conflicts(Path("/a"), {"a.c": _nm("appMain T"), "b.c": _nm("appMain T")}, BOARD)
+    assert two is not None and two.message == "--app /a: appMain is defined in both a.c and b.c"
+    none = app.symbol_conflicts(Path("/a"), {"app.c": _nm("other T")}, BOARD)
+    assert none is not None and "no C file defines void appMain(void *arg) once compiled" in none.message
+
+
+def test_the_linkers_own_reason() -> None:
+    output = (
+        "/usr/lib/gcc/arm-none-eabi/12.2.1/../bin/ld: CMakeFiles/uros_probe.dir/app/b.c.obj: in function `f':",
+        "/x/ld: b.c:(.text.f+0x4): undefined reference to `nowhere'",
+        "collect2: error: ld returned 1 exit status",
+    )
+    assert app.link_error(output) == "undefined reference to 'nowhere' (b.c:(.text.f+0x4))"
+    assert app.link_error(("collect2: error: ld returned 1 exit status",)) is None
 
 
 def test_the_runner_statuses_match_the_firmware() -> None:
     text = (REPO / "templates" / "probe" / "app_main.c").read_text()
-    assert f"#define APP_NO_AGENT {app.NO_AGENT}" in text
-    assert f"#define APP_RETURNED {app.RETURNED}" in text
-    assert f"#define APP_DURATION_OVER {app.DURATION_OVER}" in text
-    board = (REPO / "templates" / "probe" / "arm" / "board.c").read_text()
-    assert f"_exit({app.CRASHED})" in board and "probe_tick_hook();" in board
+    for name, status in (
+        ("OUT_OF_RANGE", app.OUT_OF_RANGE),
+        ("CRASHED", app.CRASHED),
+        ("NO_AGENT", app.NO_AGENT),
+        ("RETURNED", app.RETURNED),
+        ("DURATION_OVER", app.DURATION_OVER),
+        ("NO_HEAP", app.NO_HEAP),
+        ("ENDED_TWICE", app.ENDED_TWICE),
+    ):
+        assert f"#define PROBE_APP_{name} {status}" in text
+    assert "code = status >= 0 && status <= 63 ? status : PROBE_APP_OUT_OF_RANGE;" in text
+    assert "code = status > 64 && status < 128 ? status : 127;" in text
+    for kind in ("no-agent", "returned", "duration", "board", "fault", "exit"):
+        assert f'"{kind}"' in text
+    for board in ("arm", "riscv", "xtensa"):
+        source = (REPO / "templates" / "probe" / board / "board.c").read_text()
+        assert "void _exit(int status) {\n  status = probe_exit_status(status);" in source
+    arm = (REPO / "templates" / "probe" / "arm" / "board.c").read_text()
+    assert f"_exit({app.CRASHED})" in arm and "probe_tick_hook();" in arm
     assert 71 in app.RUNNER_STATUSES and "unaligned" in app.RUNNER_STATUSES[71]
 
 

@@ -118,7 +118,7 @@ def probe(
     ws = workspace_of_output(out, info.target)
     plan = None
     if app is not None:  # before anything is built: the app's interfaces must be in the library
-        plan = app_mod.AppPlan(app_mod.scan_app(app.folder.resolve()), defines, duration_ms)
+        plan = app_mod.AppPlan(app_mod.scan_app(app.folder), defines, duration_ms)
         missing = app_mod.missing_packages(plan.app, info.packages)
         if missing:
             raise app_mod.missing_packages_error(plan.app, missing, out, ws.root if ws is not None else None)
@@ -400,7 +400,8 @@ def _probe_app(
     if machine.chosen:  # another board of the target keeps its own work folder
         work = work.with_name(f"{work.name}-{machine.board.name}")
     on = f" on FreeRTOS ({rtos.why})" if rtos else ""
-    title = f"uros probe --app {plan.app.folder}: {out} ({info.target}) in QEMU {machine.machine}{on}"
+    shown = app_mod.shown(plan.app.folder)
+    title = f"uros probe --app {shown}: {out} ({info.target}) in QEMU {machine.machine}{on}"
     if rtos is not None:  # the FreeRTOS firmware keeps its own work folder
         work = work.with_name(f"{work.name}-freertos")
     network = network_mod.choose(info.ip_stack, machine, rtos is not None, resolve_outside(LWIP, None).value)

@@ -12,6 +12,15 @@ library's packages before anything is built → the firmware's CMakeLists render
 escaped) → built against the output like the probe → its size (the target's ``size``, LC_ALL=C) →
 the QEMU + agent session → one verdict. The pure parts are the scan, the checks, the CMake text and
 the verdicts; :func:`run_app` runs them.
+
+What the app cannot forge: the verdict comes from the runner's end line (templates/probe/app_main.c),
+marked with a random nonce made for each run and compiled into the runner alone, which carries the
+app's whole exit status and the board's heap and stack figures, and from QEMU's exit status, which the
+runner chooses and which must agree with that line (:func:`expected_code`); `--duration` passes only
+when uros's own clock saw that long since appMain started. The app's C files compile apart (their -D
+in a response file the compiler reads exactly as typed, none of the runner's macro names; no include
+folder shared with the board), reached through a link named ``app`` (no path of the user's is in a
+build file), and their objects may define no symbol the board's objects define (nm, before QEMU).
 """
 
 from __future__ import annotations
@@ -19,6 +28,7 @@ from __future__ import annotations
 import math
 import os
 import re
+import secrets
 import shutil
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
@@ -28,17 +38,19 @@ from uros_build import console, resources, templating
 from uros_build.colcon.fingerprint import digest
 from uros_build.errors import ConfigError, StepFailed
 from uros_build.output.sizes import Sizes, parse_berkeley
+from uros_build.output.symbols import STRONG, NmSymbol, parse_nm
 from uros_build.proc import Runner
 from uros_build.run import freertos as freertos_mod
 from uros_build.run import machines
 from uros_build.run import network as network_mod
 from uros_build.run.firmware import build_firmware
 from uros_build.run.session import PeerRun, Session, SessionSpec, free_udp_port, middleware_for, run_session
+from uros_build.run.stages import ConsoleLine
 from uros_build.target.toolsearch import bintools_beside
 
-# app_main.c's and the board's own exit statuses (70, 71: run/machines.VERDICTS); an app's own should
-# stay below 64.
-CRASHED, NO_AGENT, RETURNED, DURATION_OVER = 70, 81, 82, 83
+# QEMU's exit statuses the runner chooses (app_main.c's probe_exit_status): the app's own 0-63 as
+# they are, any other OUT_OF_RANGE (its end line has it whole); the runner's and the board's 70 and up.
+OUT_OF_RANGE, CRASHED, NO_AGENT, RETURNED, DURATION_OVER, NO_HEAP, ENDED_TWICE = 64, 70, 81, 82, 83, 84, 126
 RUNNER_STATUSES: Mapping[int, str] = {
     CRASHED: "the app crashed (hard fault)",
     **{status: machines.VERDICTS[status] for status in (71, 72, 73, 74)},  # the ARMv6-M check, FreeRTOS's
@@ -46,7 +58,19 @@ RUNNER_STATUSES: Mapping[int, str] = {
     "serial transport or stream framing never reaches it)",
     RETURNED: "appMain returned without exit(status): end the app with exit(0) when its job is done, or "
     "run it with --duration",
+    NO_HEAP: "the board's heap could not become rcl's default allocator",
 }
+# The end line's kinds (app_main.c): who ended the run
+_RUNNER_KINDS: Mapping[str, int] = {"no-agent": NO_AGENT, "returned": RETURNED, "duration": DURATION_OVER}
+# -D names the board and the runner keep for themselves
+RESERVED_PREFIXES = ("UROS_", "PROBE_")
+# The board's weak definitions an app may replace (app_main.c: what apps written for an RTOS call)
+APP_MAY_DEFINE = frozenset({"usleep", "sleep"})
+# How much later than the board uros's own clock may see the end of a --duration run: the console is
+# read every 10 ms, and QEMU writes a line some ms after the firmware did
+DURATION_SLACK = 0.5
+# A C file name the build files carry as it is (make and CMake read ':', '$', '#', ';', spaces)
+_SAFE_NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.+-]*")
 # How long uros waits for a --duration run before it stops QEMU itself: the runner's wait for the
 # agent (20 s) and QEMU's start, and the board's clock running slow: it counts SysTick interrupts, and
 # QEMU drops those a loaded host cannot deliver in time (--duration 3 took 12 s of wall time at load
@@ -92,21 +116,51 @@ def interface_includes(text: str) -> list[tuple[str, int]]:
     return [(m.group("package"), text.count("\n", 0, m.start()) + 1) for m in _INCLUDE.finditer(text)]
 
 
+def shown(path: Path) -> str:
+    """A path for a one-line message: a line break or other unprintable character as its escape."""
+    return templating.cmake_comment(str(path))
+
+
+def app_folder(folder: Path) -> Path:
+    """--app DIR made absolute, every link followed (pure); a link loop, or no folder, is one line."""
+    try:
+        resolved = folder.resolve()
+        is_dir = resolved.is_dir()
+    except (OSError, RuntimeError) as err:  # a symlink loop: RuntimeError before Python 3.13
+        raise ConfigError(
+            f"--app {shown(folder)}: cannot be followed ({getattr(err, 'strerror', None) or err})",
+            f"a symbolic link that leads back to itself? give {_APP_HINT}",
+        ) from None
+    if not is_dir:
+        raise ConfigError(f"--app {shown(folder)}: no such folder", f"give {_APP_HINT}")
+    return resolved
+
+
+def _check_name(folder: Path, path: Path) -> None:
+    if not _SAFE_NAME.fullmatch(path.name):
+        raise ConfigError(
+            f"--app {shown(folder)}: the file name {path.name!r} cannot be written into the build files",
+            "rename it with letters, digits, '_', '.', '-' and '+' only (make and CMake read ':', '$', '#', "
+            "';', spaces and line breaks)",
+        )
+
+
 def scan_app(folder: Path) -> AppSources:
     """DIR's C files and interface packages (pure: reads DIR's *.c and *.h, not its subfolders)."""
-    if not folder.is_dir():
-        raise ConfigError(f"--app {folder}: no such folder", f"give {_APP_HINT}")
+    given, folder = folder, app_folder(folder)
     sources = tuple(sorted(p for p in folder.glob("*.c") if p.is_file()))
     if not sources:
-        raise ConfigError(f"--app {folder}: holds no .c file", f"give {_APP_HINT}")
+        raise ConfigError(f"--app {shown(given)}: holds no .c file", f"give {_APP_HINT}")
+    headers = sorted(p for p in folder.glob("*.h") if p.is_file())
+    for path in (*sources, *headers):
+        _check_name(given, path)
     texts = {p: p.read_text(encoding="utf-8", errors="replace") for p in sources}
     if not any(_APP_MAIN.search(text) for text in texts.values()):
         names = ", ".join(p.name for p in sources)
         raise ConfigError(
-            f"--app {folder}: no C file defines void appMain(void *arg) ({names})",
+            f"--app {shown(given)}: no C file defines void appMain(void *arg) ({names})",
             "the board calls appMain once the agent answers, as micro_ros_setup's freertos_apps do",
         )
-    headers = sorted(p for p in folder.glob("*.h") if p.is_file())
     for header in headers:
         texts[header] = header.read_text(encoding="utf-8", errors="replace")
     packages: dict[str, str] = {}
@@ -129,14 +183,15 @@ def missing_packages_error(
     wanted = " ".join(app.packages)
     ws = f" -w {workspace}" if workspace is not None else ""
     return ConfigError(
-        f"--app {app.folder}: the library {out} lacks {where}",
+        f"--app {shown(app.folder)}: the library {out} lacks {where}",
         f"add the interface package to the workspace (`uros add-package{ws} PATH|URL`, or `uros interface "
         f"new`), then build it in: `uros build{ws} --packages {wanted}`",
     )
 
 
 def parse_defines(defines: Iterable[str]) -> tuple[str, ...]:
-    """-D NAME or -D NAME=VALUE, as for a C compiler; NAME must be a C identifier."""
+    """-D NAME or -D NAME=VALUE, as for a C compiler; NAME must be a C identifier the runner does not
+    keep for itself, VALUE one line (it reaches the compiler exactly as typed: :func:`response_file`)."""
     out = []
     for define in defines:
         name = define.split("=", 1)[0]
@@ -145,9 +200,28 @@ def parse_defines(defines: Iterable[str]) -> tuple[str, ...]:
                 f"--define {define!r}: {name!r} is not a C macro name",
                 "e.g. -D HSB_STATE_PERIOD_MS=200 or -D HSB_LOOPBACK",
             )
-        templating.cmake_quote(define)  # a control character is refused here, in one line
+        if name.startswith(RESERVED_PREFIXES):
+            raise ConfigError(
+                f"--define {define!r}: {name} is the probe board's own (names starting with "
+                f"{' or '.join(RESERVED_PREFIXES)} are kept for the runner)",
+                "give the app's macro another name; --duration sets how long the board lets the app run",
+            )
+        bad = next((c for c in define if ord(c) < 32 or ord(c) == 127), None)
+        if bad is not None:
+            raise ConfigError(
+                f"--define {define!r}: holds the control character {bad!r} (a line break ends a C "
+                "definition)",
+                "give the value on one line, e.g. -D 'MSG=\"a b\"'",
+            )
         out.append(define)
     return tuple(out)
+
+
+def response_file(defines: Sequence[str]) -> str:
+    """The app's -D as a GCC response file (``@file``, libiberty's buildargv): every character
+    escaped with a backslash, so each value reaches the compiler exactly as typed (no build tool
+    between: CMake's own escaping drops '#' for make and splits ';')."""
+    return "".join("".join("\\" + c for c in f"-D{define}") + "\n" for define in defines)
 
 
 def check_duration(duration: float | None) -> int:
@@ -167,40 +241,168 @@ def session_timeout(timeout: float, duration_ms: int) -> float:
     return timeout if duration_ms == 0 else DURATION_SLOWDOWN * duration_ms / 1000 + DURATION_GRACE
 
 
-def app_cmake(app: AppSources, defines: Sequence[str], duration_ms: int) -> str:
-    """The app firmware's CMakeLists.txt (paths and defines escaped as quoted arguments)."""
-    for path in (app.folder, *app.sources):
-        bad = templating.cmake_unusable(str(path))
-        if bad is not None:
-            raise ConfigError(
-                f"--app {app.folder}: CMake cannot use a path containing {bad!r} ({path})",
-                "copy the app to a folder whose path has no '\"', '\\', ';', '${' or '$('",
-            )
+def app_cmake(app: AppSources, defines: Sequence[str], duration_ms: int, nonce: str) -> str:
+    """The app firmware's CMakeLists.txt: the app's C files by name under ``app/`` (the link to its
+    folder), its -D in ``app-defines.rsp``; the runner's duration and nonce on app_main.c alone."""
+    for path in app.sources:
+        _check_name(app.folder, path)
+    if not re.fullmatch(r"[0-9a-f]{16,64}", nonce):
+        raise ValueError(f"a nonce is lowercase hex: {nonce!r}")
     return templating.render(
         "probe-app.cmake.j2",
         app_dir=str(app.folder),
-        sources=[str(p) for p in app.sources],
-        defines=list(defines),
+        sources=[p.name for p in app.sources],
+        defines=bool(defines),
         duration_define=f"UROS_APP_DURATION_MS={duration_ms}",
+        nonce_define=f'UROS_APP_NONCE="{nonce}"',
     )
 
 
-def verdict(status: int | None, duration_ms: int) -> tuple[bool, str]:
-    """(passed, what QEMU's exit status says about the app)."""
+@dataclass(frozen=True)
+class RunEnd:
+    """The runner's end line: who ended the run, with what status (the app's whole int), the board's
+    figures, and when uros saw it."""
+
+    kind: str  # exit (the app's), fault, board, no-agent, returned, duration
+    status: int
+    heap_bytes: int
+    stack_bytes: int
+    seen: float
+
+
+def _end_line(nonce: str) -> re.Pattern[str]:
+    return re.compile(
+        rf"^uros-probe-{nonce}: end (exit|fault|board|no-agent|returned|duration) (-?\d{{1,11}}) "
+        rf"heap (\d{{1,10}}) B stack (\d{{1,10}}) B$"
+    )
+
+
+def run_end(lines: Sequence[ConsoleLine], nonce: str) -> RunEnd | None:
+    """The runner's end line among the console's (pure); more than one (a fault while it was
+    written, or a console the app wrote into) is none: the run did not end cleanly."""
+    pattern = _end_line(nonce)
+    found = [(m, line.seen) for line in lines if (m := pattern.match(line.text.strip()))]
+    if len(found) != 1:
+        return None
+    m, seen = found[0]
+    return RunEnd(m.group(1), int(m.group(2)), int(m.group(3)), int(m.group(4)), seen)
+
+
+def app_started(lines: Sequence[ConsoleLine], nonce: str) -> float | None:
+    """When uros saw the runner call appMain (pure)."""
+    start = f"uros-probe-{nonce}: start"
+    return next((line.seen for line in lines if line.text.strip() == start), None)
+
+
+def expected_code(end: RunEnd) -> int:
+    """QEMU's exit status the runner chooses for its end line (app_main.c's probe_exit_status)."""
+    if end.kind == "exit":
+        return end.status if 0 <= end.status <= 63 else OUT_OF_RANGE
+    if end.kind == "fault":
+        return CRASHED
+    if end.kind == "board":
+        return end.status if 64 < end.status < 128 else 127
+    return _RUNNER_KINDS[end.kind]
+
+
+def verdict(
+    status: int | None, end: RunEnd | None, duration_ms: int, started: float | None = None
+) -> tuple[bool, str]:
+    """(passed, what the run says about the app): QEMU's exit status, the runner's end line (None:
+    it did not come) and, for --duration, when uros saw appMain start (host time)."""
     if status is None:
         if duration_ms:
             return False, "timeout: the board did not end the run at --duration (the app stopped its clock?)"
         return False, "timeout: the app neither exited nor crashed within --timeout"
-    if status == DURATION_OVER and duration_ms:
+    if end is None:
+        return False, (
+            f"the run ended (QEMU's exit status {status}) without the runner's end line: the app left "
+            "outside the board's exit path (a semihosting call of its own?), or wrote over its console"
+        )
+    if status != expected_code(end):
+        return False, (
+            f"QEMU's exit status {status} is not the one the runner chose for its end line ({end.kind} "
+            f"{end.status}): something else ended the run"
+        )
+    if end.kind == "duration":
+        if not duration_ms:
+            return False, "the board ended the run at a --duration that was not asked for"
+        ran = end.seen - started if started is not None else None
+        if ran is None or ran + DURATION_SLACK < duration_ms / 1000:
+            seen = f"{ran:.1f} s" if ran is not None else "no start of appMain"
+            return False, (
+                f"the board said --duration ({duration_ms / 1000:g} s) was over, but uros's clock saw "
+                f"{seen}: the board's clock was tampered with"
+            )
         return True, (
             f"ran for the whole --duration ({duration_ms / 1000:g} s) without exiting or crashing (that it "
             "stayed up, not that it did its job: its console, or a ROS 2 peer, says that)"
         )
-    if status in RUNNER_STATUSES:
-        return False, RUNNER_STATUSES[status]
-    if status == 0:
-        return True, "exit(0)"
-    return False, f"the app exited with {status}"
+    if end.kind == "exit":
+        if end.status == 0:
+            return True, "exit(0)"
+        return False, f"the app exited with {end.status}"
+    code = expected_code(end)
+    return False, RUNNER_STATUSES.get(code, f"the board ended the run with {end.status}")
+
+
+def symbol_conflicts(
+    folder: Path, app_objects: Mapping[str, Sequence[NmSymbol]], board: Sequence[NmSymbol]
+) -> ConfigError | None:
+    """What the app's objects may not define (pure, over ``nm -g`` of each): a symbol the board's
+    objects define (main, _exit, the heap and stack figures, the clock: the app would replace them or
+    fail the link in its linker's words), the same symbol in two of its files, or no appMain."""
+    board_defined = {s.name for s in board if s.kind != "U" and s.kind.isupper()}
+    where: dict[str, list[str]] = {}
+    for source, symbols in app_objects.items():
+        for symbol in symbols:
+            if symbol.kind != "U" and symbol.kind.isupper():
+                if symbol.name in board_defined and symbol.name not in APP_MAY_DEFINE:
+                    return ConfigError(
+                        f"--app {shown(folder)}: {source} defines {symbol.name}, which the probe's board "
+                        f"defines ({_board_role(symbol.name)})",
+                        "rename it in the app, or leave it out: the board provides it "
+                        "(docs/probe.md, 'Your own app')",
+                    )
+                if symbol.kind in STRONG:
+                    where.setdefault(symbol.name, []).append(source)
+    twice = next(((name, files) for name, files in sorted(where.items()) if len(files) > 1), None)
+    if twice is not None:
+        name, files = twice
+        return ConfigError(
+            f"--app {shown(folder)}: {name} is defined in both {files[0]} and {files[1]}",
+            "keep one definition (make the other static, or remove it)",
+        )
+    if "appMain" not in where:
+        names = ", ".join(app_objects)
+        return ConfigError(
+            f"--app {shown(folder)}: no C file defines void appMain(void *arg) once compiled ({names}: "
+            "only in a comment, or under an #if that is off?)",
+            "the board calls appMain once the agent answers, as micro_ros_setup's freertos_apps do",
+        )
+    return None
+
+
+def _board_role(name: str) -> str:
+    if name == "main":
+        return "its runner is main; the app's entry is appMain"
+    if name in ("_exit", "exit", "probe_exit_status"):
+        return "its exit path records the app's status"
+    if name.startswith("probe_"):
+        return "the runner's own: its clock, figures or link"
+    return "its start-up, clock, console or heap"
+
+
+def link_error(output: Sequence[str]) -> str | None:
+    """The linker's own reason from a failed build's output (pure): its first `multiple definition`
+    or `undefined reference` line, not collect2's summary."""
+    wanted = re.compile(r"(multiple definition of|undefined reference to) [`']([^'`]+)'")
+    for line in output:
+        found = wanted.search(line)
+        if found:
+            where = line[: found.start()].rstrip(": ").rsplit("ld: ", 1)[-1].rsplit("/", 1)[-1]
+            return f"{found.group(1)} '{found.group(2)}' ({where})"
+    return None
 
 
 def elf_sizes(size_output: str) -> Sizes:
@@ -216,8 +418,8 @@ class AppRun:
     elf: Path
     sizes: Sizes
     session: Session
-    heap_bytes: int | None
-    stack_bytes: int | None
+    end: RunEnd | None  # the runner's end line (None: it did not come)
+    started: float | None  # host time uros saw appMain start
 
 
 def run_app(
@@ -236,21 +438,38 @@ def run_app(
     network: network_mod.Network | None = None,
     cmake_options: Mapping[str, Mapping[str, str]] | None = None,
 ) -> AppRun:
-    """Build the app firmware against ``out``, measure it, run it against the agent (``network``:
-    over UDP through lwIP, docs/network.md)."""
+    """Build the app firmware against ``out``, check its objects, measure it, run it against the agent
+    (``network``: over UDP through lwIP, docs/network.md)."""
     app, defines, duration_ms = plan.app, plan.defines, plan.duration_ms
+    nonce = secrets.token_hex(16)  # this run's: only the runner's compile sees it
     staged = work / "app-src"
     shutil.rmtree(staged, ignore_errors=True)
     shutil.copytree(resources.templates_dir() / "probe", staged)
-    (staged / "CMakeLists.txt").write_text(app_cmake(app, defines, duration_ms), encoding="utf-8")
+    (staged / "CMakeLists.txt").write_text(app_cmake(app, defines, duration_ms, nonce), encoding="utf-8")
+    if defines:
+        (staged / "app-defines.rsp").write_text(response_file(defines), encoding="utf-8")
     middleware = middleware_for(peer is not None, os.geteuid())
     port = network_mod.NAMESPACE_PORT if middleware == "dds" else free_udp_port()
-    elf = build_firmware(
-        runner, staged, work, out, "uros_app", verbose, machine,
-        defines=[*freertos_mod.cmake_defines(rtos), *network_mod.cmake_defines(network, port)],
-        folders=[*freertos_mod.firmware_folders(rtos), *network_mod.firmware_folders(network)],
-    )  # fmt: skip
-    size = runner.query([bintools_beside(compiler_path).size, str(elf)], step="size of the app firmware")
+    tools = bintools_beside(compiler_path)
+    try:
+        elf = build_firmware(
+            runner, staged, work, out, "uros_app", verbose, machine,
+            defines=[*freertos_mod.cmake_defines(rtos), *network_mod.cmake_defines(network, port)],
+            folders=[*freertos_mod.firmware_folders(rtos), *network_mod.firmware_folders(network)],
+            links={"app": app.folder},
+        )  # fmt: skip
+    except StepFailed as failed:
+        conflict = _check_objects(runner, tools.nm, work / "build", app)
+        if conflict is not None:
+            raise conflict from failed
+        said = link_error(failed.output)
+        if said is not None:
+            raise StepFailed(f"link the uros_app firmware: {said}", failed.hint) from failed
+        raise
+    conflict = _check_objects(runner, tools.nm, work / "build", app)
+    if conflict is not None:
+        raise conflict
+    size = runner.query([tools.size, str(elf)], step="size of the app firmware")
     sizes = elf_sizes(size)
     wait = session_timeout(timeout, duration_ms)
     # without root (no namespace to run DDS in) the agent's CED middleware, as for the built-in probe:
@@ -265,8 +484,33 @@ def run_app(
             "not root: the agent runs its CED middleware (no network namespace): services cannot be created"
         )
     ran = run_session(runner, qemu_program, machine, elf, agent_program, work, wait, peer=peer, spec=spec)
-    used = machines.resources_used(ran.console)
-    return AppRun(elf, sizes, ran, used[0] if used else None, used[1] if used else None)
+    return AppRun(elf, sizes, ran, run_end(ran.lines, nonce), app_started(ran.lines, nonce))
+
+
+def _objects(folder: Path) -> list[Path]:
+    return sorted(p for p in folder.rglob("*") if p.suffix in (".o", ".obj") and p.is_file())
+
+
+def _check_objects(runner: Runner, nm: str, build: Path, app: AppSources) -> ConfigError | None:
+    """nm over the app's objects and the board's (the two targets' object folders), then
+    :func:`symbol_conflicts`; None also when the app's did not all compile (the compiler said why)."""
+    app_dir, board_dir = build / "CMakeFiles" / "uros_app_code.dir", build / "CMakeFiles" / "uros_probe.dir"
+    app_objects = {p.name: p for p in _objects(app_dir)}
+    by_source = {
+        src.name: app_objects.get(f"{src.name}.obj") or app_objects.get(f"{src.name}.o")
+        for src in app.sources
+    }
+    if any(p is None for p in by_source.values()) or not _objects(board_dir):
+        return None
+
+    def symbols(paths: Sequence[Path]) -> tuple[NmSymbol, ...]:
+        text = runner.query(
+            [nm, "-g", "--format=posix", *map(str, paths)], step="nm of the app firmware's objects"
+        )
+        return parse_nm(text, paths[0].name if len(paths) == 1 else "")
+
+    found = {name: symbols([path]) for name, path in by_source.items() if path is not None}
+    return symbol_conflicts(app.folder, found, symbols(_objects(board_dir)))
 
 
 @dataclass(frozen=True)
@@ -281,14 +525,16 @@ class AppReport:
     packages: tuple[str, ...]  # the interface packages it includes
     defines: tuple[str, ...]
     duration: float | None  # --duration in seconds
-    status: int | None  # QEMU's exit status (the app's, or the runner's 70-73); None: stopped by uros
+    status: int | None  # QEMU's exit status, as the runner chose it; None: stopped by uros
+    exit_status: int | None  # the app's exit(status), whole, from the runner's end line (None: no exit)
+    ended_by: str | None  # the end line's kind: exit, duration, fault, board, no-agent, returned; None: none
     passed: bool
     verdict: str
     seconds: float
     flash_bytes: int  # text + data
     ram_bytes: int  # data + bss (static)
     size: Mapping[str, int]  # text/data/bss
-    heap_bytes: int | None
+    heap_bytes: int | None  # the board's figures, from the runner's end line
     stack_bytes: int | None
     elf: str
     console_log: str
@@ -302,7 +548,7 @@ def app_report(
     target: str, machine: str, plan: AppPlan, ran: AppRun, runner: Runner, rtos: str | None = None
 ) -> AppReport:
     app, duration_ms = plan.app, plan.duration_ms
-    passed, said = verdict(ran.session.status, duration_ms)
+    passed, said = verdict(ran.session.status, ran.end, duration_ms, ran.started)
     return AppReport(
         target=target,
         machine=machine,
@@ -313,14 +559,16 @@ def app_report(
         defines=plan.defines,
         duration=duration_ms / 1000 if duration_ms else None,
         status=ran.session.status,
+        exit_status=ran.end.status if ran.end is not None and ran.end.kind == "exit" else None,
+        ended_by=ran.end.kind if ran.end is not None else None,
         passed=passed,
         verdict=said,
         seconds=round(ran.session.seconds, 2),
         flash_bytes=ran.sizes.text + ran.sizes.data,
         ram_bytes=ran.sizes.data + ran.sizes.bss,
         size=ran.sizes.as_dict(),
-        heap_bytes=ran.heap_bytes,
-        stack_bytes=ran.stack_bytes,
+        heap_bytes=ran.end.heap_bytes if ran.end is not None else None,
+        stack_bytes=ran.end.stack_bytes if ran.end is not None else None,
         elf=str(ran.elf),
         console_log=str(ran.session.console_log),
         agent_log=str(ran.session.agent_log),
@@ -338,6 +586,6 @@ def describe(report: AppReport) -> str:
     head = "app passed" if report.passed else "app failed"
     on = " on FreeRTOS" if report.rtos else ""
     return (
-        f"{head}: {report.app} on {report.target} in QEMU {report.machine}{on}: {report.verdict} "
-        f"({report.seconds:.1f} s; {memory})"
+        f"{head}: {shown(Path(report.app))} on {report.target} in QEMU {report.machine}{on}: "
+        f"{report.verdict} ({report.seconds:.1f} s; {memory})"
     )

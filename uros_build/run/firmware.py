@@ -5,7 +5,7 @@ folder. The probe firmware is one; `uros probe --app` builds another from the sa
 from __future__ import annotations
 
 import shutil
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 from uros_build.errors import StepFailed
@@ -23,10 +23,12 @@ def build_firmware(
     machine: Machine,
     defines: Sequence[str] = (),
     folders: Sequence[str] = (),
+    links: Mapping[str, Path] = {},
 ) -> Path:
     """Copy `sources` (its files, and the sub-folders named in `folders`: the FreeRTOS variant's) to
     work/src and the machine's board files (start-up, UART, memory map) to work/src/board, configure
-    and build it against `out` (with `defines`, -DNAME=VALUE); the ELF called `name`."""
+    and build it against `out` (with `defines`, -DNAME=VALUE); the ELF called `name`. `links`: names
+    in work/src that link to folders (an app's: its path is then in no build file)."""
     cmake = runner.which("cmake")
     src, build = work / "src", work / "build"
     # afresh every time (it takes a second): another output of the target has another toolchain file
@@ -39,6 +41,8 @@ def build_firmware(
             n for n in names if (Path(folder) / n).is_dir() and Path(folder) == sources and n not in folders
         ],
     )
+    for link, target in links.items():
+        (src / link).symlink_to(target, target_is_directory=True)
     (src / "board").mkdir()
     for file_name, text in board_files(machine).items():
         (src / "board" / file_name).write_text(text, encoding="utf-8")
