@@ -23,6 +23,7 @@ enum {
   /* 9: the FreeRTOS variant's two-task stage (freertos/two_tasks.c) */
   PROBE_RESTART = 10,
   PROBE_FRAGMENTATION = 11,
+  PROBE_PARAMETERS = 12,
 };
 
 /* A session with one node: what every stage works in. */
@@ -56,6 +57,7 @@ void probe_loop_close(probe_loop_t *loop, probe_session_t *session);
 int probe_loop_samples(probe_loop_t *loop, int want, uint32_t ms, int *sent, uint32_t *took);
 
 int stage_service(probe_session_t *session);
+int stage_parameters(probe_session_t *session);
 int stage_time(void);
 int stage_fragmentation(probe_session_t *session);
 int stage_restart(probe_session_t *session, probe_loop_t *loop);

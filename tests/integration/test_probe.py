@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -57,7 +58,16 @@ def _histories(input_history: int) -> tuple[str, str]:
     return (f"RMW_UXRCE_STREAM_HISTORY_INPUT={input_history}", "RMW_UXRCE_STREAM_HISTORY_OUTPUT=4")
 
 
-STAGES = ("session", "samples", "limits", "fragmentation", "service", "time", "restart")
+STAGES = ("session", "samples", "limits", "fragmentation", "service", "parameters", "time", "restart")
+
+
+def _parameters(output: Path) -> str:
+    """The parameters stage's result on a library: pass with rclc_parameter and room for its 5
+    services, else skip (tests/integration/test_probe_parameters.py proves both)."""
+    info = json.loads((output / "build-info.json").read_text())
+    config = (output / "include" / "rmw_microxrcedds_c" / "config.h").read_text()
+    services = int(re.search(r"#define RMW_UXRCE_MAX_SERVICES (\d+)", config)[1])  # type: ignore[index]
+    return "pass" if "rclc_parameter" in info["packages"] and services >= 5 else "skip"
 
 
 def _results(data: dict[str, object] | None) -> dict[str, str]:
@@ -94,7 +104,7 @@ def test_the_library_runs_against_the_agent(humble: Path, target: str, machine: 
     assert data is not None and data["status"] == 0 and data["machine"] == machine
     assert data["limits"] == {"nodes": 1, "publishers": 1, "subscriptions": 1}  # generate_lib's preset
     # std_msgs only: no service type, and the stage says so rather than passing
-    assert _results(data) == {**dict.fromkeys(STAGES, "pass"), "service": "skip"}
+    assert _results(data) == {**dict.fromkeys(STAGES, "pass"), "service": "skip", "parameters": "skip"}
     assert "--packages example_interfaces" in str(_stage(data, "service")["detail"])
     assert float(data["seconds"]) < 10  # type: ignore[arg-type]
     assert "probe passed" in err
@@ -269,10 +279,12 @@ def test_every_stage_passes_on_a_built_humble_library() -> None:
     """Issue 31, item 4: a service round trip, time sync, agent restart and fragmentation, each by
     name in --json and in the one-line verdict."""
     assert HUMBLE_WS
-    code, err, data = _probe(str(Path(HUMBLE_WS) / "build" / "cortex-m7"))
+    output = Path(HUMBLE_WS) / "build" / "cortex-m7"
+    code, err, data = _probe(str(output))
     assert code == 0, err
     assert data is not None and data["status"] == 0
-    assert _results(data) == dict.fromkeys(STAGES, "pass")
+    expected = {**dict.fromkeys(STAGES, "pass"), "parameters": _parameters(output)}
+    assert _results(data) == expected
     assert "AddTwoInts answered 1001" in str(_stage(data, "service")["detail"])
     assert abs(float(str(_stage(data, "time")["seconds"]))) <= 1.0
     assert 0 < float(str(_stage(data, "restart")["seconds"])) < 10
@@ -283,7 +295,7 @@ def test_every_stage_passes_on_a_built_humble_library() -> None:
     )
     assert float(data["seconds"]) <= 15  # type: ignore[arg-type]
     line = next(x for x in err.splitlines() if "probe passed" in x)
-    assert all(f"{name} pass" in line for name in STAGES), line
+    assert all(f"{name} {result}" in line for name, result in expected.items()), line
     restarted = Path(str(data["agent_log"])).with_name("agent-restarted.log").read_text()
     assert "session established" in restarted  # the firmware's new session, on the agent started again
 
@@ -313,6 +325,6 @@ def test_a_library_that_cannot_do_a_stage_fails_it_by_name(
     code, err, data = _probe(str(out))
     assert code == 5, err
     assert data is not None and data["status"] == status
-    assert _results(data) == {**dict.fromkeys(STAGES, "pass"), stage: "fail"}
+    assert _results(data) == {**dict.fromkeys(STAGES, "pass"), "parameters": _parameters(out), stage: "fail"}
     error = _one_error(subprocess.CompletedProcess([], code, "", err))
     assert f"uros probe cortex-m7 (mps2-an500): stage {stage} failed: " in error and named in error, error

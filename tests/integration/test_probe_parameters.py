@@ -1,0 +1,92 @@
+"""The probe's parameters stage (issue 41, item 2) on real Humble libraries built here from a copy of
+a built workspace (UROS_HUMBLE_WS) with rclc_parameter: with room for a parameter server's 5
+services (`--set rmw_microxrcedds.RMW_UXRCE_MAX_SERVICES=5`, the rest generate_lib's values) the
+firmware's own clients get, set and list its three typed parameters through the agent and the stage
+passes; on generate_lib's one service it says `skip` and names the option, never `pass`; and
+`uros check --for-firmware` says the same of the stage's source before any run. Env-gated: the
+workspace, UROS_AGENT and qemu-system-arm; each build takes minutes."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+from pathlib import Path
+
+import pytest
+from uros_helpers import run_uros
+
+AGENT = os.environ.get("UROS_AGENT")
+HUMBLE_WS = os.environ.get("UROS_HUMBLE_WS")
+PACKAGES = ("rclc_parameter", "std_msgs", "example_interfaces")
+pytestmark = [
+    pytest.mark.integration,
+    pytest.mark.skipif(
+        not (
+            HUMBLE_WS
+            and AGENT
+            and shutil.which("qemu-system-arm")
+            and (Path(HUMBLE_WS) / "mcu_ws").is_dir()
+            and (Path(HUMBLE_WS) / "build" / "cortex-m7" / "build-info.json").is_file()
+        ),
+        reason="set UROS_HUMBLE_WS (a copy of a built humble workspace with rclc in mcu_ws) and UROS_AGENT, "
+        "and install qemu-system-arm",
+    ),
+]
+STAGE_SOURCE = Path(__file__).resolve().parents[2] / "templates" / "probe" / "stage_parameters.c"
+
+
+def _build(out: Path, *sets: str) -> None:
+    assert HUMBLE_WS
+    packages = [x for p in PACKAGES for x in ("--packages", p)]
+    more = [x for s in sets for x in ("--set", f"rmw_microxrcedds.{s}")]
+    run_uros("build", "--toolchain", "cortex-m7", "-w", HUMBLE_WS, "--output", str(out), *packages, *more)
+
+
+def _check(out: Path, tmp_path: Path) -> tuple[int, str]:
+    """`uros check --for-firmware` of the stage's source alone (the whole probe's stages run one
+    after another: a static count would add them up)."""
+    firmware = tmp_path / "stage"
+    firmware.mkdir()
+    shutil.copy(STAGE_SOURCE, firmware / "main.c")
+    lib = str(out / "libmicroros.a")
+    checked = run_uros("check", lib, "--toolchain", "cortex-m7", "--for-firmware", str(firmware), check=False)
+    return checked.returncode, checked.stderr
+
+
+def _parameters(out: Path) -> tuple[int, dict[str, object]]:
+    proc = run_uros("probe", "--json", str(out), check=False)
+    data = json.loads(proc.stdout)
+    stage = data["stages"]["parameters"]
+    assert isinstance(stage, dict), proc.stderr
+    return proc.returncode, stage
+
+
+def test_a_parameter_server_is_got_set_and_listed_through_the_agent_with_room_for_it(tmp_path: Path) -> None:
+    out = tmp_path / "room"
+    _build(out, "RMW_UXRCE_MAX_SERVICES=5")
+    code, stage = _parameters(out)
+    assert code == 0 and stage["result"] == "pass", stage
+    assert (
+        "3 parameters (bool, int, double) got, set (the server's callback saw uros_count=7) and listed"
+        in str(stage["detail"])
+    )
+    # the stage's source fits the library it passed on: 5 services, 1 publisher, 6 handles given 6
+    code, said = _check(out, tmp_path)
+    assert code == 0, said
+    assert "services: 5 (5 for a parameter server at main.c:" in said and "RMW_UXRCE_MAX_SERVICES=5" in said
+    assert "executor is initialised for 6 handles and given 6" in said
+
+
+def test_one_service_skips_the_stage_naming_the_option_and_check_predicts_it(tmp_path: Path) -> None:
+    out = tmp_path / "one"
+    _build(out, "RMW_UXRCE_MAX_SERVICES=1")
+    code, stage = _parameters(out)
+    assert code == 0 and stage["result"] == "skip", stage
+    assert str(stage["detail"]) == (
+        "a parameter server takes 5 services and the library has RMW_UXRCE_MAX_SERVICES=1 "
+        "(uros build --set rmw_microxrcedds.RMW_UXRCE_MAX_SERVICES=5)"
+    )
+    code, said = _check(out, tmp_path)
+    assert code == 5, said
+    assert "--set rmw_microxrcedds.RMW_UXRCE_MAX_SERVICES=5 fits" in said
