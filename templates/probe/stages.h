@@ -24,6 +24,7 @@ enum {
   PROBE_RESTART = 10,
   PROBE_FRAGMENTATION = 11,
   PROBE_PARAMETERS = 12,
+  PROBE_ACTION = 13,
 };
 
 /* A session with one node: what every stage works in. */
@@ -58,6 +59,7 @@ int probe_loop_samples(probe_loop_t *loop, int want, uint32_t ms, int *sent, uin
 
 int stage_service(probe_session_t *session);
 int stage_parameters(probe_session_t *session);
+int stage_action(probe_session_t *session);
 int stage_time(void);
 int stage_fragmentation(probe_session_t *session);
 int stage_restart(probe_session_t *session, probe_loop_t *loop);

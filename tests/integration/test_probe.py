@@ -58,16 +58,32 @@ def _histories(input_history: int) -> tuple[str, str]:
     return (f"RMW_UXRCE_STREAM_HISTORY_INPUT={input_history}", "RMW_UXRCE_STREAM_HISTORY_OUTPUT=4")
 
 
-STAGES = ("session", "samples", "limits", "fragmentation", "service", "parameters", "time", "restart")
+STAGES = (
+    "session",
+    "samples",
+    "limits",
+    "fragmentation",
+    "service",
+    "parameters",
+    "action",
+    "time",
+    "restart",
+)
 
 
-def _parameters(output: Path) -> str:
-    """The parameters stage's result on a library: pass with rclc_parameter and room for its 5
-    services, else skip (tests/integration/test_probe_parameters.py proves both)."""
-    info = json.loads((output / "build-info.json").read_text())
+def _room(output: Path) -> dict[str, str]:
+    """The parameters and action stages' results on a library: pass with their packages and room for
+    their entities, else skip (tests/integration/test_probe_parameters.py proves both)."""
+    packages = json.loads((output / "build-info.json").read_text())["packages"]
     config = (output / "include" / "rmw_microxrcedds_c" / "config.h").read_text()
-    services = int(re.search(r"#define RMW_UXRCE_MAX_SERVICES (\d+)", config)[1])  # type: ignore[index]
-    return "pass" if "rclc_parameter" in info["packages"] and services >= 5 else "skip"
+    have = {m[1]: int(m[2]) for m in re.finditer(r"#define RMW_UXRCE_MAX_(\w+) (\d+)", config)}
+    action = {"SERVICES": 3, "CLIENTS": 3, "PUBLISHERS": 2, "SUBSCRIPTIONS": 2, "GUARD_CONDITION": 1}
+    return {
+        "parameters": "pass" if "rclc_parameter" in packages and have["SERVICES"] >= 5 else "skip",
+        "action": "pass"
+        if "example_interfaces" in packages and all(have[k] >= n for k, n in action.items())
+        else "skip",
+    }
 
 
 def _results(data: dict[str, object] | None) -> dict[str, str]:
@@ -104,7 +120,12 @@ def test_the_library_runs_against_the_agent(humble: Path, target: str, machine: 
     assert data is not None and data["status"] == 0 and data["machine"] == machine
     assert data["limits"] == {"nodes": 1, "publishers": 1, "subscriptions": 1}  # generate_lib's preset
     # std_msgs only: no service type, and the stage says so rather than passing
-    assert _results(data) == {**dict.fromkeys(STAGES, "pass"), "service": "skip", "parameters": "skip"}
+    assert _results(data) == {
+        **dict.fromkeys(STAGES, "pass"),
+        "service": "skip",
+        "parameters": "skip",
+        "action": "skip",
+    }
     assert "--packages example_interfaces" in str(_stage(data, "service")["detail"])
     assert float(data["seconds"]) < 10  # type: ignore[arg-type]
     assert "probe passed" in err
@@ -283,7 +304,7 @@ def test_every_stage_passes_on_a_built_humble_library() -> None:
     code, err, data = _probe(str(output))
     assert code == 0, err
     assert data is not None and data["status"] == 0
-    expected = {**dict.fromkeys(STAGES, "pass"), "parameters": _parameters(output)}
+    expected = {**dict.fromkeys(STAGES, "pass"), **_room(output)}
     assert _results(data) == expected
     assert "AddTwoInts answered 1001" in str(_stage(data, "service")["detail"])
     assert abs(float(str(_stage(data, "time")["seconds"]))) <= 1.0
@@ -325,6 +346,6 @@ def test_a_library_that_cannot_do_a_stage_fails_it_by_name(
     code, err, data = _probe(str(out))
     assert code == 5, err
     assert data is not None and data["status"] == status
-    assert _results(data) == {**dict.fromkeys(STAGES, "pass"), "parameters": _parameters(out), stage: "fail"}
+    assert _results(data) == {**dict.fromkeys(STAGES, "pass"), **_room(out), stage: "fail"}
     error = _one_error(subprocess.CompletedProcess([], code, "", err))
     assert f"uros probe cortex-m7 (mps2-an500): stage {stage} failed: " in error and named in error, error

@@ -1,10 +1,11 @@
-"""The probe's parameters stage (issue 41, item 2) on real Humble libraries built here from a copy of
-a built workspace (UROS_HUMBLE_WS) with rclc_parameter: with room for a parameter server's 5
-services (`--set rmw_microxrcedds.RMW_UXRCE_MAX_SERVICES=5`, the rest generate_lib's values) the
-firmware's own clients get, set and list its three typed parameters through the agent and the stage
-passes; on generate_lib's one service it says `skip` and names the option, never `pass`; and
-`uros check --for-firmware` says the same of the stage's source before any run. Env-gated: the
-workspace, UROS_AGENT and qemu-system-arm; each build takes minutes."""
+"""The probe's parameters and action stages (issue 41, item 2) on real Humble libraries built here from
+a copy of a built workspace (UROS_HUMBLE_WS) with rclc_parameter and example_interfaces: with room for
+a parameter server's 5 services and an action server's and client's entities (the --set below, the
+rest generate_lib's values) the firmware's own clients get, set and list its three typed parameters and
+a Fibonacci goal gets its feedback and result through the agent, and both stages pass; on
+generate_lib's one service and one client both say `skip` and name the options, never `pass`; and
+`uros check --for-firmware` says the same of the parameters stage's source before any run.
+Env-gated: the workspace, UROS_AGENT and qemu-system-arm; each build takes minutes."""
 
 from __future__ import annotations
 
@@ -54,23 +55,32 @@ def _check(out: Path, tmp_path: Path) -> tuple[int, str]:
     return checked.returncode, checked.stderr
 
 
-def _parameters(out: Path) -> tuple[int, dict[str, object]]:
+def _stages(out: Path) -> tuple[int, dict[str, dict[str, str]]]:
     proc = run_uros("probe", "--json", str(out), check=False)
     data = json.loads(proc.stdout)
-    stage = data["stages"]["parameters"]
-    assert isinstance(stage, dict), proc.stderr
-    return proc.returncode, stage
+    stages = data["stages"]
+    assert isinstance(stages, dict), proc.stderr
+    return proc.returncode, stages
 
 
-def test_a_parameter_server_is_got_set_and_listed_through_the_agent_with_room_for_it(tmp_path: Path) -> None:
+def test_a_parameter_server_and_an_action_work_through_the_agent_with_room_for_them(tmp_path: Path) -> None:
     out = tmp_path / "room"
-    _build(out, "RMW_UXRCE_MAX_SERVICES=5")
-    code, stage = _parameters(out)
-    assert code == 0 and stage["result"] == "pass", stage
+    _build(
+        out,
+        "RMW_UXRCE_MAX_SERVICES=5",
+        "RMW_UXRCE_MAX_CLIENTS=3",
+        "RMW_UXRCE_MAX_PUBLISHERS=2",
+        "RMW_UXRCE_MAX_SUBSCRIPTIONS=2",
+    )
+    code, stages = _stages(out)
+    stage = stages["parameters"]
+    assert code == 0 and stage["result"] == "pass", stages
     assert (
         "3 parameters (bool, int, double) got, set (the server's callback saw uros_count=7) and listed"
-        in str(stage["detail"])
+        in (stage["detail"])
     )
+    action = stages["action"]
+    assert action["result"] == "pass" and "the result [0, 1, 1, 2, 3] through the agent" in action["detail"]
     # the stage's source fits the library it passed on: 5 services, 1 publisher, 6 handles given 6
     code, said = _check(out, tmp_path)
     assert code == 0, said
@@ -78,11 +88,21 @@ def test_a_parameter_server_is_got_set_and_listed_through_the_agent_with_room_fo
     assert "executor is initialised for 6 handles and given 6" in said
 
 
-def test_one_service_skips_the_stage_naming_the_option_and_check_predicts_it(tmp_path: Path) -> None:
+def test_one_service_skips_the_stages_naming_the_options_and_check_predicts_it(tmp_path: Path) -> None:
     out = tmp_path / "one"
-    _build(out, "RMW_UXRCE_MAX_SERVICES=1")
-    code, stage = _parameters(out)
-    assert code == 0 and stage["result"] == "skip", stage
+    _build(
+        out,
+        "RMW_UXRCE_MAX_SERVICES=1",
+        "RMW_UXRCE_MAX_CLIENTS=1",
+        "RMW_UXRCE_MAX_PUBLISHERS=1",
+        "RMW_UXRCE_MAX_SUBSCRIPTIONS=1",
+    )
+    code, stages = _stages(out)
+    stage = stages["parameters"]
+    assert code == 0 and stage["result"] == "skip", stages
+    assert stages["action"]["result"] == "skip" and "RMW_UXRCE_MAX_SERVICES=1, _CLIENTS=1" in str(
+        stages["action"]["detail"]
+    )
     assert str(stage["detail"]) == (
         "a parameter server takes 5 services and the library has RMW_UXRCE_MAX_SERVICES=1 "
         "(uros build --set rmw_microxrcedds.RMW_UXRCE_MAX_SERVICES=5)"

@@ -372,6 +372,7 @@ VERDICTS: Mapping[int, str] = {
     10: "stage restart failed",
     11: "stage fragmentation failed",
     12: "stage parameters failed",
+    13: "stage action failed",
     70: "the firmware crashed (hard fault)",
     71: "an unaligned access did not trap: the machine does not check ARMv6-M's alignment (CCR.UNALIGN_TRP)",
     72: "a FreeRTOS task overflowed its stack",
