@@ -9,7 +9,7 @@ import pytest
 
 from uros_build.output import fit
 from uros_build.output.buildinfo import parse_build_info
-from uros_build.sources.firmware_scan import Call, FirmwareUse, scan_calls, scan_defines
+from uros_build.sources.firmware_scan import Call, FirmwareUse, scan_calls, scan_defines, scan_folder
 from uros_build.sources.options import by_package, known_options
 
 RMW = by_package(known_options())["rmw_microxrcedds"]
@@ -198,3 +198,44 @@ def test_the_summary_of_a_firmware_that_fits_is_one_line() -> None:
     assert not warn and line.startswith(
         "the firmware's entities fit the library: nodes 1 of 4 (a static count"
     )
+
+
+def test_the_parameter_server_example_is_counted_as_it_runs() -> None:
+    """examples/parameter-server: what `uros probe --app` ran (5 services, the events publisher, the
+    self-check's client, two executors that fit) is what the static count says."""
+    use = scan_folder(Path(__file__).resolve().parents[2] / "examples" / "parameter-server")
+    counted = {kind: sum(n for _, n, _ in uses) for kind, uses in fit.count(use.calls).items()}
+    assert counted == {"nodes": 1, "publishers": 1, "services": 5, "clients": 1, "wait sets": 2}
+    found = {e.name: (e.handles, e.given) for e in fit.executors(use, parameter_handles=5)}
+    assert found == {"executor": (5, 5), "checker": (1, 1)}
+
+
+def test_a_publisher_costs_its_topic_slot_too_when_topics_follow_publishers_and_subscriptions(
+    tmp_path: Path,
+) -> None:
+    config = "#define RMW_UXRCE_MAX_PUBLISHERS 1\n#define RMW_UXRCE_MAX_SUBSCRIPTIONS 1\n#define RMW_UXRCE_MAX_TOPICS -1\n"
+    out = _output(tmp_path, config, [])
+    info = parse_build_info(
+        {
+            "generated_by": "uros",
+            "target": "cortex-m7",
+            "packages": ["rmw_microxrcedds"],
+            "library": {"file": "libmicroros.a", "sha256": "0" * 64},
+            "include": {"dir": "include"},
+        },
+        "build-info.json",
+    )
+    use = _use(
+        'rclc_publisher_init_default(&a, &n, ts, "a");\nrclc_publisher_init_default(&b, &n, ts, "b");\n'
+    )
+    pools = {
+        "custom_publishers": 216,
+        "custom_subscriptions": 216,
+        "custom_topics": 56,
+    }  # the lab's humble library
+    (publishers,) = fit.library_fit(out, info, use, known_options(), pools).limits
+    assert (publishers.each, publishers.extra_bytes) == (216 + 28, 244)
+    # a topics pool sized on its own is not the publishers' to pay
+    (tmp_path / "include" / "rmw_microxrcedds_c" / "config.h").write_text(config.replace("-1", "2"))
+    (publishers,) = fit.library_fit(out, info, use, known_options(), pools).limits
+    assert publishers.each == 216

@@ -367,6 +367,11 @@ def library_fit(
     meta = dict(info.cmake_options.get(RMW, {}))
     costs = budget.option_costs(rmw_options.values(), {RMW: meta}, None, nm_sizes, headers)
     each = {c.option: c.each for c in costs}
+    topic = _topic_slot(rmw_options, headers, meta, nm_sizes)
+    for name in ("RMW_UXRCE_MAX_PUBLISHERS", "RMW_UXRCE_MAX_SUBSCRIPTIONS"):
+        slot = each.get(name)
+        if slot is not None and topic is not None:
+            each[name] = slot + topic
     found = limits(use, rmw_options, headers, meta, each)
     packages = set(info.packages)
     functions = {call.function for call in use.calls}
@@ -387,6 +392,30 @@ def library_fit(
 
 def missing_line(package: str, why: str) -> str:
     return f"{why} needs {package}, which the library does not hold: build it with --packages {package}"
+
+
+def _topic_slot(
+    options: Mapping[str, KnownOption],
+    headers: Mapping[str, Mapping[str, str]],
+    meta: Mapping[str, str],
+    nm_sizes: Mapping[str, int],
+) -> int | None:
+    """The bytes of one topic slot when ``RMW_UXRCE_MAX_TOPICS`` is -1 (the pool is then publishers +
+    subscriptions long: config.h.in, humble), so that a publisher or a subscription more costs its
+    slot and a topic's; None when the topics pool is sized otherwise or not found."""
+    names = ("RMW_UXRCE_MAX_TOPICS", "RMW_UXRCE_MAX_PUBLISHERS", "RMW_UXRCE_MAX_SUBSCRIPTIONS")
+    if any(n not in options for n in names) or not nm_sizes.get("custom_topics"):
+        return None
+    topics, publishers, subscriptions = (
+        budget.value_in_force(options[n], {RMW: meta}, headers)[0] for n in names
+    )
+    # meta/options.yaml names no header for the topics option: its config.h define first all the same
+    topics = headers.get(RMW_HEADER, {}).get(names[0], topics)
+    if topics != "-1" or not (publishers.isdigit() and subscriptions.isdigit()):
+        return None
+    slots = int(publishers) + int(subscriptions)
+    size = nm_sizes["custom_topics"]
+    return size // slots if slots and size % slots == 0 else None
 
 
 def limit_line(limit: Limit, priced: bool = True) -> str:
