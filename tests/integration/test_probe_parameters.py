@@ -37,10 +37,16 @@ pytestmark = [
 STAGE_SOURCE = Path(__file__).resolve().parents[2] / "templates" / "probe" / "stage_parameters.c"
 
 
-def _build(out: Path, *sets: str) -> None:
+def _build(out: Path, *, services: int, clients: int, publishers: int, subscriptions: int) -> None:
     assert HUMBLE_WS
     packages = [x for p in PACKAGES for x in ("--packages", p)]
-    more = [x for s in sets for x in ("--set", f"rmw_microxrcedds.{s}")]
+    sets = {
+        "SERVICES": services,
+        "CLIENTS": clients,
+        "PUBLISHERS": publishers,
+        "SUBSCRIPTIONS": subscriptions,
+    }
+    more = [x for k, v in sets.items() for x in ("--set", f"rmw_microxrcedds.RMW_UXRCE_MAX_{k}={v}")]
     run_uros("build", "--toolchain", "cortex-m7", "-w", HUMBLE_WS, "--output", str(out), *packages, *more)
 
 
@@ -55,7 +61,9 @@ def _check(out: Path, tmp_path: Path) -> tuple[int, str]:
     return checked.returncode, checked.stderr
 
 
-def _stages(out: Path) -> tuple[int, dict[str, dict[str, str]]]:
+def _stages(out: Path, **room: int) -> tuple[int, dict[str, dict[str, str]]]:
+    """The library built into ``out`` with ``room`` (services=, clients=, ...), then probed."""
+    _build(out, **room)
     proc = run_uros("probe", "--json", str(out), check=False)
     data = json.loads(proc.stdout)
     stages = data["stages"]
@@ -65,19 +73,11 @@ def _stages(out: Path) -> tuple[int, dict[str, dict[str, str]]]:
 
 def test_a_parameter_server_and_an_action_work_through_the_agent_with_room_for_them(tmp_path: Path) -> None:
     out = tmp_path / "room"
-    _build(
-        out,
-        "RMW_UXRCE_MAX_SERVICES=5",
-        "RMW_UXRCE_MAX_CLIENTS=3",
-        "RMW_UXRCE_MAX_PUBLISHERS=2",
-        "RMW_UXRCE_MAX_SUBSCRIPTIONS=2",
-    )
-    code, stages = _stages(out)
-    stage = stages["parameters"]
-    assert code == 0 and stage["result"] == "pass", stages
+    code, stages = _stages(out, services=5, clients=3, publishers=2, subscriptions=2)
+    assert code == 0 and stages["parameters"]["result"] == "pass", stages
     assert (
         "3 parameters (bool, int, double) got, set (the server's callback saw uros_count=7) and listed"
-        in (stage["detail"])
+        in stages["parameters"]["detail"]
     )
     action = stages["action"]
     assert action["result"] == "pass" and "the result [0, 1, 1, 2, 3] through the agent" in action["detail"]
@@ -90,14 +90,7 @@ def test_a_parameter_server_and_an_action_work_through_the_agent_with_room_for_t
 
 def test_one_service_skips_the_stages_naming_the_options_and_check_predicts_it(tmp_path: Path) -> None:
     out = tmp_path / "one"
-    _build(
-        out,
-        "RMW_UXRCE_MAX_SERVICES=1",
-        "RMW_UXRCE_MAX_CLIENTS=1",
-        "RMW_UXRCE_MAX_PUBLISHERS=1",
-        "RMW_UXRCE_MAX_SUBSCRIPTIONS=1",
-    )
-    code, stages = _stages(out)
+    code, stages = _stages(out, services=1, clients=1, publishers=1, subscriptions=1)
     stage = stages["parameters"]
     assert code == 0 and stage["result"] == "skip", stages
     assert stages["action"]["result"] == "skip" and "RMW_UXRCE_MAX_SERVICES=1, _CLIENTS=1" in str(
