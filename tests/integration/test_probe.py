@@ -314,7 +314,9 @@ def test_every_stage_passes_on_a_built_humble_library() -> None:
         "773 B (1.5 x MTU 512) came back whole" in fragmentation
         and "RMW_UXRCE_STREAM_HISTORY" in fragmentation
     )
-    assert float(data["seconds"]) <= 15  # type: ignore[arg-type]
+    # 15 s before the parameters and action stages; they add 1-3 s (parameters 0.1-0.2 s of calls, the
+    # entities made and destroyed), measured 12.7-17.2 s with both passing at a load of 14
+    assert float(data["seconds"]) <= 20  # type: ignore[arg-type]
     line = next(x for x in err.splitlines() if "probe passed" in x)
     assert all(f"{name} {result}" in line for name, result in expected.items()), line
     restarted = Path(str(data["agent_log"])).with_name("agent-restarted.log").read_text()
