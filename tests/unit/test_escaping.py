@@ -14,7 +14,8 @@ from cmake_text import flags_as_compiled, parse, set_values
 
 from uros_build.colcon import command as colcon
 from uros_build.errors import ConfigError
-from uros_build.output.export import cmake_package_files, esp_idf_component_files
+from uros_build.output.exports.cmake import cmake_package_files
+from uros_build.output.exports.espidf import esp_idf_component_files
 from uros_build.sources.workspace import check_build_folder
 from uros_build.target.profiles import find_profile, parse_profile
 from uros_build.target.toolchain import ToolchainRequest, link_unsafe_flags, render_toolchain

@@ -6,7 +6,9 @@ import pytest
 from golden import check_golden
 
 from uros_build.errors import ConfigError
-from uros_build.output.export import esp_idf_component_files
+from uros_build.output import exports
+from uros_build.output.exports import arduino, base, cmake, make, meson, pkgconfig, platformio, zephyr
+from uros_build.output.exports.espidf import esp_idf_component_files
 
 
 def test_esp_idf_component_golden() -> None:
@@ -25,19 +27,18 @@ def test_custom_transport_needs_no_lwip() -> None:
 
 
 def test_make_pkg_config_and_meson_text_escape_their_values() -> None:
-    from uros_build.output import export as ex
 
     flags = ("-mcpu=cortex-m7", "-DNAME=$HOME", "-DHASH=a#b")
-    mk = ex.make_fragment("cortex-m7", flags)["microros.mk"]
+    mk = make.make_fragment("cortex-m7", flags)["microros.mk"]
     assert "MICROROS_TARGET := cortex-m7\n" in mk
     assert "MICROROS_CPU_FLAGS := -mcpu=cortex-m7 '-DNAME=$$HOME' '-DHASH=a\\#b'\n" in mk
     # pkgconf prints '$' bare into a shell-read line and reads '#' as a comment: refused (issue 34, 7)
     for flag in ("-DNAME=$HOME", "-DHASH=a#b"):
         with pytest.raises(ConfigError, match="which pkg-config cannot pass on"):
-            ex.pkg_config_file("cortex-m7", ("-mcpu=cortex-m7", flag))
-    pc = ex.pkg_config_file("cortex-m7", ("-mcpu=cortex-m7", "-DNAME=a b"))["microros.pc"]
+            pkgconfig.pkg_config_file("cortex-m7", ("-mcpu=cortex-m7", flag))
+    pc = pkgconfig.pkg_config_file("cortex-m7", ("-mcpu=cortex-m7", "-DNAME=a b"))["microros.pc"]
     assert "cpu_flags=-mcpu=cortex-m7 '-DNAME=a b'\n" in pc and "prefix=${pcfiledir}\n" in pc
-    files = ex.meson_cross_file("cortex-m7", "/opt/gcc it's/bin/arm-none-eabi-gcc", flags[:1], "/o")
+    files = meson.meson_cross_file("cortex-m7", "/opt/gcc it's/bin/arm-none-eabi-gcc", flags[:1], "/o")
     ini = files["microros-cross.ini"]
     assert "c = '/opt/gcc it\\'s/bin/arm-none-eabi-gcc'" in ini and "cpu_family = 'arm'" in ini
     assert "c_args = ['-mcpu=cortex-m7']" in ini
@@ -45,13 +46,12 @@ def test_make_pkg_config_and_meson_text_escape_their_values() -> None:
 
 
 def test_tool_prefix_and_meson_cpu_family() -> None:
-    from uros_build.output import export as ex
 
-    assert ex.tool_prefix("/usr/bin/arm-none-eabi-gcc") == "/usr/bin/arm-none-eabi-"
-    assert ex.tool_prefix("xtensa-esp32s3-elf-gcc") == "xtensa-esp32s3-elf-"
-    assert ex.meson_cpu_family("/x/xtensa-esp32s3-elf-") == "xtensa"
-    assert ex.meson_cpu_family("riscv32-esp-elf-") == "riscv32"
-    assert ex.meson_cpu_family("arm-none-eabi-") == "arm"
+    assert meson.tool_prefix("/usr/bin/arm-none-eabi-gcc") == "/usr/bin/arm-none-eabi-"
+    assert meson.tool_prefix("xtensa-esp32s3-elf-gcc") == "xtensa-esp32s3-elf-"
+    assert meson.meson_cpu_family("/x/xtensa-esp32s3-elf-") == "xtensa"
+    assert meson.meson_cpu_family("riscv32-esp-elf-") == "riscv32"
+    assert meson.meson_cpu_family("arm-none-eabi-") == "arm"
 
 
 @pytest.mark.parametrize(
@@ -90,16 +90,14 @@ def test_arduino_folders_as_the_cores_look_them_up(
 ) -> None:
     """Issue 34, item 5: the folders as arduino-cli composes them for the cores' own flags, with
     the src/<mcu> fallback; the architectures of those cores only (not '*')."""
-    from uros_build.output import export as ex
 
-    assert ex.arduino_folders(flags) == folders
-    assert sorted({c.architecture for c in ex.arduino_cores(flags)}) == architectures
+    assert arduino.arduino_folders(flags) == folders
+    assert sorted({c.architecture for c in arduino.arduino_cores(flags)}) == architectures
 
 
 def test_arduino_declares_a_precompiled_library_for_its_cores_only() -> None:
-    from uros_build.output import export as ex
 
-    props = ex.arduino_properties(["cortex-m7", "cortex-m4f"], ["stm32", "avr", "stm32"])
+    props = arduino.arduino_properties(["cortex-m7", "cortex-m4f"], ["stm32", "avr", "stm32"])
     fields = dict(
         line.split("=", 1) for line in props.splitlines() if "=" in line and not line.startswith("#")
     )
@@ -134,9 +132,7 @@ def test_the_esp_idf_component_has_a_manifest_the_component_manager_reads() -> N
 def test_the_zephyr_module_follows_zephyrs_module_file_rules() -> None:
     import yaml
 
-    from uros_build.output import export as ex
-
-    files = ex.zephyr_module_files("cortex-m7", _M7)
+    files = zephyr.zephyr_module_files("cortex-m7", _M7)
     module = yaml.safe_load(files["zephyr/module.yml"])
     # zephyr/module.yml's schema (scripts/zephyr_module.py): name, and build: cmake / kconfig relative
     # to the module's root (https://docs.zephyrproject.org/latest/develop/modules.html)
@@ -152,9 +148,8 @@ def test_the_zephyr_module_links_only_what_the_firmware_uses() -> None:
     """Issue 34, item 4: zephyr_library_import() puts the archive on ZEPHYR_LIBS, which Zephyr links
     --whole-archive (all of micro-ROS in every firmware); an imported target on zephyr_interface's
     link (zephyr_link_libraries) is an ordinary archive."""
-    from uros_build.output import export as ex
 
-    text = ex.zephyr_module_files("cortex-m7", _M7)["CMakeLists.txt"]
+    text = zephyr.zephyr_module_files("cortex-m7", _M7)["CMakeLists.txt"]
     code = [line.strip() for line in text.splitlines() if not line.lstrip().startswith("#")]
     assert not any(line.startswith("zephyr_library_import(") for line in code)
     assert "add_library(micro_ros_uros_prebuilt STATIC IMPORTED GLOBAL)" in code
@@ -188,9 +183,8 @@ def test_the_zephyr_option_depends_on_newlib_and_the_librarys_cpu(
     _impure_ptr are undefined) and the CPU/float ABI Zephyr compiles with the library's flags
     (cmake/gcc-m-fpu.cmake: fpv5-d16 with CPU_HAS_FPU_DOUBLE_PRECISION, else fpv5-sp-d16; FP_HARDABI:
     -mfloat-abi=hard); never a board. Zephyr aborts on CONFIG_MICRO_ROS_UROS=y that these refuse."""
-    from uros_build.output import export as ex
 
-    kconfig = ex.zephyr_module_files("t", flags)["Kconfig"]
+    kconfig = zephyr.zephyr_module_files("t", flags)["Kconfig"]
     assert [line for line in kconfig.splitlines() if line.startswith("\tdepends on ")] == [
         "\tdepends on NEWLIB_LIBC",
         f"\tdepends on {depends}",
@@ -200,24 +194,21 @@ def test_the_zephyr_option_depends_on_newlib_and_the_librarys_cpu(
 
 def test_the_zephyr_module_refuses_a_cpu_zephyr_has_no_symbol_for() -> None:
     from uros_build.errors import ConfigError
-    from uros_build.output import export as ex
 
     with pytest.raises(ConfigError, match="uros knows no Zephyr CPU"):
-        ex.zephyr_depends(("-mcpu=cortex-a53",))
+        zephyr.zephyr_depends(("-mcpu=cortex-a53",))
 
 
 def test_the_cmake_package_names_the_librarys_abi_flags() -> None:
     """The configure-time guard compares these with the firmware's flags (issue 34, item 6)."""
     from cmake_text import set_values
 
-    from uros_build.output import export as ex
-
     m7 = ("-mcpu=cortex-m7", "-mthumb", "-mfpu=fpv5-d16", "-mfloat-abi=hard")
-    assert ex.abi_flags(m7) == {"mcpu": "cortex-m7", "mfpu": "fpv5-d16", "mfloat-abi": "hard", "mabi": ""}
+    assert base.abi_flags(m7) == {"mcpu": "cortex-m7", "mfpu": "fpv5-d16", "mfloat-abi": "hard", "mabi": ""}
     assert (
-        ex.abi_flags(("-march=rv32imc", "-mabi=ilp32", "-mabi=ilp32e"))["mabi"] == "ilp32e"
+        base.abi_flags(("-march=rv32imc", "-mabi=ilp32", "-mabi=ilp32e"))["mabi"] == "ilp32e"
     )  # GCC: last wins
-    values = set_values(ex.cmake_package_files("cortex-m7", m7)["microros.cmake"])
+    values = set_values(cmake.cmake_package_files("cortex-m7", m7)["microros.cmake"])
     assert values["_microros_want_mcpu"] == "cortex-m7" and values["_microros_want_mfloat-abi"] == "hard"
     assert values["_microros_want_mabi"] == ""
 
@@ -225,7 +216,6 @@ def test_the_cmake_package_names_the_librarys_abi_flags() -> None:
 def test_a_build_carries_over_the_exports_its_marker_names(tmp_path: Path) -> None:
     """Issue 34, item 7: only the exports uros wrote (the marker) and that are still there are
     written again into the next build's staged folder; a user's same-named file is not uros's."""
-    from uros_build.output import export as ex
     from uros_build.output import folders
     from uros_build.output.buildinfo import parse_build_info
 
@@ -246,8 +236,12 @@ def test_a_build_carries_over_the_exports_its_marker_names(tmp_path: Path) -> No
         out, "cortex-m7", ["libmicroros.a", "microros.mk", "library.json", "microros-cross.ini"]
     )
     # microros.pc is the user's (not in the marker); microros-cross.ini was removed by the user
-    assert ex.carry_over(out, staging, info) == ["make", "platformio"]
-    assert sorted(p.name for p in staging.iterdir()) == ["library.json", "microros.mk", ex.PLATFORMIO_SCRIPT]
+    assert exports.carry_over(out, staging, info) == ["make", "platformio"]
+    assert sorted(p.name for p in staging.iterdir()) == [
+        "library.json",
+        "microros.mk",
+        platformio.PLATFORMIO_SCRIPT,
+    ]
 
 
 @pytest.mark.parametrize(
@@ -264,7 +258,6 @@ def test_a_build_carries_over_the_exports_its_marker_names(tmp_path: Path) -> No
     ],
 )
 def test_export_folders_each_consumer_cannot_use(kind: str, folder: str, char: str | None) -> None:
-    from uros_build.output import export as ex
 
-    refused = ex.folder_refusal(kind, folder)
+    refused = exports.folder_refusal(kind, folder)
     assert (refused[0] if refused else None) == char

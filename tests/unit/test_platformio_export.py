@@ -8,7 +8,7 @@ from typing import Any
 
 import pytest
 
-from uros_build.output import export as ex
+from uros_build.output.exports import platformio
 
 _M7 = ("-mcpu=cortex-m7", "-mthumb", "-mfpu=fpv5-d16", "-mfloat-abi=hard")
 
@@ -34,16 +34,16 @@ class _Env(dict[str, Any]):
 
 
 def _run(cpu: tuple[str, ...], env: _Env, capsys: pytest.CaptureFixture[str]) -> str:
-    script = ex.platformio_files("cortex-m7", cpu)[ex.PLATFORMIO_SCRIPT]
-    exec(compile(script, ex.PLATFORMIO_SCRIPT, "exec"), {"Import": lambda name: None, "env": env})
+    script = platformio.platformio_files("cortex-m7", cpu)[platformio.PLATFORMIO_SCRIPT]
+    exec(compile(script, platformio.PLATFORMIO_SCRIPT, "exec"), {"Import": lambda name: None, "env": env})
     return capsys.readouterr().err
 
 
 def test_the_manifest_names_the_script() -> None:
-    files = ex.platformio_files("cortex-m7", _M7)
-    build = json.loads(files[ex.PLATFORMIO_FILE])["build"]
-    assert build["extraScript"] == ex.PLATFORMIO_SCRIPT and build["flags"] == ["-L.", "-lmicroros"]
-    assert ex.platformio_build_flags(_M7) == "build_flags = " + " ".join(_M7)
+    files = platformio.platformio_files("cortex-m7", _M7)
+    build = json.loads(files[platformio.PLATFORMIO_FILE])["build"]
+    assert build["extraScript"] == platformio.PLATFORMIO_SCRIPT and build["flags"] == ["-L.", "-lmicroros"]
+    assert platformio.platformio_build_flags(_M7) == "build_flags = " + " ".join(_M7)
 
 
 def test_the_link_gets_the_flags_it_lacks(capsys: pytest.CaptureFixture[str]) -> None:
@@ -89,9 +89,9 @@ def test_a_soft_float_library_asks_for_no_fpu(capsys: pytest.CaptureFixture[str]
 @pytest.mark.parametrize("value", ['x"\nimport os; os.system("id")\n"', "back\\slash 'q' \u00e9\t\x00"])
 def test_values_stay_data_in_the_script(value: str) -> None:
     """A hostile target or flag ends no string in the script: it reads back as the same value."""
-    script = ex.platformio_files(value, ("-mcpu=" + value, value))[ex.PLATFORMIO_SCRIPT]
+    script = platformio.platformio_files(value, ("-mcpu=" + value, value))[platformio.PLATFORMIO_SCRIPT]
     names: dict[str, Any] = {}
     code = script.split('Import("env")', 1)[1].split("\n\n\ndef ", 1)[0]  # the constants only
-    exec(compile(code, ex.PLATFORMIO_SCRIPT, "exec"), names)
+    exec(compile(code, platformio.PLATFORMIO_SCRIPT, "exec"), names)
     assert names["TARGET"] == value and names["CPU_FLAGS"] == ["-mcpu=" + value, value]
     assert names["ABI"] == {"mcpu": value}

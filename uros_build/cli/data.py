@@ -3,7 +3,6 @@ options, export, probe, interface new."""
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from pathlib import Path
 
 import click
@@ -29,6 +28,8 @@ from uros_build.commands import export as export_cmd
 from uros_build.commands import interface as interface_cmd
 from uros_build.commands import listings
 from uros_build.commands import probe as probe_cmd
+from uros_build.output import exports
+from uros_build.output.exports.base import ExportFormat
 
 
 @click.group(cls=Group, invoke_without_command=True, subcommand_metavar="[show NAME]")
@@ -126,38 +127,20 @@ def export() -> None:
     """Packages for firmware build systems."""
 
 
-def _export_command(
-    name: str, what: str, output_help: str, run: Callable[[Path | None, Path], Path]
-) -> click.Command:
-    """One `uros export KIND --output DIR [--from DIR]` command: every kind but arduino has this shape."""
+def _export_command(fmt: ExportFormat) -> click.Command:
+    """One `uros export KIND --output DIR [--from DIR]` command, from the format's record: every
+    kind but arduino has this shape."""
 
-    @click.command(name, help=what)
-    @output_option(output_help, required=True)
+    @click.command(fmt.kind, help=fmt.what)
+    @output_option(fmt.output_help, required=True)
     @FROM
     def command(output: Path, source: Path | None) -> None:
-        run(source, output)
+        export_cmd.export_format(fmt.kind, source, output)
 
     return command
 
 
-# kind, what it writes (its --help), where (--output's help), the command
-_EXPORTS = (
-    ("cmake", "Write microrosConfig.cmake (find_package) and microros.cmake (include) for a build output.",
-     "Folder of the CMake package.", export_cmd.export_cmake),
-    ("esp-idf", "Write an ESP-IDF component (CMakeLists.txt, idf_component.yml, the library) for ESP32.",
-     "Folder of the ESP-IDF component.", export_cmd.export_esp_idf),
-    ("make", "Write microros.mk (MICROROS_CFLAGS, MICROROS_LIBS, MICROROS_CPU_FLAGS) for a Make firmware.",
-     "Folder of microros.mk (and a copy of the output with --from).", export_cmd.export_make),
-    ("pkg-config", "Write microros.pc (relocatable) for pkg-config.", "Folder of microros.pc.",
-     export_cmd.export_pkg_config),
-    ("meson", "Write a Meson cross file (compiler, CPU flags) and microros.pc for dependency('microros').",
-     "Folder of microros-cross.ini and microros.pc.", export_cmd.export_meson),
-    ("platformio", "Write library.json: the output as a PlatformIO library for lib_deps = file://...",
-     "Folder of the PlatformIO library (library.json).", export_cmd.export_platformio),
-    ("zephyr", "Write a Zephyr module (zephyr/module.yml, CMakeLists.txt, Kconfig) around the library.",
-     "Folder of the Zephyr module.", export_cmd.export_zephyr),
-)  # fmt: skip
-EXPORT_COMMANDS = tuple(_export_command(*row) for row in _EXPORTS)
+EXPORT_COMMANDS = tuple(_export_command(fmt) for fmt in exports.FORMATS)
 
 
 @click.command("arduino")

@@ -4,14 +4,15 @@ from __future__ import annotations
 
 import hashlib
 import shutil
-from collections.abc import Callable
 from pathlib import Path
 
 from uros_build import console
 from uros_build.errors import ConfigError, VerifyError
-from uros_build.output import export, swap, symbols
+from uros_build.output import exports, swap, symbols
 from uros_build.output import folders as outputs
 from uros_build.output.buildinfo import BuildInfo, read_build_info
+from uros_build.output.exports import arduino
+from uros_build.output.exports.base import copy_build_output
 from uros_build.proc import Runner, new_run_log, user_log_dir
 from uros_build.sources.workspace import check_folder_target
 
@@ -32,125 +33,34 @@ def _check_complete(src: Path, info: BuildInfo, flag: str) -> None:
 def _check_folder(out: Path, kind: str) -> None:
     """A folder whose package the consumer of ``kind`` could not use is refused before anything is
     written (the consumers cannot be told the folder escaped: they find it themselves)."""
-    export.refuse_package_folder(kind, out, "--output", "export into a folder without it")
+    exports.refuse_package_folder(kind, out, "--output", "export into a folder without it")
 
 
-def _prepare(
-    source: Path | None, output: Path, kind: str, check: Callable[[BuildInfo], object] | None = None
-) -> tuple[BuildInfo, Path]:
-    """Read the build-info of the output to export, ``check`` that the export can be written (it
-    raises: refused before anything is copied), and copy that output to ``output``."""
+def export_format(kind: str, source: Path | None, output: Path) -> Path:
+    """`uros export KIND --output DIR [--from DIR]` for a format of ``exports.FORMATS``: the folder
+    checked, the build-info read, the format's own check (it raises: refused before anything is
+    copied), the output copied to ``output`` (with --from), the format's files written beside it."""
+    fmt = exports.by_kind(kind)
+    flag = "--from" if source else "--output"
     src = (source or output).resolve()
     out = output.resolve()
     _check_folder(out, kind)
     for folder in {src, out}:  # a swap a killed build left half-way is finished or undone first
         for line in swap.recover(folder):
             console.info(line)
-    info = read_build_info(src, "--from" if source else "--output")
-    _check_complete(src, info, "--from" if source else "--output")
-    if check is not None:
-        check(info)
+    info = read_build_info(src, flag)
+    _check_complete(src, info, flag)
+    fmt.check(info, src)
     if src != out:
         check_folder_target(out, "--output")
         outputs.check_output_dir(out, force=False, offers_force=False)
         earlier = outputs.owned_entries(out) or frozenset()  # an earlier export's files stay uros's
-        outputs.write_marker(out, info.target, {*earlier, *export.copy_build_output(src, out)})
-    return info, out
-
-
-def _record(out: Path, written: list[Path] | list[str]) -> None:
+        outputs.write_marker(out, info.target, {*earlier, *copy_build_output(src, out)})
+    written = fmt.write(out, info, out)
     if outputs.owned_entries(out) is not None:
-        outputs.add_to_marker(out, [p if isinstance(p, str) else p.name for p in written])
-
-
-def export_cmake(source: Path | None, output: Path) -> Path:
-    info, out = _prepare(source, output, "cmake")
-    written = export.write_cmake_package(out, info)
-    _record(out, written)
-    console.step(f"wrote {', '.join(p.name for p in written)} in {out}")
+        outputs.add_to_marker(out, written)
+    console.step(fmt.done(info, out, written))
     return out
-
-
-def export_esp_idf(source: Path | None, output: Path) -> Path:
-    src = (source or output).resolve()
-    info = read_build_info(src, "--from" if source else "--output")
-    if not info.idf_target:
-        raise ConfigError(
-            f"{src}: built for {info.target}, which is not an ESP-IDF target",
-            "build for esp32, esp32s2, esp32s3 or esp32c3 first: uros build --toolchain esp32s3",
-        )
-    info, out = _prepare(source, output, "esp-idf")
-    written = export.write_esp_idf_component(out, info)
-    _record(out, written)
-    console.step(
-        f"wrote the ESP-IDF component {out} ({', '.join(p.name for p in written)}): copy it into your "
-        f"project's components/ and add its folder name to PRIV_REQUIRES"
-    )
-    return out
-
-
-def _simple(
-    kind: str,
-    source: Path | None,
-    output: Path,
-    write: Callable[[Path, BuildInfo], list[Path]],
-    use: str,
-    check: Callable[[BuildInfo], object] | None = None,
-) -> Path:
-    info, out = _prepare(source, output, kind, check)
-    written = write(out, info)
-    _record(out, written)
-    console.step(f"wrote {', '.join(p.name for p in written)} in {out}: {use}")
-    return out
-
-
-def export_make(source: Path | None, output: Path) -> Path:
-    return _simple(
-        "make", source, output, export.write_make_fragment, "include it from your Makefile (README: Make)"
-    )
-
-
-def _pkg_config_text(info: BuildInfo) -> object:
-    return export.pkg_config_file(info.target, info.flags.cpu)  # refuses flags pkg-config cannot pass on
-
-
-def export_pkg_config(source: Path | None, output: Path) -> Path:
-    return _simple(
-        "pkg-config",
-        source,
-        output,
-        export.write_pkg_config,
-        "PKG_CONFIG_PATH=<that folder> pkg-config --cflags --libs microros",
-        _pkg_config_text,
-    )
-
-
-def export_platformio(source: Path | None, output: Path) -> Path:
-    src = (source or output).resolve()
-    cpu = read_build_info(src, "--from" if source else "--output").flags.cpu
-    use = f"in platformio.ini: lib_deps = file://<that folder> and {export.platformio_build_flags(cpu)}"
-    return _simple("platformio", source, output, export.write_platformio, use)
-
-
-def export_zephyr(source: Path | None, output: Path) -> Path:
-    info, out = _prepare(source, output, "zephyr", lambda i: export.zephyr_depends(i.flags.cpu))
-    written = export.write_zephyr_module(out, info)
-    _record(out, ["zephyr", *(p.name for p in written if p.parent == out)])
-    console.step(
-        f"wrote the Zephyr module {out}: add it to ZEPHYR_EXTRA_MODULES and set CONFIG_MICRO_ROS_UROS=y"
-    )
-    return out
-
-
-def export_meson(source: Path | None, output: Path) -> Path:
-    src = (source or output).resolve()
-    if read_build_info(src, "--from" if source else "--output").compiler is None:
-        raise ConfigError(
-            f"{src}: built with your own toolchain file, so uros does not know the compiler to name",
-            "use `uros export pkg-config` with your own Meson cross file",
-        )
-    use = "meson setup build --cross-file <that file>"
-    return _simple("meson", source, output, export.write_meson_cross, use, _pkg_config_text)
 
 
 def _tree_digest(folder: Path) -> dict[str, str]:
@@ -192,7 +102,7 @@ def export_arduino(sources: tuple[Path, ...], output: Path) -> Path:
         info = read_build_info(src, "--from")
         _check_complete(src, info, "--from")
         _refuse_duplicates(runner, src / info.library.file)
-        folders = export.arduino_folders(info.flags.cpu)
+        folders = arduino.arduino_folders(info.flags.cpu)
         if not folders:
             raise ConfigError(
                 f"--from {src}: built for {info.target} ({' '.join(info.flags.cpu)}), the flags of none of "
@@ -206,7 +116,7 @@ def export_arduino(sources: tuple[Path, ...], output: Path) -> Path:
                     f"--from {src}: {placed[folder]} is for src/{folder} too", "one output per board"
                 )
             placed[folder] = src
-        architectures += [core.architecture for core in export.arduino_cores(info.flags.cpu)]
+        architectures += [core.architecture for core in arduino.arduino_cores(info.flags.cpu)]
         tree = _tree_digest(src / info.include.dir)
         if includes is None:
             includes = (src, tree)
@@ -226,13 +136,13 @@ def export_arduino(sources: tuple[Path, ...], output: Path) -> Path:
     for folder, src in sorted(placed.items()):
         (out / "src" / folder).mkdir(parents=True, exist_ok=True)
         shutil.copy2(src / "libmicroros.a", out / "src" / folder / "libmicroros.a")
-    (out / "src" / f"{export.ARDUINO_NAME}.h").write_text(export.arduino_header(), encoding="utf-8")
+    (out / "src" / f"{arduino.ARDUINO_NAME}.h").write_text(arduino.arduino_header(), encoding="utf-8")
     (out / "library.properties").write_text(
-        export.arduino_properties(targets, architectures), encoding="utf-8"
+        arduino.arduino_properties(targets, architectures), encoding="utf-8"
     )
     outputs.write_marker(out, "arduino", ["library.properties", "src"])
     console.step(
         f"wrote the Arduino library {out} ({', '.join(f'src/{f}' for f in sorted(placed))}): put it in your "
-        f"sketchbook's libraries/ and #include <{export.ARDUINO_NAME}.h>"
+        f"sketchbook's libraries/ and #include <{arduino.ARDUINO_NAME}.h>"
     )
     return out

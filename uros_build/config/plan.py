@@ -29,7 +29,7 @@ from uros_build.config.settings import (
 from uros_build.errors import ConfigError, did_you_mean
 from uros_build.output import swap
 from uros_build.output import team_cache as cache_mod
-from uros_build.output.export import refuse_package_folder
+from uros_build.output.exports import refuse_package_folder
 from uros_build.output.folders import check_output_dir, check_output_owner, is_uros_output, target_keys
 from uros_build.output.team_cache import CacheSettings
 from uros_build.sources import distros as distros_mod

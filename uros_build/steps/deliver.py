@@ -28,7 +28,7 @@ from uros_build.errors import (
     written_path,
 )
 from uros_build.files import locked, remove_tree
-from uros_build.output import contents, export, fit, includes, msgsize, swap, symbols
+from uros_build.output import contents, exports, fit, includes, msgsize, swap, symbols
 from uros_build.output import folders as outputs
 from uros_build.output.archive import MergeReport, merge_archives
 from uros_build.output.buildinfo import (
@@ -37,6 +37,7 @@ from uros_build.output.buildinfo import (
     Library,
     read_build_info,
 )
+from uros_build.output.exports import cmake as cmake_export
 from uros_build.sources import clones
 from uros_build.sources.options import known_options
 from uros_build.sources.wsfiles import read_lock
@@ -68,7 +69,7 @@ def _put_in_place(plan: BuildPlan, assembled: Assembled) -> list[str]:
     staging = assembled.folder
     try:
         (staging / BUILD_INFO).write_text(assembled.info.to_json(), encoding="utf-8")
-        export.carry_over(plan.output, staging, assembled.info)  # `uros export KIND` beside the library
+        exports.carry_over(plan.output, staging, assembled.info)  # `uros export KIND` beside the library
         outputs.write_marker(staging, plan.target.key, [p.name for p in staging.iterdir()])
         # Two targets' builds into one --output: one writer at a time, and the second does not
         # replace the first's output unless --force (checked again now that it is its turn).
@@ -307,7 +308,7 @@ def assemble(ctx: Context, inputs: Inputs, setup: ColconSetup, compiled: Compile
         lib = _library(ctx, staging, setup, compiled.packages, inputs.previous)
         _firmware_toolchain(ctx, staging)
         info = _build_info(ctx, inputs, setup, compiled, lib)
-        export.write_cmake_package(staging, info)
+        cmake_export.write_cmake_package(staging, info)
     except OSError as exc:
         remove_tree(staging)
         # a file named (a copy's destination, the path a call or write names) is main's to report;

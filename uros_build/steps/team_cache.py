@@ -19,13 +19,14 @@ from uros_build.errors import (
     interrupted,
 )
 from uros_build.files import remove_tree
-from uros_build.output import cache_store, export
+from uros_build.output import cache_store
 from uros_build.output import folders as outputs
 from uros_build.output import team_cache as cache_mod
 from uros_build.output.buildinfo import (
     BuildInfo,
     read_build_info,
 )
+from uros_build.output.exports import cmake as cmake_export
 from uros_build.output.team_cache import CacheSettings, CacheUnusable
 from uros_build.steps.context import Context
 from uros_build.steps.deliver import Assembled
@@ -98,7 +99,7 @@ def _check_cached(ctx: Context, staging: Path, key: str) -> BuildInfo:
         raise CacheUnusable(f"the entry {key[:16]} has no {info.include.dir}/ folder")
     # The files a firmware's CMake runs are written by this uros for this target: an entry's must
     # be exactly those (a server's copy could add execute_process lines).
-    expected = export.cmake_package_files(info.target, info.flags.cpu, info.rtos)
+    expected = cmake_export.cmake_package_files(info.target, info.flags.cpu, info.rtos)
     firmware_toolchain = ctx.kind.firmware_toolchain()
     if firmware_toolchain is not None:
         expected["toolchain.cmake"] = firmware_toolchain

@@ -39,7 +39,7 @@ FREERTOS = "freertos"
 # a CMake PLATFORM_NAME (the client's CMakeLists.txt knows FreeRTOS only as FreeRTOS_Plus_TCP, a
 # network stack, for its UDP/TCP transports).
 DEFINE = "PLATFORM_NAME_FREERTOS"
-DEFINES = {FREERTOS: DEFINE}  # each RTOS's define, for the firmware's compile too (output/export.py)
+DEFINES = {FREERTOS: DEFINE}  # each RTOS's define, for the firmware's compile too (output/exports/cmake.py)
 KERNEL_HEADER = "FreeRTOS.h"
 CONFIG_HEADER = "FreeRTOSConfig.h"
 PORT_HEADER = "portmacro.h"
