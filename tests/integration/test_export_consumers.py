@@ -331,7 +331,8 @@ def test_export_folders_with_special_characters_work_or_are_refused(
     need("cmake", "ninja", "make", "pkg-config", "meson", "arm-none-eabi-gcc")
     source = m7_build / "build" / "cortex-m7"
     refuses = {
-        "cmake": char in ";\\",
+        # '"': CMake's Makefiles generator writes it unescaped (a Ninja build works; one rule for both)
+        "cmake": char in ';\\"',
         "pkg-config": char != "é",
         "make": char != "é",
         "meson": True,
