@@ -76,6 +76,24 @@ static unsigned exception_number(void) {
 static unsigned exception_number(void) { return 0u; }
 #endif
 
+/* The board's own failures end the run with interrupts masked (FreeRTOS's assertion: its
+ * taskDISABLE_INTERRUPTS sets BASEPRI); an app's exit(status) runs with them on. */
+static int interrupts_masked(void) {
+#if defined(__ARM_ARCH_7M__) || defined(__ARM_ARCH_7EM__) || defined(__ARM_ARCH_8M_MAIN__) || \
+    defined(__ARM_ARCH_8_1M_MAIN__)
+  unsigned basepri;
+  __asm volatile("mrs %0, basepri" : "=r"(basepri));
+  if (basepri != 0u) return 1;
+#endif
+#if defined(__ARM_ARCH) && !defined(__aarch64__)
+  unsigned primask;
+  __asm volatile("mrs %0, primask" : "=r"(primask));
+  return (primask & 1u) != 0u;
+#else
+  return 0;
+#endif
+}
+
 /* The board's _exit calls this first, for every end of the run: the end line, then the status QEMU
  * exits with. */
 int probe_exit_status(int status) {
@@ -90,8 +108,10 @@ int probe_exit_status(int status) {
   } else if (status == PROBE_APP_CRASHED && exception >= 2u && exception <= 6u) {
     kind = "fault"; /* board.c's fault handler */
     code = PROBE_APP_CRASHED;
-  } else if (!app_started || exception != 0u) {
-    kind = "board"; /* the board's own checks: before appMain, or from an interrupt (FreeRTOS's hooks) */
+  } else if (!app_started || exception != 0u || (status > 70 && status < 80 && interrupts_masked())) {
+    /* the board's own checks: before appMain, from an interrupt (FreeRTOS's stack overflow hook), or
+     * with interrupts masked (its assertion) */
+    kind = "board";
     code = status > 64 && status < 128 ? status : 127;
   } else {
     kind = "exit"; /* the app's exit(status) */

@@ -396,3 +396,25 @@ def test_defines_and_names_reach_the_compiler_as_typed(humble_out: Path, tmp_pat
     assert code == 0 and data["passed"] is True, err + _console(data)
     assert "V=[0;V=3] A=[a#b] B=[$(id)] C=[$<1:gen>] D=[a;b \" 'c']" in _console(data)
     assert "we\\nird" in err  # the folder shown on one line
+
+
+@_RUNS
+@pytest.mark.skipif(not FREERTOS, reason="set UROS_FREERTOS to a FreeRTOS-Kernel checkout (V11.x)")
+def test_on_freertos_the_kernels_assertion_is_the_boards_and_exit_73_the_apps(
+    humble_out: Path, tmp_path: Path
+) -> None:
+    """The kernel's assertion ends the run with interrupts masked: the board's (73); the app's own
+    exit(73) is the app's, whole."""
+    assert FREERTOS
+    app = _app(
+        tmp_path / "assert",
+        '#include "FreeRTOS.h"\n#include "queue.h"\nvoid appMain(void *arg) {\n  (void)arg;\n  int x = 0;\n'
+        "  (void)xQueueGenericSend(NULL, &x, 0, queueSEND_TO_BACK);\n}\n",
+    )
+    code, err, data = _run_app(humble_out, tmp_path, "--app", str(app), "--freertos", FREERTOS)
+    assert code == 5 and data is not None and data["ended_by"] == "board" and data["status"] == 73, err
+    assert "a FreeRTOS assertion failed (see the console)" in err
+    app = _app(tmp_path / "exit73", "#include <stdlib.h>\nvoid appMain(void *arg) { (void)arg; exit(73); }\n")
+    code, err, data = _run_app(humble_out, tmp_path, "--app", str(app), "--freertos", FREERTOS)
+    assert code == 5 and data is not None and data["ended_by"] == "exit" and data["exit_status"] == 73, err
+    assert "the app exited with 73" in err and data["status"] == 64

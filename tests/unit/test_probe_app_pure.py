@@ -320,6 +320,8 @@ def test_the_runner_statuses_match_the_firmware() -> None:
         assert f"#define PROBE_APP_{name} {status}" in text
     assert "code = status >= 0 && status <= 63 ? status : PROBE_APP_OUT_OF_RANGE;" in text
     assert "code = status > 64 && status < 128 ? status : 127;" in text
+    # the board's own ends: before appMain, in an exception, or with interrupts masked (FreeRTOS's assertion)
+    assert "!app_started || exception != 0u || (status > 70 && status < 80 && interrupts_masked())" in text
     for kind in ("no-agent", "returned", "duration", "board", "fault", "exit"):
         assert f'"{kind}"' in text
     for board in ("arm", "riscv", "xtensa"):
