@@ -17,7 +17,7 @@ import shutil
 from pathlib import Path
 
 import pytest
-from uros_helpers import humble_copy, run_uros
+from uros_helpers import humble_copy, run_uros, run_uros_here
 
 from uros_build.run import freertos
 
@@ -60,8 +60,8 @@ def multithread(humble: Path) -> Path:
     )  # fmt: skip
 
 
-def _build(ws: Path, out: Path, *args: str) -> Path:
-    run_uros("build", "--toolchain", "cortex-m7", "-w", str(ws), "-j", "2", "--output", str(out), *args)
+def _build(ws: Path, out: Path, *args: str, target: str = "cortex-m7") -> Path:
+    run_uros("build", "--toolchain", target, "-w", str(ws), "-j", "2", "--output", str(out), *args)
     return out
 
 
@@ -142,3 +142,59 @@ def test_seed_001_app_runs_in_a_freertos_task(multithread: Path) -> None:
     print(
         f"\nseed 001 on FreeRTOS: {data['seconds']} s, heap {data['heap_bytes']} B, stack {data['stack_bytes']} B"
     )
+
+
+# The cores whose FreeRTOS ports differ from the M3/M4/M7 ones: V11.1's ARM_CM0 and the ARMv8-M
+# non-secure ports keep vStartFirstTask and their handlers in portasm.c and name them SVC_Handler,
+# PendSV_Handler, SysTick_Handler; the ARMv8-M ones need configENABLE_FPU/MPU/TRUSTZONE, the M55's
+# configENABLE_MVE. Each failed to link (`collect2: error: ld returned 1 exit status`) on main be75dd0.
+OTHER_CORES = ("cortex-m0plus", "cortex-m33", "cortex-m55")
+
+
+@_RUNS
+@pytest.mark.parametrize("core", OTHER_CORES)
+def test_a_library_built_for_freertos_runs_on_every_cores_port(humble: Path, core: str) -> None:
+    """Round 5 (issue 43, 5): a library built `--rtos freertos` (the probe's FreeRTOSConfig.h, the
+    multithread profile) for cortex-m0plus (ARM_CM0, on QEMU's M3 with unaligned traps), cortex-m33
+    (ARM_CM33_NTZ, mps2-an505) and cortex-m55 (ARM_CM55_NTZ, mps3-an547): every stage passes in a task,
+    and the two tasks' 40 samples arrive intact."""
+    out = _build(
+        humble, humble.parent / f"mt-{core}", *TWO_OF_EACH,
+        "--rtos", "freertos", "--rtos-dir", str(KERNEL), "--rtos-config", str(freertos.probe_config().parent),
+        "--set", "microxrcedds_client.UCLIENT_PROFILE_MULTITHREAD=ON", target=core,
+    )  # fmt: skip
+    code, err, data, console = _probe(str(out))
+    assert code == 0, err + console
+    assert "on FreeRTOS (the library was built for FreeRTOS)" in err and data["rtos"] == "freertos"
+    stage = freertos.two_tasks(console)
+    assert stage is not None and stage[0] == "pass" and "40 of 40 arrived intact" in stage[1], console
+    assert data["stages"]["time"]["result"] == "pass"  # type: ignore[index]  # the board's clock is the tick's
+    print(f"\n{core} on FreeRTOS: {data['seconds']} s; {freertos.describe_run(console)}")
+
+
+def _kernel_of_version(root: Path, version: str) -> Path:
+    """A folder shaped like a FreeRTOS-Kernel checkout of ``version`` (what uros reads of one)."""
+    major, minor, build = version[1:].split(".")
+    (root / "include").mkdir(parents=True)
+    (root / "tasks.c").write_text("/* a kernel's tasks.c */\n")
+    (root / "include" / "FreeRTOS.h").write_text("/* a kernel's FreeRTOS.h */\n")
+    (root / "portable/GCC/ARM_CM7/r0p1").mkdir(parents=True)
+    (root / "portable/GCC/ARM_CM7/r0p1/port.c").write_text("/* the M7's port */\n")
+    (root / "include" / "task.h").write_text(
+        f'#define tskKERNEL_VERSION_NUMBER "{version}"\n#define tskKERNEL_VERSION_MAJOR {major}\n'
+        f"#define tskKERNEL_VERSION_MINOR {minor}\n#define tskKERNEL_VERSION_BUILD {build}\n"
+    )
+    return root
+
+
+def test_a_v10_kernel_is_refused_before_the_firmware_is_built(m7_build: Path, tmp_path: Path) -> None:
+    """Round 5 (issue 43, 5): with a V10 kernel the user saw only `collect2: error: ld returned 1
+    exit status`. Now the kernel's include/task.h is read first: one line naming the version needed."""
+    kernel = _kernel_of_version(tmp_path / "FreeRTOS-Kernel", "V10.6.2")
+    out = m7_build / "build" / "cortex-m7"
+    proc = run_uros_here("probe", str(out), "--freertos", str(kernel), "--agent", "/bin/true", check=False)
+    assert proc.returncode == 2, proc.stderr
+    errors = [line for line in proc.stderr.splitlines() if line.startswith("error:")]
+    assert len(errors) == 1 and "Traceback" not in proc.stderr, proc.stderr
+    assert f"--freertos {kernel}: FreeRTOS-Kernel V10.6.2; the probe runs on V11.x" in errors[0]
+    assert "git clone --branch V11.1.0" in proc.stderr and "collect2" not in proc.stderr

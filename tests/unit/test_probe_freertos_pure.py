@@ -15,11 +15,23 @@ from uros_build.run import freertos
 from uros_build.run import machines as probe
 
 
-def fake_kernel(root: Path, ports: tuple[str, ...] = ("GCC/ARM_CM7/r0p1",)) -> Path:
+def task_h(version: str) -> str:
+    """include/task.h's version lines as FreeRTOS-Kernel writes them (V11.1.0's layout)."""
+    major, minor, build = version[1:].split(".")
+    return (
+        f'#define tskKERNEL_VERSION_NUMBER       "{version}"\n'
+        f"#define tskKERNEL_VERSION_MAJOR        {major}\n"
+        f"#define tskKERNEL_VERSION_MINOR        {minor}\n"
+        f"#define tskKERNEL_VERSION_BUILD        {build}\n"
+    )
+
+
+def fake_kernel(root: Path, ports: tuple[str, ...] = ("GCC/ARM_CM7/r0p1",), version: str = "V11.1.0") -> Path:
     """A folder shaped like a FreeRTOS-Kernel checkout (no kernel code: these tests only look)."""
     (root / "include").mkdir(parents=True)
     (root / "tasks.c").write_text("/* fake */\n")
     (root / "include" / "FreeRTOS.h").write_text("/* fake */\n")
+    (root / "include" / "task.h").write_text(task_h(version))
     for port in ports:
         (root / "portable" / port).mkdir(parents=True)
         (root / "portable" / port / "port.c").write_text("/* fake */\n")
@@ -39,6 +51,8 @@ def library(kernel: Path, port: str = "GCC/ARM_CM7/r0p1", config: str = "/cfg") 
         ("cortex-m4", "GCC/ARM_CM3"),  # no FPU: the M3's port
         ("cortex-m3", "GCC/ARM_CM3"),
         ("cortex-m33", "GCC/ARM_CM33_NTZ/non_secure"),
+        ("cortex-m55", "GCC/ARM_CM55_NTZ/non_secure"),
+        ("cortex-m0plus", "GCC/ARM_CM0"),
     ],
 )
 def test_the_port_of_each_probed_core(target: str, port: str) -> None:
@@ -103,6 +117,64 @@ def test_a_freertos_library_runs_on_its_own_kernel_and_port(tmp_path: Path) -> N
 def test_what_the_probe_refuses(built: RtosInfo | None, flag: str | None, message: str) -> None:
     with pytest.raises(ConfigError, match=message):
         freertos.choose("cortex-m7", built, flag, None)
+
+
+@pytest.mark.parametrize("version", ["V10.6.2", "V10.4.3", "V9.0.0"])
+def test_a_kernel_before_v11_is_refused_with_the_version_it_needs(tmp_path: Path, version: str) -> None:
+    """Round 5 (issue 43, 5): a V10 kernel failed in the linker (`collect2: error: ld returned 1`)."""
+    kernel = fake_kernel(tmp_path / "k", version=version)
+    assert freertos.kernel_version(kernel) == (int(version[1:].split(".")[0]), version)
+    with pytest.raises(
+        ConfigError, match=rf"--freertos .*k: FreeRTOS-Kernel {version}; the probe runs on V11\.x"
+    ):
+        freertos.choose("cortex-m7", None, str(kernel), None)
+    # the library's own kernel is checked the same way
+    with pytest.raises(ConfigError, match=rf"build-info.json's rtos.kernel .*: FreeRTOS-Kernel {version}"):
+        freertos.choose("cortex-m7", library(kernel), None, None)
+
+
+def test_a_freertos_library_is_not_probed_on_a_kernel_of_another_major_version(tmp_path: Path) -> None:
+    """--freertos V11 over a library compiled against V10: its kernel objects may differ in layout."""
+    built = library(fake_kernel(tmp_path / "v10", version="V10.6.2"))
+    v11 = fake_kernel(tmp_path / "v11")
+    with pytest.raises(
+        ConfigError, match=r"FreeRTOS-Kernel V11.1.0, but the library was compiled against V10.6.2"
+    ) as err:
+        freertos.choose("cortex-m7", built, str(v11), None)
+    assert "build the library against a FreeRTOS-Kernel V11.x" in str(err.value.hint)
+    # another minor of V11 is the same kernel's objects
+    other = fake_kernel(tmp_path / "v11.0", version="V11.0.1")
+    assert freertos.choose("cortex-m7", library(other), str(v11), None).kernel == v11  # type: ignore[union-attr]
+
+
+def test_a_kernel_whose_version_cannot_be_read_is_refused(tmp_path: Path) -> None:
+    kernel = fake_kernel(tmp_path / "k")
+    (kernel / "include" / "task.h").write_text("/* no version here */\n")
+    assert freertos.kernel_version(kernel) is None
+    with pytest.raises(ConfigError, match="names no tskKERNEL_VERSION_MAJOR"):
+        freertos.choose("cortex-m7", None, str(kernel), None)
+    assert freertos.kernel_version(fake_kernel(tmp_path / "v11", version="V11.0.1")) == (11, "V11.0.1")
+
+
+def test_the_probe_config_serves_every_port_from_what_the_compiler_targets() -> None:
+    """Round 5 (issue 43, 5): the ARMv8-M ports need configENABLE_FPU/MPU/TRUSTZONE, the CM55's
+    configENABLE_MVE too (the CM33's refuses MVE 1); V11.1's ARM_CM0 and the ARMv8-M ports name
+    their handlers SVC_Handler/PendSV_Handler/SysTick_Handler and keep them in portasm.c."""
+    config = freertos.probe_config().read_text()
+    for line in (
+        "#if defined(__ARM_FP)\n#define configENABLE_FPU 1\n#else\n#define configENABLE_FPU 0",
+        "#if defined(__ARM_FEATURE_MVE) && (__ARM_FEATURE_MVE > 0)\n#define configENABLE_MVE 1\n#else\n"
+        "#define configENABLE_MVE 0",
+        "#define configENABLE_MPU 0",
+        "#define configENABLE_TRUSTZONE 0",
+        "#define SVC_Handler probe_svcall",
+        "#define PendSV_Handler probe_pendsv",
+        "#define SysTick_Handler xPortSysTickHandler",
+        "#define configCPU_CLOCK_HZ PROBE_CLOCK_HZ",
+    ):
+        assert line in config, line
+    kernel = (probe.firmware_sources() / "freertos" / "kernel.cmake").read_text()
+    assert 'if(EXISTS "${port}/portasm.c")' in kernel and '"${CMAKE_CURRENT_SOURCE_DIR}/board"' in kernel
 
 
 def test_a_kernel_without_the_cores_port_is_refused(tmp_path: Path) -> None:

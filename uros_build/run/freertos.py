@@ -26,6 +26,12 @@ _KERNEL_HINT = (
     "https://github.com/FreeRTOS/FreeRTOS-Kernel) with --freertos DIR or $UROS_FREERTOS"
 )
 
+_REBUILD_HINT = (
+    "build the library against a FreeRTOS-Kernel V11.x (uros build --rtos freertos --rtos-dir KERNEL; "
+    "git clone --branch V11.1.0 https://github.com/FreeRTOS/FreeRTOS-Kernel): the probe runs the "
+    "kernel the library was compiled against"
+)
+
 
 @dataclass(frozen=True)
 class FreeRtos:
@@ -53,11 +59,49 @@ def _port_dir(kernel: Path, port: str) -> Path:
     return Path(port) if Path(port).is_absolute() else kernel / "portable" / port
 
 
-def check_kernel(kernel: Path, where: str) -> Path:
-    """A folder that holds the kernel's sources and headers, or one line saying what is missing."""
+NEEDED_MAJOR = 11  # the probe's FreeRTOSConfig.h: configKERNEL_PROVIDED_STATIC_MEMORY (V11.0), the V11 ports
+_MAJOR = re.compile(rb"^[ \t]*#[ \t]*define[ \t]+tskKERNEL_VERSION_MAJOR[ \t]+(\d+)", re.MULTILINE)
+_NUMBER = re.compile(
+    rb'^[ \t]*#[ \t]*define[ \t]+tskKERNEL_VERSION_NUMBER[ \t]+"([^"\n]{1,40})"', re.MULTILINE
+)
+
+
+def kernel_version(kernel: Path) -> tuple[int, str] | None:
+    """(major version, the version as the kernel names it) from its include/task.h, or None when it
+    says neither (tskKERNEL_VERSION_MAJOR, tskKERNEL_VERSION_NUMBER)."""
+    task_h = kernel / "include" / "task.h"
+    try:
+        with task_h.open("rb") as handle:
+            text = handle.read(256 * 1024)  # the defines are at its top; a bounded read
+    except OSError:
+        return None
+    major = _MAJOR.search(text)
+    if major is None:
+        return None
+    number = _NUMBER.search(text)
+    return int(major[1]), (number[1].decode("ascii", "replace") if number else f"V{int(major[1])}")
+
+
+def check_kernel(kernel: Path, where: str, hint: str = _KERNEL_HINT) -> Path:
+    """A folder that holds the kernel's sources and headers, of a version the probe runs (V11), or
+    one line saying what is missing: before anything is built (a V10 kernel failed in the linker)."""
     missing = [name for name in ("tasks.c", "include/FreeRTOS.h") if not (kernel / name).is_file()]
     if missing:
         raise ConfigError(f"{where} {kernel}: not a FreeRTOS-Kernel checkout (no {missing[0]})", _KERNEL_HINT)
+    version = kernel_version(kernel)
+    if version is None:
+        raise ConfigError(
+            f"{where} {kernel}: its include/task.h names no tskKERNEL_VERSION_MAJOR: the probe cannot tell "
+            f"the kernel's version (it needs V{NEEDED_MAJOR}.x)",
+            _KERNEL_HINT,
+        )
+    if version[0] < NEEDED_MAJOR:
+        raise ConfigError(
+            f"{where} {kernel}: FreeRTOS-Kernel {version[1]}; the probe runs on V{NEEDED_MAJOR}.x (its "
+            "FreeRTOSConfig.h and the V11 ports: the kernel's own idle task memory, the ARMv8-M and "
+            "ARM_CM0 handlers)",
+            hint,
+        )
     return kernel
 
 
@@ -77,13 +121,15 @@ def choose(target: str, library: RtosInfo | None, flag: str | None, env: str | N
     elif library is not None:
         recorded = Path(library.kernel)
         if (recorded / "tasks.c").is_file():
-            kernel = check_kernel(recorded, "build-info.json's rtos.kernel")
+            kernel = check_kernel(recorded, "build-info.json's rtos.kernel", _REBUILD_HINT)
         elif env:
             kernel = check_kernel(Path(env).expanduser(), "$UROS_FREERTOS")
         else:
             raise ConfigError(f"uros probe: the library's FreeRTOS kernel {recorded} is gone", _KERNEL_HINT)
     else:
         return None
+    if flag and library is not None:
+        _same_major(kernel, Path(library.kernel))
     # the library's own port (it may have chosen another with --rtos-port), else the table's
     names = library.port.split() if library is not None else []
     port = _port_dir(kernel, names[0] if len(names) == 1 else port_for(target))
@@ -91,6 +137,20 @@ def choose(target: str, library: RtosInfo | None, flag: str | None, env: str | N
         raise ConfigError(f"uros probe: FreeRTOS kernel {kernel}: no {port}/port.c", _KERNEL_HINT)
     why = "the library was built for FreeRTOS" if library is not None else "--freertos"
     return FreeRtos(kernel, port, why, Path(library.config) if library is not None else None)
+
+
+def _same_major(given: Path, recorded: Path) -> None:
+    """--freertos over a FreeRTOS library: a kernel of another major version than the one the library
+    was compiled against is refused (the kernel objects the library holds, its mutexes, may have
+    another layout); the recorded kernel gone, nothing can be compared."""
+    theirs, ours = kernel_version(recorded), kernel_version(given)
+    if theirs is not None and ours is not None and theirs[0] != ours[0]:
+        raise ConfigError(
+            f"--freertos {given}: FreeRTOS-Kernel {ours[1]}, but the library was compiled against "
+            f"{theirs[1]} ({recorded}): the kernel objects it holds (the multithread profile's mutexes) "
+            "may not have the same layout",
+            _REBUILD_HINT,
+        )
 
 
 def cmake_defines(rtos: FreeRtos | None) -> list[str]:

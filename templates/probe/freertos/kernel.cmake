@@ -8,8 +8,16 @@ set(port "${UROS_FREERTOS_PORT}")
 if(NOT EXISTS "${kernel}/tasks.c" OR NOT EXISTS "${port}/port.c")
   message(FATAL_ERROR "uros probe: no FreeRTOS kernel at ${kernel} with a port at ${port}")
 endif()
+# ARMv8-M ports (CM33/CM55 non_secure) and V11.1's ARM_CM0 keep their context switch and
+# vStartFirstTask in portasm.c beside port.c
+set(port_sources "${port}/port.c")
+if(EXISTS "${port}/portasm.c")
+  list(APPEND port_sources "${port}/portasm.c")
+endif()
 add_library(freertos_kernel STATIC
   "${kernel}/tasks.c" "${kernel}/queue.c" "${kernel}/list.c"
-  "${port}/port.c" "${kernel}/portable/MemMang/heap_4.c")
+  ${port_sources} "${kernel}/portable/MemMang/heap_4.c")
 target_include_directories(freertos_kernel PUBLIC "${CMAKE_CURRENT_LIST_DIR}" "${kernel}/include" "${port}")
+# the board's machine header (its core clock: FreeRTOSConfig.h's configCPU_CLOCK_HZ)
+target_include_directories(freertos_kernel PRIVATE "${CMAKE_CURRENT_SOURCE_DIR}/board")
 target_compile_options(freertos_kernel PRIVATE -g)
