@@ -170,6 +170,15 @@ def test_a_library_built_for_freertos_runs_on_every_cores_port(humble: Path, cor
     assert stage is not None and stage[0] == "pass" and "40 of 40 arrived intact" in stage[1], console
     assert data["stages"]["time"]["result"] == "pass"  # type: ignore[index]  # the board's clock is the tick's
     print(f"\n{core} on FreeRTOS: {data['seconds']} s; {freertos.describe_run(console)}")
+    if (
+        core == "cortex-m0plus"
+    ):  # its other board, 16 KB of RAM: the kernel's 256 KB heap is named, not the library
+        small = run_uros("probe", str(out), "--board", "microbit", "--agent", str(AGENT), check=False)
+        assert small.returncode == 4 and "does not fit microbit's 16,384 bytes of RAM" in small.stderr
+        assert (
+            "on FreeRTOS the kernel's heap alone is 256 KB" in small.stderr
+            and "--preset tiny" not in small.stderr
+        )
 
 
 def _kernel_of_version(root: Path, version: str) -> Path:

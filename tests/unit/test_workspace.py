@@ -10,7 +10,7 @@ import pytest
 from uros_build.errors import ConfigError
 from uros_build.sources.clones import clone_argv
 from uros_build.sources.distros import Repo, Source
-from uros_build.sources.workspace import dev_env, sync_tree
+from uros_build.sources.workspace import Workspace, dev_env, sync_tree
 from uros_build.sources.wsfiles import (
     Lock,
     WorkspaceConfig,
@@ -225,3 +225,21 @@ def test_lock_hints_fit_what_pointed_at_the_lock(tmp_path: Path) -> None:
         with pytest.raises(ConfigError) as info:
             read_lock(tmp_path / "uros.lock", flag)
         assert info.value.hint is not None and info.value.hint.startswith("restore uros.lock")
+
+
+def test_an_extra_package_that_is_gone_builds_its_copy_and_one_never_copied_is_refused(
+    tmp_path: Path,
+) -> None:
+    """Round 5 (issue 43): `extra_packages: [/nonexistent]` built without the package after
+    "keeping the copy", where there was none; a folder that is gone whose copy uros made builds on."""
+    ws = Workspace(tmp_path)
+    copy = ws.extra_dir / "my_msgs"
+    copy.mkdir(parents=True)
+    (copy / "package.xml").write_text("<package format='3'><name>my_msgs</name></package>\n")
+    ws.check_extra_sources(WorkspaceConfig("humble", extra_packages=(str(tmp_path / "gone" / "my_msgs"),)))
+    assert ws.kept_copy(tmp_path / "gone" / "my_msgs") == copy
+    never = WorkspaceConfig("humble", extra_packages=("/nonexistent/other_msgs",))
+    with pytest.raises(
+        ConfigError, match="extra_packages: /nonexistent/other_msgs is no folder, and mcu_ws/"
+    ):
+        ws.check_extra_sources(never)

@@ -61,11 +61,19 @@ def build_firmware(
         if over is None:
             raise
         board = machine.board
+        fix = (
+            "a smaller library: uros build --preset tiny (fewer entities, a smaller history and MTU; "
+            "docs/probe.md)"
+        )
+        if "freertos" in folders:  # the kernel's heap (heap_4, 256 KB) is in .bss
+            fix = (
+                "on FreeRTOS the kernel's heap alone is 256 KB (the probe's FreeRTOSConfig.h, "
+                "configTOTAL_HEAP_SIZE): probe on the target's own board, without --board (docs/rtos.md)"
+            )
         raise StepFailed(
             f"the {name} firmware does not fit {board.name}'s {board.ram.length:,} bytes of RAM: "
             f"its .data and .bss alone are {over:,} bytes over, before heap and stack",
-            "a smaller library: uros build --preset tiny (fewer entities, a smaller history and MTU; "
-            "docs/probe.md)",
+            fix,
         ) from failed
     elf = next(iter(sorted(p for p in build.glob(f"{name}*") if p.suffix in ("", ".elf"))), None)
     if elf is None or not elf.is_file():
