@@ -25,9 +25,13 @@
 #define CDR(chars) ((chars) + 5)                /* a string's CDR size: length, characters, NUL */
 #define LARGE (MTU * 3 / 2)
 #define TOO_LARGE (RELIABLE_MAX + 64)
+#if UROS_PROBE_UDP /* over UDP (net/): the library's UDP transport's MTU */
+#define MTU_OPTION "microxrcedds_client.UCLIENT_UDP_TRANSPORT_MTU"
+#else
+#define MTU_OPTION "microxrcedds_client.UCLIENT_CUSTOM_TRANSPORT_MTU"
+#endif
 #define RAISE                                                                                   \
-  "raise rmw_microxrcedds.RMW_UXRCE_STREAM_HISTORY (RMW_UXRCE_STREAM_HISTORY_INPUT where set) or " \
-  "microxrcedds_client.UCLIENT_CUSTOM_TRANSPORT_MTU"
+  "raise rmw_microxrcedds.RMW_UXRCE_STREAM_HISTORY (RMW_UXRCE_STREAM_HISTORY_INPUT where set) or " MTU_OPTION
 
 static char outgoing_text[TOO_LARGE + 1];
 static char incoming_text[LARGE + 64];

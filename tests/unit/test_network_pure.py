@@ -104,3 +104,10 @@ def test_an_app_without_an_address_is_told_where_the_library_looks() -> None:
     ours = {"rmw_microxrcedds": {"RMW_UXRCE_DEFAULT_UDP_IP": "10.0.2.2"}}
     assert network.default_address_note(ours, 8888) is None
     assert network.default_address_note(ours, 40000) is not None
+
+
+def test_the_agent_s_port_fits_rmw_microxrcedds_s_four_digits() -> None:
+    """rmw_uros_options_set_udp_address keeps MAX_PORT_LEN - 1 = 4 characters (53055 became 5305)."""
+    from uros_build.run import session
+
+    assert len(str(session.LARGEST_PORT)) == 4 and len(str(network.NAMESPACE_PORT)) <= 4

@@ -12,6 +12,7 @@ firmware says it lost it, starts it again on the same terminal."""
 
 from __future__ import annotations
 
+import random
 import socket
 import time
 from collections.abc import Mapping
@@ -45,11 +46,30 @@ class SessionSpec:
     pcap: Path | None = None
 
 
-def free_udp_port() -> int:
-    """A UDP port on the host's loopback that nothing uses now (the agent's, without a namespace)."""
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
-        sock.bind(("127.0.0.1", 0))
-        return int(sock.getsockname()[1])
+# rmw_microxrcedds (humble) keeps the agent's port in char agent_port[MAX_PORT_LEN], MAX_PORT_LEN 5
+# (rmw_microros/rmw_microros.h), NUL included: rmw_uros_options_set_udp_address accepts "53055"
+# (strlen <= 5) and keeps "5305" (snprintf). Measured: a probe told 53055 sent every datagram to
+# 5305 (board.pcap). The agent's port must have 4 digits at most.
+LARGEST_PORT = 9999
+FIRST_PORT = 1024
+
+
+def free_udp_port(tries: int = 200) -> int:
+    """A UDP port of 4 digits at most (LARGEST_PORT) that nothing uses now: the agent's, without a
+    namespace of the run's own."""
+    rng = random.Random()
+    for _ in range(tries):
+        port = rng.randint(FIRST_PORT, LARGEST_PORT)
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
+            try:
+                sock.bind(("0.0.0.0", port))
+            except OSError:
+                continue
+            return port
+    raise StepFailed(
+        f"uros probe: no free UDP port from {FIRST_PORT} to {LARGEST_PORT} for the agent",
+        "run as root (the agent then runs in a network namespace of the run's own, on 8888)",
+    )
 
 
 def middleware_for(peer: bool, euid: int) -> str:
