@@ -2,8 +2,8 @@
  * (bool, int, double) on the probe's node, checked by the firmware itself through the agent, without a
  * peer: its own clients of rcl_interfaces' GetParameters, SetParameters and ListParameters call the
  * server's services ("uros_probe/get_parameters", ...) as `ros2 param` would. A parameter server takes
- * 5 services and a publisher (rclc_parameter's parameter_server.c, humble) and
- * RCLC_EXECUTOR_PARAMETER_SERVER_HANDLES executor handles; a library without that room, or without
+ * a service for each of its RCLC_EXECUTOR_PARAMETER_SERVER_HANDLES executor handles (5 in humble: get,
+ * get_types, set, list, describe; 6 from iron on) and a publisher (rclc_parameter's parameter_server.c); a library without that room, or without
  * rclc_parameter, skips the stage and says why, never `pass`. Each call is a client and an executor of
  * its own, made and finished in turn, so one RMW_UXRCE_MAX_CLIENTS slot is enough. */
 #include <rcl/error_handling.h>
@@ -15,7 +15,6 @@
 #include "stages.h"
 
 #define PROBE_PARAMETER_MS 5000u
-#define PROBE_PARAMETER_SERVICES 5 /* get, get_types, set, list, describe */
 
 #if __has_include(<rclc_parameter/rclc_parameter.h>) && __has_include(<rcl_interfaces/srv/get_parameters.h>) && \
     __has_include(<micro_ros_utilities/type_utilities.h>)
@@ -158,12 +157,12 @@ static int check(probe_session_t *session, rclc_parameter_server_t *server, char
 }
 
 int stage_parameters(probe_session_t *session) {
-#if RMW_UXRCE_MAX_SERVICES < PROBE_PARAMETER_SERVICES
+#if RMW_UXRCE_MAX_SERVICES < RCLC_EXECUTOR_PARAMETER_SERVER_HANDLES
   (void)session;
   probe_stage("parameters", "skip",
               "a parameter server takes %d services and the library has RMW_UXRCE_MAX_SERVICES=%d "
               "(uros build --set rmw_microxrcedds.RMW_UXRCE_MAX_SERVICES=%d)",
-              PROBE_PARAMETER_SERVICES, RMW_UXRCE_MAX_SERVICES, PROBE_PARAMETER_SERVICES);
+              RCLC_EXECUTOR_PARAMETER_SERVER_HANDLES, RMW_UXRCE_MAX_SERVICES, RCLC_EXECUTOR_PARAMETER_SERVER_HANDLES);
   return 0;
 #else
   rclc_parameter_server_t server;
@@ -172,8 +171,8 @@ int stage_parameters(probe_session_t *session) {
     rcl_reset_error();
     probe_stage("parameters", "fail",
                 "the parameter server could not be created (rclc_parameter_server_init_default returned %d; it "
-                "takes 5 services and a publisher: RMW_UXRCE_MAX_SERVICES=%d, RMW_UXRCE_MAX_PUBLISHERS=%d)",
-                (int)ret, RMW_UXRCE_MAX_SERVICES, RMW_UXRCE_MAX_PUBLISHERS);
+                "takes %d services and a publisher: RMW_UXRCE_MAX_SERVICES=%d, RMW_UXRCE_MAX_PUBLISHERS=%d)",
+                (int)ret, RCLC_EXECUTOR_PARAMETER_SERVER_HANDLES, RMW_UXRCE_MAX_SERVICES, RMW_UXRCE_MAX_PUBLISHERS);
     return PROBE_PARAMETERS;
   }
   int status = PROBE_PARAMETERS;

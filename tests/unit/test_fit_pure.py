@@ -169,8 +169,9 @@ def test_the_library_s_own_headers_and_pools_decide(tmp_path: Path) -> None:
         out, info, use, known_options(), {"custom_services": 1000, "custom_publishers": 400}
     )
     by_kind = {limit.kind: limit for limit in found.limits}
-    # the header's 5 over build-info's 1; the publisher pool is 1 slot of 400 B
-    assert (by_kind["services"].value, by_kind["services"].fits) == (5, True)
+    # the header's 5 over build-info's 1, against the library's 6 handles (services) a parameter server;
+    # the publisher pool is 1 slot of 400 B
+    assert (by_kind["services"].value, by_kind["services"].needed) == (5, 6)
     assert (by_kind["publishers"].value, by_kind["publishers"].each, by_kind["publishers"].extra_bytes) == (
         1,
         400,
@@ -186,7 +187,7 @@ def test_the_library_s_own_headers_and_pools_decide(tmp_path: Path) -> None:
         == "rmw_microxrcedds.RMW_UXRCE_MAX_PUBLISHERS=2"
     )
     lines = fit.summary(found)
-    assert [warn for warn, _ in lines] == [True, True, False]
+    assert [warn for warn, _ in lines] == [True, True, True, False]  # services, publishers, rclc_parameter
     assert lines[-1][1].startswith("a static count of the rclc calls")
 
 
@@ -239,3 +240,21 @@ def test_a_publisher_costs_its_topic_slot_too_when_topics_follow_publishers_and_
     (tmp_path / "include" / "rmw_microxrcedds_c" / "config.h").write_text(config.replace("-1", "2"))
     (publishers,) = fit.library_fit(out, info, use, known_options(), pools).limits
     assert publishers.each == 216
+
+
+def test_a_parameter_server_takes_a_service_for_each_of_the_library_s_handles(tmp_path: Path) -> None:
+    """rclc_parameter.h: 5 handles in humble, 6 from iron on, each a service (read from the library)."""
+    out = _output(tmp_path, "#define RMW_UXRCE_MAX_SERVICES 5\n", [])
+    info = parse_build_info(
+        {
+            "generated_by": "uros",
+            "target": "cortex-m7",
+            "packages": ["rmw_microxrcedds", "rclc_parameter", "rcl_interfaces"],
+            "library": {"file": "libmicroros.a", "sha256": "0" * 64},
+            "include": {"dir": "include"},
+        },
+        "build-info.json",
+    )
+    use = _use("rclc_parameter_server_init_default(&ps, &node);\n")
+    services = {x.kind: x for x in fit.library_fit(out, info, use, known_options(), {}).limits}["services"]
+    assert (services.needed, services.value, services.fits) == (6, 5, False)  # _output's header says 6

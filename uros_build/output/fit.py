@@ -8,11 +8,12 @@ wait set from a static pool of ``RMW_UXRCE_MAX_*`` slots (rmw_microxrcedds_c/src
 the call that finds its pool empty returns an error at run time. What each rclc call takes, read
 from the sources of humble (cited where each count is):
 
-- a parameter server: 5 services (rclc_parameter/src/rclc_parameter/parameter_server.c,
-  ``rclc_parameter_server_init_with_option``: get, get_types, set, list, describe) and 1 publisher
-  (``/parameter_events``, when ``notify_changed_over_dds``: true in the default options); in an
-  executor ``RCLC_EXECUTOR_PARAMETER_SERVER_HANDLES`` handles (5; rclc_parameter.h, and
-  ``rclc_executor_add_parameter_server_with_context`` adds the 5 services);
+- a parameter server: a service for each of its ``RCLC_EXECUTOR_PARAMETER_SERVER_HANDLES`` executor
+  handles (rclc_parameter.h: 5 in humble, 6 from iron on; read from the library's own header) and 1
+  publisher (``/parameter_events``, when ``notify_changed_over_dds``: true in the default options):
+  rclc_parameter/src/rclc_parameter/parameter_server.c, ``rclc_parameter_server_init_with_option``
+  creates the services (humble: get, get_types, set, list, describe) and
+  ``rclc_executor_add_parameter_server_with_context`` adds each to the executor;
 - an action server: 3 services and 2 publishers (micro-ROS/rcl, rcl_action/src/rcl_action/
   action_server.c: ``SERVICE_INIT(goal|cancel|result)``, ``PUBLISHER_INIT(feedback|status)``) and
   the goal-expiry timer's guard condition (its ``rcl_timer_init``);
@@ -81,13 +82,16 @@ _TAKES: tuple[tuple[str, str, Mapping[str, int]], ...] = (
 )
 
 
-def takes(function: str) -> tuple[str, Mapping[str, int]] | None:
-    """(what the call creates, kind -> slots it takes), or None for a call that creates nothing."""
+def takes(
+    function: str, parameter_services: int = PARAMETER_HANDLES_DEFAULT
+) -> tuple[str, Mapping[str, int]] | None:
+    """(what the call creates, kind -> slots it takes), or None for a call that creates nothing
+    (``parameter_services``: a parameter server's, the library's handles number)."""
     if function.startswith("rclc_executor_add_"):
         return None
     for prefix, what, kinds in _TAKES:
         if function.startswith(prefix):
-            return what, kinds
+            return what, {**kinds, "services": parameter_services} if what == "parameter server" else kinds
     return None
 
 
@@ -124,12 +128,14 @@ def _calls(what: str, where: Sequence[str]) -> str:
     return f"{one if len(where) == 1 else len(where)} {what}{'s' if len(where) != 1 else ''} at {shown}"
 
 
-def count(calls: Iterable[Call]) -> dict[str, list[tuple[str, int, tuple[str, ...]]]]:
+def count(
+    calls: Iterable[Call], parameter_services: int = PARAMETER_HANDLES_DEFAULT
+) -> dict[str, list[tuple[str, int, tuple[str, ...]]]]:
     """kind -> [(what, slots, where)] for the firmware's calls, in the order of ``LIMITS``' kinds
     and of the calls."""
     found: dict[str, dict[str, tuple[int, list[str]]]] = {}
     for call in calls:
-        taken = takes(call.function)
+        taken = takes(call.function, parameter_services)
         if taken is None:
             continue
         what, kinds = taken
@@ -149,12 +155,13 @@ def limits(
     headers: Mapping[str, Mapping[str, str]],
     meta: Mapping[str, str],
     each: Mapping[str, int | None],
+    parameter_services: int = PARAMETER_HANDLES_DEFAULT,
 ) -> list[Limit]:
     """Each pool the firmware's calls take from, with the library's value (``known``: the rmw's
     options by name; ``headers``: header -> defines of the library's include tree; ``meta``: the
     rmw's options in build-info.json; ``each``: option -> RAM bytes of one slot)."""
     out = []
-    for kind, uses in count(use.calls).items():
+    for kind, uses in count(use.calls, parameter_services).items():
         name = dict(LIMITS)[kind]
         option = known.get(name)
         value, value_from = (
@@ -372,7 +379,8 @@ def library_fit(
         slot = each.get(name)
         if slot is not None and topic is not None:
             each[name] = slot + topic
-    found = limits(use, rmw_options, headers, meta, each)
+    handles = parameter_handles(headers)
+    found = limits(use, rmw_options, headers, meta, each, handles)
     packages = set(info.packages)
     functions = {call.function for call in use.calls}
     missing = []
@@ -384,7 +392,7 @@ def library_fit(
         missing += [(p, "actions") for p in ("rcl_action", "action_msgs") if p not in packages]
     return Fit(
         tuple(found),
-        tuple(e for e in executors(use, parameter_handles(headers)) if e.adds or e.init),
+        tuple(e for e in executors(use, handles) if e.adds or e.init),
         RMW in packages,
         tuple(missing),
     )
