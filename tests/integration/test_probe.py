@@ -210,14 +210,34 @@ def test_an_empty_freertos_is_refused_not_bare_metal(m7_build: Path) -> None:
     assert "--freertos '': names no FreeRTOS-Kernel folder" in _one_error(proc)
 
 
+def _as_nobody() -> list[str]:
+    """The argv prefix that runs this Python as nobody: with CAP_DAC_READ_SEARCH kept where it can be
+    (this venv may be in root's home), else without; skipped where neither runs."""
+    base = ["setpriv", "--reuid=65534", "--regid=65534", "--clear-groups"]
+    caps = ["--inh-caps=+dac_read_search", "--ambient-caps=+dac_read_search"]
+    if shutil.which("setpriv") is None:
+        pytest.skip("setpriv (util-linux) is not installed")
+    for prefix in ([*base, *caps], base):
+        if (
+            subprocess.run(
+                [*prefix, sys.executable, "-c", "import uros_build"], capture_output=True
+            ).returncode
+            == 0
+        ):
+            return prefix
+    pytest.skip("this Python cannot run as nobody here")
+
+
 def test_a_workspace_this_user_cannot_write_is_one_line(m7_build: Path) -> None:
     """Issue 43: a non-root user probing a root-owned workspace got an internal error (PermissionError
-    on .uros/probe/locks). As root the test probes as nobody, keeping only the right to read
-    (CAP_DAC_READ_SEARCH: this venv may be in root's home); otherwise the folder is made read-only."""
+    on .uros/probe/locks). As root the test probes as nobody; otherwise the workspace's .uros is made
+    read-only."""
     folder = Path(tempfile.mkdtemp(prefix="uros-perm-"))
+    state = folder / "ws" / ".uros"
     try:
         folder.chmod(0o755)
         out = _probeable(m7_build, folder)
+        state.mkdir(exist_ok=True)
         for root, dirs, files in os.walk(folder):  # readable by all, as a workspace usually is
             for name in dirs:
                 (Path(root) / name).chmod(0o755)
@@ -225,20 +245,23 @@ def test_a_workspace_this_user_cannot_write_is_one_line(m7_build: Path) -> None:
                 (Path(root) / name).chmod((Path(root) / name).stat().st_mode | 0o444)
         argv = [sys.executable, "-m", "uros_build", "probe", str(out), "--agent", "/no/such/agent"]
         if os.geteuid() == 0:
-            if shutil.which("setpriv") is None:
-                pytest.skip("setpriv (util-linux) is not installed")
-            caps = ["--inh-caps=+dac_read_search", "--ambient-caps=+dac_read_search"]
-            argv = ["setpriv", "--reuid=65534", "--regid=65534", "--clear-groups", *caps, *argv]
+            argv = [*_as_nobody(), *argv]
         else:
-            (out.parents[1] / ".uros").mkdir(exist_ok=True)
-            (out.parents[1] / ".uros").chmod(0o555)
+            for root, dirs, _ in os.walk(state):
+                for name in dirs:
+                    (Path(root) / name).chmod(0o555)
+            state.chmod(0o555)
         proc = subprocess.run(argv, capture_output=True, text=True, env={**os.environ, "HOME": str(folder)})
         assert proc.returncode == 2, proc.stderr
         line = _one_error(proc)
         assert "uros probe: cannot write " in line and "Permission denied" in line, line
         assert "sudo" in proc.stderr or "chmod" in proc.stderr
     finally:
-        (folder / "ws" / ".uros").chmod(0o755) if (folder / "ws" / ".uros").is_dir() else None
+        if state.is_dir():
+            state.chmod(0o755)
+        for root, dirs, _ in os.walk(state):
+            for name in dirs:
+                (Path(root) / name).chmod(0o755)
         shutil.rmtree(folder, ignore_errors=True)
 
 
