@@ -137,6 +137,11 @@ def test_uros_yaml_names_the_ip_stack(tmp_path: Path) -> None:
         ("a folder without --ip-stack", "--ip-stack-dir", "--ip-stack lwip"),
         ("uros.yaml's folder", "uros.yaml: ip_stack_dir", "src/include/lwip/sockets.h"),
         ("the UDP profile off", "UCLIENT_PROFILE_UDP=OFF", "leave the option out"),
+        (
+            "a 5-digit agent port",
+            "RMW_UXRCE_DEFAULT_UDP_PORT must be 9999 or less, got 53055",
+            "uros meta options",
+        ),
     ],
 )
 def test_bad_ip_stack_input_is_one_line_naming_the_flag(
@@ -162,6 +167,8 @@ def test_bad_ip_stack_input_is_one_line_naming_the_flag(
         flags = flags[:10] + flags[12:]
     elif case == "a folder without --ip-stack":
         flags = flags[:8] + flags[10:12]
+    elif case == "a 5-digit agent port":  # rmw_microxrcedds would keep "5305" (MAX_PORT_LEN 5, NUL included)
+        flags += ["--set", "rmw_microxrcedds.RMW_UXRCE_DEFAULT_UDP_PORT=53055"]
     elif case == "the UDP profile off":
         flags += ["--set", "microxrcedds_client.UCLIENT_PROFILE_UDP=OFF"]
     elif case == "uros.yaml's folder":

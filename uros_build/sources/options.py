@@ -30,6 +30,7 @@ class KnownOption:
     choices: tuple[str, ...] = ()
     power_of_two: bool = False
     minimum: int = 0  # int options are counts, sizes and times: none is negative unless it says
+    maximum: int | None = None  # the largest value the option's code keeps whole (None: no bound)
     # the library's static arrays (symbols) whose size the option sets: `uros size` reads their
     # size from the library as the option's RAM cost
     pools: tuple[str, ...] = ()
@@ -52,6 +53,8 @@ class KnownOption:
             number = int(value)
             if number < self.minimum:
                 return f"must be {self.minimum} or more, got {number}"
+            if self.maximum is not None and number > self.maximum:
+                return f"must be {self.maximum} or less, got {number}"
             if self.power_of_two and (number < 1 or number & (number - 1)):
                 return "must be a power of two (1, 2, 4, 8, ...)"
         if self.type == "bool" and value.upper() not in _BOOLS:
@@ -76,6 +79,7 @@ def parse_options(data: object, source: str) -> tuple[KnownOption, ...]:
                     "choices",
                     "power_of_two",
                     "minimum",
+                    "maximum",
                     "pools",
                     "transport",
                     "per_value",
@@ -96,6 +100,7 @@ def parse_options(data: object, source: str) -> tuple[KnownOption, ...]:
                 choices=loader.string_list(item, "choices", item_where),
                 power_of_two=loader.boolean(item, "power_of_two", item_where),
                 minimum=loader.integer(item, "minimum", item_where, 0),
+                maximum=loader.integer(item, "maximum", item_where) if "maximum" in item else None,
                 pools=loader.string_list(item, "pools", item_where),
                 transport=loader.string(item, "transport", item_where) if "transport" in item else "",
                 per_value=loader.boolean(item, "per_value", item_where),
