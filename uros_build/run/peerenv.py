@@ -384,10 +384,11 @@ def check_env(
         runner.query([str(python), "-c", _CHECK, *packages], env=env, step="check the ROS 2 peer environment")
     except StepFailed as exc:
         code = exc.code or 0
+        what = f"importing rclpy, the middleware and {', '.join(packages)}"
         why = (
-            f"its Python died of {signal.Signals(-code).name}"
+            f"its Python died of {signal.Signals(-code).name} {what}"
             if code < 0 and -code in signal.valid_signals()
-            else f"importing rclpy and {', '.join(packages)} failed (exit {code}): {exc.cause}"
+            else f"{what} failed (exit {code}): {exc.cause}"
         )
         raise StepFailed(
             f"uros probe --peer: the ROS 2 peer environment {venv} is damaged: {why}", hint
