@@ -267,6 +267,7 @@ def test_a_workspace_this_user_cannot_write_is_one_line(m7_build: Path) -> None:
 
 def test_without_an_agent_or_qemu_the_probe_says_what_to_install(m7_build: Path, tmp_path: Path) -> None:
     env = {k: v for k, v in os.environ.items() if k != "UROS_AGENT"}
+    env["UROS_ROS2_VENV"] = str(tmp_path / "ros2")  # where `uros agent build` would have put one: none
     proc = run_uros("probe", str(_probeable(m7_build, tmp_path)), env=env, check=False)
     assert proc.returncode == 3, proc.stderr
     errors = [x for x in proc.stderr.splitlines() if x.startswith("error:")]

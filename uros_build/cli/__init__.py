@@ -17,6 +17,7 @@ from pathlib import Path
 import click
 
 from uros_build import __version__, console, proc
+from uros_build.cli.agent import RUN_COMMANDS, agent, agent_build, agent_run
 from uros_build.cli.build import build, check, clean, doctor, info, size
 from uros_build.cli.common import Group
 from uros_build.cli.data import (
@@ -62,6 +63,10 @@ _REGISTRY: tuple[tuple[click.Group, click.Command], ...] = (
     (cli, info),
     (cli, size),
     (cli, probe),
+    (cli, agent),
+    (agent, agent_build),
+    (agent, agent_run),
+    *((agent_run, command) for command in RUN_COMMANDS),
     (cli, targets),
     (targets, targets_show),
     (cli, distros),

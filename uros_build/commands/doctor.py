@@ -23,12 +23,19 @@ from uros_build.colcon import command as colcon
 from uros_build.colcon import fingerprint as fp
 from uros_build.colcon import hosttools
 from uros_build.config.plan import resolve_target
-from uros_build.config.settings import AGENT, BuildArgs, expand_targets, resolve_outside, resolve_workspace
+from uros_build.config.settings import (
+    AGENT,
+    ROS2_VENV,
+    BuildArgs,
+    expand_targets,
+    resolve_outside,
+    resolve_workspace,
+)
 from uros_build.defaults import BUILD_INFO
 from uros_build.errors import ConfigError, MissingToolError, StepFailed, UrosError, VerifyError
 from uros_build.output import folders as outputs
 from uros_build.proc import Runner, new_run_log, user_log_dir
-from uros_build.run import machines
+from uros_build.run import agentbuild, machines
 from uros_build.sources.workspace import Workspace, check_extra_package
 from uros_build.sources.wsfiles import CONFIG, Lock, load_config, read_lock
 from uros_build.steps import inputs as inputs_step
@@ -123,8 +130,8 @@ def eval_probe_tools(
             Check(
                 "agent",
                 SKIP,
-                "no Micro XRCE-DDS Agent (UROS_AGENT unset): `uros probe` needs one",
-                "docs/probe.md",
+                "no Micro XRCE-DDS Agent (UROS_AGENT unset, none built): `uros probe` needs one",
+                "uros agent build (docs/probe.md, The agent)",
             )
         )
     return checks
@@ -440,10 +447,10 @@ def doctor(workspace: Path | None, toolchain: str | None, as_json: bool) -> list
     trouble = hosttools.ccache_unusable(runner, ccache, os.environ) if ccache else None
     checks.append(eval_ccache(ccache, _version(runner, "ccache"), trouble))
     agent = resolve_outside(AGENT).value
+    built = agentbuild.current_agent(resolve_outside(ROS2_VENV).value.expanduser())  # uros agent build's
+    found = _which(runner, agent) if agent else f"{built.describe()}: uros agent build's" if built else None
     qemus = {program: _which(runner, program) for program in machines.QEMU_PROGRAMS}
-    checks += eval_probe_tools(
-        qemus, _which(runner, agent) if agent else None, bool(agent), machines.load_machines()
-    )
+    checks += eval_probe_tools(qemus, found, bool(agent), machines.load_machines())
     where = ws.root if ws else Path.cwd()
     checks.append(eval_disk(shutil.disk_usage(where).free, where))
     try:

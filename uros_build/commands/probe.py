@@ -26,10 +26,10 @@ from uros_build.errors import ConfigError, MissingToolError, VerifyError
 from uros_build.files import locked
 from uros_build.output.buildinfo import BuildInfo, read_build_info
 from uros_build.proc import Runner, new_run_log
+from uros_build.run import agentbuild, netns, peerenv
 from uros_build.run import app as app_mod
 from uros_build.run import freertos as freertos_mod
 from uros_build.run import machines as probe_mod
-from uros_build.run import netns, peerenv
 from uros_build.run import network as network_mod
 from uros_build.run import stages as stages_mod
 from uros_build.run.firmware import build_firmware
@@ -49,7 +49,8 @@ from uros_build.sources.packages import discover
 from uros_build.sources.workspace import Workspace, workspace_of_output
 
 _AGENT_HINT = (
-    "pass --agent PATH (or set UROS_AGENT) to a MicroXRCEAgent: eProsima Micro-XRCE-DDS-Agent v2.3.0 "
+    "run `uros agent build` once, or pass --agent PATH (or set UROS_AGENT) to a MicroXRCEAgent: eProsima "
+    "Micro-XRCE-DDS-Agent v2.3.0 "
     "builds against Debian 12's libfastcdr-dev and libspdlog-dev with -DUAGENT_SUPERBUILD=OFF "
     "-DUAGENT_USE_SYSTEM_FASTCDR=ON -DUAGENT_USE_SYSTEM_LOGGER=ON -DUAGENT_P2P_PROFILE=OFF "
     "-DCMAKE_CXX_FLAGS=-DFMT_DEPRECATED_OSTREAM=1 (docs/probe.md)"
@@ -83,8 +84,12 @@ class ProbeReport:
 
 def _agent(given: str | None, runner: Runner) -> str:
     wanted = resolve_outside(AGENT, given or None).value  # --agent, else $UROS_AGENT
-    if not wanted:
-        raise MissingToolError("uros probe: no Micro XRCE-DDS Agent was given", _AGENT_HINT)
+    if not wanted:  # else the agent `uros agent build` made
+        built = agentbuild.current_agent(resolve_outside(ROS2_VENV).value.expanduser())
+        if built is None:
+            raise MissingToolError("uros probe: no Micro XRCE-DDS Agent was given or built", _AGENT_HINT)
+        console.info(f"agent: {built.describe()} (uros agent build)")
+        return str(built.run)
     if os.sep in wanted and not (Path(wanted).is_file() and os.access(wanted, os.X_OK)):
         raise MissingToolError(f"--agent {wanted}: no such program", _AGENT_HINT)
     return runner.which(wanted, _AGENT_HINT)

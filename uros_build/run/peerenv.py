@@ -43,7 +43,7 @@ INTERFACE_GROUP = "rosidl_interface_packages"
 VARIABLE = "UROS_ROS2_VENV"  # config/settings.py's ROS2_VENV: where the environments are kept
 PIP_HINT = (
     "pip needs PyPI (or a mirror: PIP_INDEX_URL) to make the ROS 2 peer environment once; offline, "
-    "point UROS_ROS2_VENV at a folder where `uros probe --peer` made it before"
+    "point UROS_ROS2_VENV at a folder where `uros probe --peer` (or `uros agent build`) made it before"
 )
 
 
@@ -130,6 +130,7 @@ def ensure_venv(runner: Runner, spec: PeerEnvSpec, root: Path) -> Path:
                 f"uros probe --peer: pip could not install {spec.packages[0]} and the other ROS 2 wheels "
                 f"({exc.cause})",
                 PIP_HINT,
+                cause=exc.cause,
             ) from None
         patched = mend_exported_cmake(runner, venv)
         runner.log(f"mended the builder's include folders in {len(patched)} exported CMake files")

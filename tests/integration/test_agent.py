@@ -1,0 +1,151 @@
+"""`uros agent build` and `uros agent run` through the real CLI (issue 40, item 1).
+
+The refusals (a serial device that does not exist, a UDP port in use, no agent built, a distro with
+no agent pinned, a ROS 2 environment that cannot be made offline) run everywhere, CI included. The
+build itself needs UROS_MIRROR (a folder of upstream clones, <owner>+<repo>/repo, with eProsima's
+Micro-XRCE-DDS-Agent, micro-ROS-Agent and micro_ros_msgs) and UROS_ROS2_VENV (where the ROS 2
+environment and the agent are cached: the first build takes minutes, later ones find it built);
+without them it skips.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from uros_helpers import run_uros
+
+pytestmark = pytest.mark.integration
+
+MIRROR = os.environ.get("UROS_MIRROR")
+ROS2_VENV = os.environ.get("UROS_ROS2_VENV")
+_BUILDS = pytest.mark.skipif(
+    not (MIRROR and ROS2_VENV and Path(MIRROR).is_dir()),
+    reason="set UROS_MIRROR (upstream clones) and UROS_ROS2_VENV (the ROS 2 environment's cache)",
+)
+
+
+def _one_error(proc: subprocess.CompletedProcess[str]) -> str:
+    assert "Traceback" not in proc.stderr, proc.stderr
+    errors = [x for x in proc.stderr.splitlines() if x.startswith("error:")]
+    assert len(errors) == 1, proc.stderr
+    return errors[0]
+
+
+def _env(**extra: str) -> dict[str, str]:
+    env = {k: v for k, v in os.environ.items() if k != "UROS_AGENT"}
+    env.update(extra)
+    return env
+
+
+def test_a_serial_device_that_does_not_exist_is_one_line(tmp_path: Path) -> None:
+    proc = run_uros("agent", "run", "serial", "--dev", str(tmp_path / "ttyACM9"), check=False)
+    assert proc.returncode == 2
+    assert f"--dev {tmp_path / 'ttyACM9'}: no such device" in _one_error(proc)
+    proc = run_uros("agent", "run", "multiserial", "--devs", f"/dev/null {tmp_path / 'x'}", check=False)
+    assert proc.returncode == 2 and f"--devs {tmp_path / 'x'}: no such device" in _one_error(proc)
+
+
+def test_a_udp_port_in_use_is_one_line() -> None:
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as held:
+        held.bind(("0.0.0.0", 0))
+        port = held.getsockname()[1]
+        proc = run_uros("agent", "run", "udp4", "--port", str(port), check=False)
+    assert proc.returncode == 2
+    assert f"--port {port}: UDP port in use" in _one_error(proc)
+
+
+def test_running_with_no_agent_built_names_the_build(tmp_path: Path) -> None:
+    proc = run_uros(
+        "agent", "run", "serial", "--dev", "/dev/null", env=_env(UROS_ROS2_VENV=str(tmp_path)), check=False
+    )
+    assert proc.returncode == 3
+    assert "no agent built yet" in _one_error(proc) and "uros agent build" in proc.stderr
+
+
+def test_a_distro_with_no_agent_pinned_is_refused_before_anything_runs(tmp_path: Path) -> None:
+    proc = run_uros(
+        "agent", "build", "--distro", "rolling", env=_env(UROS_ROS2_VENV=str(tmp_path)), check=False
+    )
+    assert proc.returncode == 2 and "no agent is pinned" in _one_error(proc)
+    assert not (tmp_path / "agent").exists()
+
+
+def test_an_environment_that_cannot_be_made_offline_is_one_line(tmp_path: Path) -> None:
+    # pip with no index and no config (the machine's own find-links and mirrors are config)
+    env = _env(UROS_ROS2_VENV=str(tmp_path), PIP_CONFIG_FILE=os.devnull, PIP_NO_INDEX="1")
+    proc = run_uros("agent", "build", env=env, check=False)
+    assert proc.returncode == 4, proc.stderr
+    line = _one_error(proc)
+    assert "uros agent build: the ROS 2 environment could not be made" in line
+    assert "PIP_INDEX_URL" in proc.stderr  # the fix: a mirror, or a folder where it was made before
+    assert not (tmp_path / "agent" / "current.json").exists()
+
+
+@_BUILDS
+def test_the_agent_builds_once_runs_and_a_failed_build_keeps_it() -> None:
+    assert MIRROR and ROS2_VENV
+    mirror = f"https://github.com/{{owner}}/{{repo}}={MIRROR}/{{owner}}+{{repo}}/repo"
+    built = run_uros("agent", "build", "--mirror", mirror, "-j", "2", env=_env())
+    pointer = Path(ROS2_VENV).expanduser() / "agent" / "current.json"
+    current = json.loads(pointer.read_text(encoding="utf-8"))["folder"]
+    record = json.loads((pointer.parent / current / "uros-agent.json").read_text(encoding="utf-8"))
+    assert record["program"] in ("micro_ros_agent", "MicroXRCEAgent") and record["why"]
+    assert record["program"] in built.stderr
+
+    again = run_uros("agent", "build", "--mirror", mirror, env=_env())  # the same key: nothing to build
+    assert "agent up to date" in again.stderr
+
+    doctor = run_uros("doctor", env=_env(), check=False)
+    assert f"{record['program']} (humble" in doctor.stdout and "uros agent build's" in doctor.stdout
+
+    # it runs in the foreground on a free UDP port, the command printed, and stops on SIGTERM
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    agent = subprocess.Popen(
+        [sys.executable, "-m", "uros_build", "agent", "run", "udp4", "--port", str(port)],
+        env=_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    try:
+        deadline = time.monotonic() + 20
+        while time.monotonic() < deadline and agent.poll() is None and not _udp_bound(port):
+            time.sleep(0.2)
+        assert agent.poll() is None and _udp_bound(port), "the agent did not bind its port"
+    finally:
+        agent.send_signal(signal.SIGTERM)
+        _, err = agent.communicate(timeout=30)
+    assert f"uros agent run: {pointer.parent / current / 'bin' / 'uros-agent'} udp4 --port {port}" in err
+    assert agent.returncode == 128 + signal.SIGTERM
+
+    # a version that does not build against the wheels (v2.3.0 needs Fast DDS 2): the build fails,
+    # and the agent in use stays the one built above
+    failed = run_uros(
+        "agent",
+        "build",
+        "--mirror",
+        mirror,
+        "--mirror-override",
+        "xrce_agent=@v2.3.0",
+        env=_env(),
+        check=False,
+    )
+    assert failed.returncode == 4, failed.stderr
+    assert "eProsima's agent" in _one_error(failed)
+    assert json.loads(pointer.read_text(encoding="utf-8"))["folder"] == current
+
+
+def _udp_bound(port: int) -> bool:
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
+        try:
+            sock.bind(("0.0.0.0", port))
+        except OSError:
+            return True
+    return False
