@@ -90,7 +90,7 @@ def test_an_environment_that_cannot_be_made_offline_is_one_line(tmp_path: Path) 
 
 
 @_BUILDS
-def test_the_agent_builds_once_runs_and_a_failed_build_keeps_it() -> None:
+def test_the_agent_builds_once_runs_and_a_failed_build_keeps_it(tmp_path: Path) -> None:
     assert MIRROR and ROS2_VENV
     mirror = f"https://github.com/{{owner}}/{{repo}}={MIRROR}/{{owner}}+{{repo}}/repo"
     built = run_uros("agent", "build", "--mirror", mirror, "-j", "2", env=_env())
@@ -125,21 +125,25 @@ def test_the_agent_builds_once_runs_and_a_failed_build_keeps_it() -> None:
     assert f"uros agent run: {pointer.parent / current / 'bin' / 'uros-agent'} udp4 --port {port}" in err
     assert agent.returncode == 128 + signal.SIGTERM
 
-    # a version that does not build against the wheels (v2.3.0 needs Fast DDS 2): the build fails,
-    # and the agent in use stays the one built above
+    # sources that do not build (a stand-in whose C file is an #error): the build fails, and the
+    # agent in use stays the one built above
+    broken = tmp_path / "broken"
+    broken.mkdir()
+    (broken / "CMakeLists.txt").write_text(
+        "cmake_minimum_required(VERSION 3.5)\nproject(broken C)\nadd_library(broken broken.c)\n"
+    )
+    (broken / "broken.c").write_text('#error "this agent does not build"\n')
+    git = ["git", "-C", str(broken), "-c", "user.name=t", "-c", "user.email=t@t"]
+    for argv in (["init", "-q", "-b", "main"], ["add", "."], ["commit", "-qm", "broken"]):
+        subprocess.run([*git, *argv], check=True)
+    override = f"xrce_agent={broken}@main"
     failed = run_uros(
-        "agent",
-        "build",
-        "--mirror",
-        mirror,
-        "--mirror-override",
-        "xrce_agent=@v2.3.0",
-        env=_env(),
-        check=False,
+        "agent", "build", "--mirror", mirror, "--mirror-override", override, env=_env(), check=False
     )
     assert failed.returncode == 4, failed.stderr
-    assert "eProsima's agent" in _one_error(failed)
+    assert "build eProsima's agent failed" in _one_error(failed)
     assert json.loads(pointer.read_text(encoding="utf-8"))["folder"] == current
+    assert run_uros("agent", "build", "--mirror", mirror, env=_env()).stderr.count("agent up to date") == 1
 
 
 def _udp_bound(port: int) -> bool:

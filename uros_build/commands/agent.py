@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import errno
 import os
+import shlex
 import socket
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -20,8 +21,8 @@ from pathlib import Path
 
 from uros_build import console, defaults
 from uros_build.config.settings import ROS2_VENV, resolve_outside, resolve_workspace
-from uros_build.errors import ConfigError, MissingToolError
-from uros_build.proc import Runner, format_argv, new_run_log, user_log_dir
+from uros_build.errors import ConfigError, Interrupted, MissingToolError
+from uros_build.proc import Runner, new_run_log, user_log_dir
 from uros_build.run import agentbuild
 from uros_build.run.agentbuild import BuiltAgent
 from uros_build.sources import distros as distros_mod
@@ -156,9 +157,13 @@ def run(transport: Transport, verbosity: int | None, agent: str | None) -> None:
     program = _program(agent)
     argv = run_argv(program, transport, verbosity)
     runner = Runner(new_run_log(user_log_dir(), "agent-run"), verbose=True)
-    console.step(f"uros agent run: {format_argv(argv)}")
-    console.info("Ctrl-C stops it")
-    runner.run(argv, step="the agent", quiet=True)
+    console.step(f"uros agent run: {shlex.join(argv)}")
+    console.info(f"Ctrl-C stops it; log: {runner.log_path}")
+    try:
+        runner.run(argv, step="the agent", quiet=True)
+    except Interrupted as exc:  # how an agent in the foreground is stopped: no error
+        console.info(f"the agent stopped ({exc.signal_name})")
+        raise SystemExit(exc.exit_code) from None
 
 
 def _program(agent: str | None) -> str:
