@@ -83,19 +83,16 @@ def test_the_link_reaches_the_wheels_vendored_libraries() -> None:
 
 
 def test_the_agent_configures_against_the_venv_without_superbuild() -> None:
-    argv = agentbuild.xrce_configure_argv(
-        "cmake", Path("/s"), Path("/b"), Path("/p"), Path("/v"), [], ["-G", "Ninja"]
-    )
-    assert argv[:7] == ["cmake", "-S", "/s", "-B", "/b", "-G", "Ninja"]
+    b = agentbuild.Build("cmake", Path("/p"), Path("/v"), (), ("-G", "Ninja"))
+    argv = agentbuild.xrce_configure_argv(b, Path("/s"), Path("/b"))
+    assert argv[:8] == ["cmake", "-S", "/s", "-B", "/b", "-G", "Ninja", "-DCMAKE_INSTALL_PREFIX=/p"]
     for option in ("-DUAGENT_SUPERBUILD=OFF", "-DUAGENT_USE_SYSTEM_FASTDDS=ON", "-DCMAKE_PREFIX_PATH=/v"):
         assert option in argv
-    assert "-DCMAKE_INSTALL_PREFIX=/p" in argv
 
 
 def test_micro_ros_agent_gets_empty_packages_for_what_the_wheels_lack() -> None:
-    argv = agentbuild.graph_configure_argv(
-        "cmake", Path("/s"), Path("/b"), Path("/p"), Path("/v"), [], [], Path("/u")
-    )
+    b = agentbuild.Build("cmake", Path("/p"), Path("/v"), ())
+    argv = agentbuild.graph_configure_argv(b, Path("/s"), Path("/b"), Path("/u"))
     assert "-DMICROROSAGENT_SUPERBUILD=OFF" in argv and "-DCMAKE_PREFIX_PATH=/p;/v" in argv
     assert "-Dfastrtps_cmake_module_DIR=/u/fastrtps_cmake_module" in argv
     assert "-DCMAKE_CXX_FLAGS=-include iterator" in argv

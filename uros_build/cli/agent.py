@@ -7,7 +7,14 @@ from pathlib import Path
 
 import click
 
-from uros_build.cli.common import VERBOSE, Group, complete_distros, workspace_option
+from uros_build.cli.common import (
+    MIRRORS,
+    VERBOSE,
+    Group,
+    complete_distros,
+    mirror_override_option,
+    workspace_option,
+)
 from uros_build.commands import agent as agent_cmd
 
 
@@ -22,14 +29,8 @@ def agent() -> None:
     help="Whose agent (meta/distros/<distro>/agent.repos); default: the workspace's, else humble.",
 )  # fmt: skip
 @workspace_option("A workspace whose uros.yaml mirror rules (and distro) the clones follow.")
-@click.option(
-    "--mirror", "mirrors", multiple=True, metavar="UPSTREAM=LOCAL",
-    help="Rewrite URLs, e.g. 'https://github.com/{owner}/{repo}=/srv/mirror/{owner}+{repo}/repo'.",
-)  # fmt: skip
-@click.option(
-    "--mirror-override", "overrides", multiple=True, metavar="REPO=URL[@VERSION]",
-    help="One repository from elsewhere (REPO: xrce_agent, micro_ros_agent, micro_ros_msgs, or owner/repo).",
-)  # fmt: skip
+@MIRRORS
+@mirror_override_option("xrce_agent, micro_ros_agent, micro_ros_msgs, or owner/repo")
 @click.option(
     "-j", "--jobs", type=int, default=os.cpu_count() or 1, show_default="the CPUs",
     help="Parallel compiles.",

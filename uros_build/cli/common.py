@@ -96,6 +96,20 @@ def output_option(help_text: str, required: bool = False) -> Decorator:
 
 VERBOSE = click.option("-v", "--verbose", is_flag=True, help="Stream the tools' output.")
 JSON = click.option("--json", "as_json", is_flag=True, help="Print the table as JSON.")
+MIRRORS = click.option(
+    "--mirror", "mirrors", multiple=True, metavar="UPSTREAM=LOCAL",
+    help="Rewrite URLs, e.g. 'https://github.com/{owner}/{repo}=/srv/mirror/{owner}+{repo}/repo'.",
+)  # fmt: skip
+
+
+def mirror_override_option(repo_help: str) -> Decorator:
+    """--mirror-override, with what REPO names in this command."""
+    return click.option(
+        "--mirror-override", "overrides", multiple=True, metavar="REPO=URL[@VERSION]",
+        help=f"One repository from elsewhere (REPO: {repo_help}).",
+    )  # fmt: skip
+
+
 METAS = click.option(
     "--meta", "metas", multiple=True, type=PATH_ARG, help="A colcon.meta merged on top (repeatable)."
 )

@@ -8,10 +8,12 @@ import click
 
 from uros_build import defaults
 from uros_build.cli.common import (
+    MIRRORS,
     PATH_ARG,
     VERBOSE,
     Decorator,
     complete_distros,
+    mirror_override_option,
     toolchain_option,
     workspace_option,
 )
@@ -39,14 +41,8 @@ def _git_jobs(what: str) -> Decorator:
     shell_complete=complete_distros,
 )
 @workspace_option("Workspace folder to create.")
-@click.option(
-    "--mirror", "mirrors", multiple=True, metavar="UPSTREAM=LOCAL",
-    help="Rewrite URLs, e.g. 'https://github.com/{owner}/{repo}=/srv/mirror/{owner}+{repo}/repo'.",
-)  # fmt: skip
-@click.option(
-    "--mirror-override", "overrides", multiple=True, metavar="REPO=URL[@VERSION]",
-    help="One repository from elsewhere (REPO: workspace path like uros/rclc, or owner/repo).",
-)  # fmt: skip
+@MIRRORS
+@mirror_override_option("workspace path like uros/rclc, or owner/repo")
 @click.option("--config", type=PATH_ARG, help="A uros.yaml with a mirror: section (rules, overrides).")
 @click.option(
     "--stand-ins", is_flag=True,

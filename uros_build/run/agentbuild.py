@@ -178,40 +178,48 @@ def link_options(prefix: Path, venv: Path, libs: Sequence[Path]) -> list[str]:
     ]
 
 
-def xrce_configure_argv(
-    cmake: str,
-    src: Path,
-    build: Path,
-    prefix: Path,
-    venv: Path,
-    libs: Sequence[Path],
-    generator: Sequence[str],
-) -> list[str]:
-    """eProsima's agent, configured against the venv, installed into ``prefix`` (pure)."""
+@dataclass(frozen=True)
+class Build:
+    """What every piece is configured with: CMake, the prefix it installs into, the venv it builds
+    against, the wheels' vendored library folders, the generator (``-G Ninja``, or CMake's default)."""
+
+    cmake: str
+    prefix: Path
+    venv: Path
+    libs: tuple[Path, ...]
+    generator: tuple[str, ...] = ()
+
+    def configure(self, src: Path, tree: Path) -> list[str]:
+        """cmake's first arguments for ``src`` in ``tree``, installing into the prefix (pure)."""
+        return [
+            self.cmake,
+            "-S",
+            str(src),
+            "-B",
+            str(tree),
+            *self.generator,
+            f"-DCMAKE_INSTALL_PREFIX={self.prefix}",
+        ]
+
+
+def xrce_configure_argv(b: Build, src: Path, tree: Path) -> list[str]:
+    """eProsima's agent, configured against the venv (pure)."""
     return [
-        cmake, "-S", str(src), "-B", str(build), *generator, *XRCE_OPTIONS,
-        f"-DCMAKE_PREFIX_PATH={venv}", f"-DCMAKE_INSTALL_PREFIX={prefix}", *link_options(prefix, venv, libs),
-    ]  # fmt: skip
+        *b.configure(src, tree),
+        *XRCE_OPTIONS,
+        f"-DCMAKE_PREFIX_PATH={b.venv}",
+        *link_options(b.prefix, b.venv, b.libs),
+    ]
 
 
-def graph_configure_argv(
-    cmake: str,
-    src: Path,
-    build: Path,
-    prefix: Path,
-    venv: Path,
-    libs: Sequence[Path],
-    generator: Sequence[str],
-    unused: Path,
-) -> list[str]:
+def graph_configure_argv(b: Build, src: Path, tree: Path, unused: Path) -> list[str]:
     """micro-ROS-Agent's micro_ros_agent package (``src``: its folder in the clone), against the
-    agent and micro_ros_msgs in ``prefix`` and the venv; each unused package from ``unused`` (pure)."""
+    agent and micro_ros_msgs in the prefix and the venv; each unused package from ``unused`` (pure)."""
     return [
-        cmake, "-S", str(src), "-B", str(build), *generator, *GRAPH_OPTIONS,
-        f"-DCMAKE_PREFIX_PATH={prefix};{venv}", f"-DCMAKE_INSTALL_PREFIX={prefix}",
-        f"-DPython3_EXECUTABLE={venv / 'bin' / 'python3'}",
+        *b.configure(src, tree), *GRAPH_OPTIONS, f"-DCMAKE_PREFIX_PATH={b.prefix};{b.venv}",
+        f"-DPython3_EXECUTABLE={b.venv / 'bin' / 'python3'}",
         *(f"-D{name}_DIR={unused / name}" for name in UNUSED_PACKAGES),
-        *link_options(prefix, venv, libs),
+        *link_options(b.prefix, b.venv, b.libs),
     ]  # fmt: skip
 
 
@@ -361,17 +369,18 @@ def _build(
     _mend_fastdds(venv, libs)
     _begin(folder)
     started = time.monotonic()
-    generator = ["-G", "Ninja"] if shutil.which("ninja") else []
-    cmake = runner.which("cmake")
+    generator = ("-G", "Ninja") if shutil.which("ninja") else ()
+    b = Build(runner.which("cmake"), folder, venv, tuple(libs), generator)
     src, trees = work / "src", work / "build"
     console.step(f"building eProsima's agent ({pin.xrce.version}) against the wheels' Fast DDS")
-    argv = xrce_configure_argv(cmake, src / XRCE, trees / XRCE, folder, venv, libs, generator)
-    _cmake(runner, cmake, argv, trees / XRCE, jobs, "eProsima's agent")
+    _cmake(
+        runner, b, xrce_configure_argv(b, src / XRCE, trees / XRCE), trees / XRCE, jobs, "eProsima's agent"
+    )
     program, why = PROGRAMS[XRCE], f"{pin.source} names no micro_ros_agent"
     executable = folder / "bin" / PROGRAMS[XRCE]
     if pin.graph is not None:
         try:
-            executable = _build_graph(runner, cmake, work, folder, venv, libs, generator, jobs)
+            executable = _build_graph(runner, b, work, jobs)
             program = PROGRAMS[GRAPH]
             why = "micro_ros_agent built against the wheels (with the graph manager)"
         except StepFailed as exc:
@@ -433,50 +442,41 @@ def _mend_fastdds(venv: Path, libs: Sequence[Path]) -> None:
         write_atomic(targets, fixed.encode("utf-8", "surrogateescape"))
 
 
-def _build_graph(
-    runner: Runner,
-    cmake: str,
-    work: Path,
-    prefix: Path,
-    venv: Path,
-    libs: Sequence[Path],
-    generator: Sequence[str],
-    jobs: int,
-) -> Path:
-    """micro_ros_msgs for the host, then micro_ros_agent, into ``prefix``; the program."""
+def _build_graph(runner: Runner, b: Build, work: Path, jobs: int) -> Path:
+    """micro_ros_msgs for the host, then micro_ros_agent, into the prefix; the program."""
     src, trees = work / "src", work / "build"
     console.step("building micro_ros_msgs for the host, then micro_ros_agent (the graph manager)")
-    env = peerenv.build_env(os.environ, venv)
+    env = peerenv.build_env(os.environ, b.venv)
     msgs = discover(src / MSGS)
     if len(msgs) != 1:
         raise StepFailed(f"{src / MSGS}: expected one package (micro_ros_msgs), found {len(msgs)}")
-    configure = peerenv.cmake_configure_argv(cmake, msgs[0].path, trees / MSGS, prefix, venv)
-    _cmake(runner, cmake, [*configure, *generator], trees / MSGS, jobs, "micro_ros_msgs", env)
+    configure = peerenv.cmake_configure_argv(b.cmake, msgs[0].path, trees / MSGS, b.prefix, b.venv)
+    _cmake(runner, b, [*configure, *b.generator], trees / MSGS, jobs, "micro_ros_msgs", env)
     unused = work / "unused-packages"
     for name in UNUSED_PACKAGES:
         write_atomic(unused / name / f"{name}Config.cmake", unused_package_config(name))
-    graph_env = peerenv.build_env(os.environ, venv, [prefix])
-    argv = graph_configure_argv(
-        cmake, src / GRAPH / GRAPH, trees / GRAPH, prefix, venv, libs, generator, unused
-    )
-    _cmake(runner, cmake, argv, trees / GRAPH, jobs, "micro_ros_agent", graph_env)
-    return prefix / "lib" / GRAPH / GRAPH
+    graph_env = peerenv.build_env(os.environ, b.venv, [b.prefix])
+    argv = graph_configure_argv(b, src / GRAPH / GRAPH, trees / GRAPH, unused)
+    _cmake(runner, b, argv, trees / GRAPH, jobs, "micro_ros_agent", graph_env)
+    return b.prefix / "lib" / GRAPH / GRAPH
 
 
 def _cmake(
     runner: Runner,
-    cmake: str,
+    b: Build,
     configure: list[str],
-    build: Path,
+    tree: Path,
     jobs: int,
     what: str,
     env: Mapping[str, str] | None = None,
 ) -> None:
     runner.run(configure, env=env, step=f"configure {what}", hint=BUILD_HINT)
     runner.run(
-        [cmake, "--build", str(build), "-j", str(jobs)], env=env, step=f"build {what}", hint=BUILD_HINT
+        [b.cmake, "--build", str(tree), "-j", str(jobs)], env=env, step=f"build {what}", hint=BUILD_HINT
     )
-    runner.run([cmake, "--install", str(build)], env=env, step=f"install {what}", hint=BUILD_HINT, quiet=True)
+    runner.run(
+        [b.cmake, "--install", str(tree)], env=env, step=f"install {what}", hint=BUILD_HINT, quiet=True
+    )
 
 
 def _begin(folder: Path) -> None:
