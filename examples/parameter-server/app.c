@@ -5,7 +5,8 @@
  * - node "param_node" with a parameter server (rclc_parameter_server_init_with_option: notify changes
  *   over DDS, APP_MAX_PARAMS slots, low-memory mode APP_LOW_MEM) and APP_PARAMS int parameters
  *   param_0 ... (values 0, 10, 20, ...), added one by one, each call's result printed;
- * - an executor initialised for exactly what the server needs (RCLC_EXECUTOR_PARAMETER_SERVER_HANDLES);
+ * - an executor initialised for exactly what the server needs (APP_HANDLES:
+ *   RCLC_EXECUTOR_PARAMETER_SERVER_HANDLES; fewer makes rclc_executor_add_parameter_server fail);
  * - with APP_SELF_CHECK (default) it asks its own server through the agent, as `ros2 param get` would:
  *   a GetParameters request for each parameter, from a client of its own, and checks the values.
  *
@@ -39,6 +40,10 @@
 #endif
 #ifndef APP_SELF_CHECK
 #define APP_SELF_CHECK 1
+#endif
+/* the executor's handles: what the parameter server needs (fewer: rclc_executor_add_parameter_server fails) */
+#ifndef APP_HANDLES
+#define APP_HANDLES RCLC_EXECUTOR_PARAMETER_SERVER_HANDLES
 #endif
 #define APP_CHECK_MS 8000u
 
@@ -139,10 +144,12 @@ void appMain(void *argument) {
   printf("app: rclc_parameter_server_init_with_option (max_params %d, low_mem_mode %d): %d\n", APP_MAX_PARAMS,
          APP_LOW_MEM, (int)rc);
   if (rc != RCL_RET_OK) exit(1);
-  if (rclc_executor_init(&executor, &support.context, RCLC_EXECUTOR_PARAMETER_SERVER_HANDLES, &allocator) !=
-          RCL_RET_OK ||
-      rclc_executor_add_parameter_server(&executor, &param_server, on_changed) != RCL_RET_OK) {
-    printf("app: the executor could not take the parameter server\n");
+  if (rclc_executor_init(&executor, &support.context, APP_HANDLES, &allocator) != RCL_RET_OK) exit(3);
+  rc = rclc_executor_add_parameter_server(&executor, &param_server, on_changed);
+  if (rc != RCL_RET_OK) {
+    printf("app: rclc_executor_add_parameter_server returned %d: the executor (%d handles) could not take the "
+           "parameter server (%d)\n",
+           (int)rc, APP_HANDLES, RCLC_EXECUTOR_PARAMETER_SERVER_HANDLES);
     exit(3);
   }
   for (int i = 0; i < APP_PARAMS; i++) {

@@ -34,7 +34,9 @@ pytestmark = [
         "and install qemu-system-arm",
     ),
 ]
-STAGE_SOURCE = Path(__file__).resolve().parents[2] / "templates" / "probe" / "stage_parameters.c"
+REPO = Path(__file__).resolve().parents[2]
+STAGE_SOURCE = REPO / "templates" / "probe" / "stage_parameters.c"
+EXAMPLE = REPO / "examples" / "parameter-server"
 
 
 def _build(out: Path, *, services: int, clients: int, publishers: int, subscriptions: int) -> None:
@@ -103,3 +105,39 @@ def test_one_service_skips_the_stages_naming_the_options_and_check_predicts_it(t
     code, said = _check(out, tmp_path)
     assert code == 5, said
     assert "--set rmw_microxrcedds.RMW_UXRCE_MAX_SERVICES=5 fits" in said
+
+
+def _app(out: Path, app: Path) -> tuple[int, dict[str, object]]:
+    proc = run_uros("probe", "--json", str(out), "--app", str(app), check=False)
+    return proc.returncode, json.loads(proc.stdout)
+
+
+def test_the_example_runs_and_an_executor_too_small_for_it_is_caught_before_and_fails_by_name(
+    tmp_path: Path,
+) -> None:
+    """examples/parameter-server on a library with room: six parameters added and read back through
+    the agent. The negative control: the same app with its executor initialised for 4 handles, which
+    `uros check --for-firmware` names (file:line, the add that fails) before it runs, and which fails at
+    run time in that very call."""
+    out = tmp_path / "room"
+    _build(out, services=5, clients=1, publishers=1, subscriptions=1)
+    code, data = _app(out, EXAMPLE)
+    assert code == 0 and data["status"] == 0, data
+    assert "app: every parameter added and read back" in Path(str(data["console_log"])).read_text()
+
+    small = tmp_path / "small"
+    shutil.copytree(EXAMPLE, small)
+    text = (small / "app.c").read_text()
+    define = "#define APP_HANDLES RCLC_EXECUTOR_PARAMETER_SERVER_HANDLES"
+    assert define in text
+    (small / "app.c").write_text(text.replace(define, "#define APP_HANDLES 4"))
+    checked = run_uros(
+        "check", str(out / "libmicroros.a"), "--toolchain", "cortex-m7", "--for-firmware", str(small)
+    )
+    warned = [line for line in checked.stderr.splitlines() if "executor is initialised for 4 handles" in line]
+    assert len(warned) == 1 and warned[0].startswith("warning: app.c:"), checked.stderr
+    assert "given 5: rclc_executor_add_parameter_server at app.c:" in warned[0]
+    code, data = _app(out, small)
+    assert code == 5 and data["status"] == 3, data
+    console = Path(str(data["console_log"])).read_text()
+    assert "app: rclc_executor_add_parameter_server returned 1: the executor (4 handles)" in console
