@@ -258,3 +258,14 @@ def test_a_parameter_server_takes_a_service_for_each_of_the_library_s_handles(tm
     use = _use("rclc_parameter_server_init_default(&ps, &node);\n")
     services = {x.kind: x for x in fit.library_fit(out, info, use, known_options(), {}).limits}["services"]
     assert (services.needed, services.value, services.fits) == (6, 5, False)  # _output's header says 6
+
+
+def test_rclc_s_action_client_is_named_as_a_hazard_where_it_is_created() -> None:
+    """rclc's set_uuid: two 64-bit stores at offset 9 of the goal handle (hard-faulted on cortex-m7)."""
+    use = _use('x;\nrclc_action_client_init_default(&client, &node, ts, "fibonacci");\n')
+    (line,) = fit.hazards(use.calls)
+    assert line.startswith("main.c:2: rclc's action client writes each goal id with two 64-bit stores")
+    assert "rcl_action_send_goal_request) is not affected" in line
+    assert fit.hazards(_use().calls) == ()  # an action server alone is not
+    found = fit.Fit((), (), True, (), fit.hazards(use.calls))
+    assert fit.summary(found)[0] == (True, line) and fit.report(found)["hazards"] == [line]

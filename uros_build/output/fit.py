@@ -352,6 +352,7 @@ class Fit:
     executors: tuple[Executor, ...]
     has_rmw: bool
     missing_packages: tuple[tuple[str, str], ...] = ()  # (package, what needs it)
+    hazards: tuple[str, ...] = ()  # calls known to fail on a microcontroller, a line each
 
     @property
     def fits(self) -> bool:
@@ -395,6 +396,7 @@ def library_fit(
         tuple(e for e in executors(use, handles) if e.adds or e.init),
         RMW in packages,
         tuple(missing),
+        hazards(use.calls),
     )
 
 
@@ -424,6 +426,24 @@ def _topic_slot(
     slots = int(publishers) + int(subscriptions)
     size = nm_sizes["custom_topics"]
     return size // slots if slots and size % slots == 0 else None
+
+
+# rclc's action client (humble; iron and rolling the same) writes each goal id with two uint64_t stores
+# into the byte array at offset 9 of its goal handle (rclc/src/rclc/action_client.c, set_uuid: next and
+# the union take 8 bytes on a 32-bit target, status 1): an unaligned 64-bit store, STRD on Cortex-M,
+# which faults; measured by uros probe's action stage (docs/probe.md).
+ACTION_CLIENT_HAZARD = (
+    "{where}: rclc's action client writes each goal id with two 64-bit stores at offset 9 of its goal "
+    "handle (rclc action_client.c, set_uuid), unaligned on a 32-bit MCU: on cortex-m7 (-Os) "
+    "rclc_action_send_goal_request hard-faulted (UsageFault UNALIGNED, measured in QEMU); rcl_action's "
+    "client (rcl_action_send_goal_request) is not affected"
+)
+
+
+def hazards(calls: Iterable[Call]) -> tuple[str, ...]:
+    """The lines for calls known to fail on a microcontroller (the first call of each kind)."""
+    client = next((c for c in calls if c.function.startswith("rclc_action_client_init")), None)
+    return (ACTION_CLIENT_HAZARD.format(where=client.where),) if client is not None else ()
 
 
 def limit_line(limit: Limit, priced: bool = True) -> str:
@@ -482,6 +502,7 @@ def report(fit: Fit) -> dict[str, object]:
             for e in fit.executors
         ],
         "missing_packages": {p: why for p, why in fit.missing_packages},
+        "hazards": list(fit.hazards),
     }
 
 
@@ -500,9 +521,9 @@ def say(fitted: Fit, firmware: Path, priced: bool) -> None:
         warn, line = executor_line(executor)
         (console.warn if warn else console.info)(line)
     for package, why in fitted.missing_packages:
-        console.warn(
-            f"{why} needs {package}, which the library does not hold: build it with --packages {package}"
-        )
+        console.warn(missing_line(package, why))
+    for line in fitted.hazards:
+        console.warn(line)
 
 
 def summary(fitted: Fit, firmware: str = "DIR") -> list[tuple[bool, str]]:
@@ -511,6 +532,7 @@ def summary(fitted: Fit, firmware: str = "DIR") -> list[tuple[bool, str]]:
     lines = [(True, limit_line(limit, priced=False)) for limit in fitted.limits if not limit.fits]
     lines += [line for line in map(executor_line, fitted.executors) if line[0]]
     lines += [(True, missing_line(package, why)) for package, why in fitted.missing_packages]
+    lines += [(True, line) for line in fitted.hazards]
     if not lines and fitted.limits:
         counted = ", ".join(f"{limit.kind} {limit.needed} of {limit.value}" for limit in fitted.limits)
         lines.append((False, f"the firmware's entities fit the library: {counted} ({APPROXIMATE})"))
