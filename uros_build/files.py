@@ -105,6 +105,71 @@ def write_if_changed(path: StrPath, data: str | bytes) -> bool:
     return True
 
 
+def _open_regular(path: StrPath, limit: int) -> int:
+    """A descriptor of ``path`` opened for reading, only when it is a regular file of at most
+    ``limit`` bytes: O_NONBLOCK, so that a FIFO put in its place opens at once and is refused, never
+    waits for a writer; /dev/zero (a device) never ends, so it is refused too. FileNotFoundError
+    when it is not there; another OSError, with a reason as its strerror, when it cannot be read."""
+    import errno
+    import stat
+
+    fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_NOCTTY", 0))
+    try:
+        info = os.fstat(fd)
+        if not stat.S_ISREG(info.st_mode):
+            raise OSError(errno.EINVAL, "not a regular file")
+        if info.st_size > limit:
+            raise OSError(errno.EFBIG, f"{info.st_size:,} bytes, more than the {limit:,} expected")
+    except BaseException:
+        os.close(fd)
+        raise
+    return fd
+
+
+def read_regular(path: StrPath, limit: int) -> bytes:
+    """The bytes of ``path``, a regular file of at most ``limit`` bytes (the one bounded reader of
+    files others can put there: a team cache's entries, a probe's report): OSError otherwise (see
+    :func:`_open_regular`; a file that grows past ``limit`` while read is refused too)."""
+    import errno
+
+    fd = _open_regular(path, limit)
+    try:
+        with open(fd, "rb", closefd=False) as handle:
+            data = handle.read(limit + 1)
+    finally:
+        os.close(fd)
+    if len(data) > limit:
+        raise OSError(errno.EFBIG, f"more than the {limit:,} bytes expected")
+    return data
+
+
+def sha256_regular(path: StrPath, limit: int) -> str:
+    """The sha256 of ``path``'s content, read as :func:`read_regular` reads (a regular file of at
+    most ``limit`` bytes), in pieces: a library of hundreds of MB is never held whole."""
+    import errno
+    import hashlib
+
+    fd = _open_regular(path, limit)
+    digest, seen = hashlib.sha256(), 0
+    try:
+        with open(fd, "rb", closefd=False) as handle:
+            while chunk := handle.read(1 << 20):
+                seen += len(chunk)
+                if seen > limit:
+                    raise OSError(errno.EFBIG, f"more than the {limit:,} bytes expected")
+                digest.update(chunk)
+    finally:
+        os.close(fd)
+    return digest.hexdigest()
+
+
+def reason(exc: BaseException) -> str:
+    """An OSError's reason as a message says it (its strerror), else the exception's text."""
+    if isinstance(exc, OSError) and exc.strerror:
+        return exc.strerror
+    return str(exc) or type(exc).__name__
+
+
 def link_atomic(path: StrPath, target: str) -> None:
     """Make ``path`` a symbolic link to ``target``, replacing what was there in one rename.
     OSError where the folder holds no links (some mounts)."""

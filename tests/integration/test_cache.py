@@ -526,7 +526,7 @@ def _build_within(ws: Path, seconds: float, *more: str, env: dict[str, str] | No
 
 @pytest.mark.parametrize(
     "case", ["file-folder-clash", "long-name", "huge-include", "fifo-tarball", "dev-zero-tarball",
-             "dev-zero-header", "fifo-header", "injected-toolchain", "changed-header"],
+             "dev-zero-header", "fifo-header", "injected-toolchain", "changed-header", "poisoned-header"],
 )  # fmt: skip
 def test_a_hostile_file_cache_entry_is_one_warning_and_a_local_build(
     seed: Path, tmp_path: Path, case: str
@@ -550,11 +550,14 @@ def test_a_hostile_file_cache_entry_is_one_warning_and_a_local_build(
     header_name = header.relative_to(out).as_posix()
     if case == "changed-header":
         extra = {header_name: header.read_bytes().replace(b"#", b"/", 1)}
+    if case == "poisoned-header":  # round 5: a consistent manifest of a header the sources disagree with
+        poisoned = "include/fx_core/core.h"
+        extra = {poisoned: (out / poisoned).read_bytes() + b"#define FX_CORE_POISONED 1\n"}
     data, files = _crafted(out, extra)
     if case == "changed-header":  # the manifest lists the header as it was built
         files[header_name] = header.read_bytes()
     headers = {}
-    if case.endswith("-header"):
+    if case.endswith("-header") and case != "poisoned-header":
         fifo = tmp_path / "header-fifo"
         os.mkfifo(fifo)
         headers = {"/dev/zero" if case == "dev-zero-header" else str(fifo): "0" * 64}
@@ -568,6 +571,8 @@ def test_a_hostile_file_cache_entry_is_one_warning_and_a_local_build(
     ws = _fresh_copy(seed, tmp_path / "ws")
     said = _build_within(ws, 300, "--cache", store.as_uri())
     expected = "other headers outside the workspace" if case.endswith("-header") else "building instead"
+    if case == "poisoned-header":  # one line, no download of the tarball
+        expected = "'s include/fx_core/core.h is not the workspace's header of that name: building instead"
     assert expected in said and said.count("warning:") <= 1, said
     assert "==> built " in said and _library(ws) == _library(seed)
     assert not (ws / "build" / "cortex-m7" / "include" / "huge.h").exists()

@@ -11,9 +11,9 @@ from profile_data import minimal_profile
 
 from uros_build.commands.listings import options_table
 from uros_build.errors import ConfigError
-from uros_build.output import budget
+from uros_build.output import budget, sizes
 from uros_build.output.sizes import Sizes
-from uros_build.run.report import MAP, REPORT, Measured, measured
+from uros_build.run.report import REPORT, Measured, map_name, measured
 from uros_build.sources.options import known_options
 from uros_build.target.memsize import parse_bytes, show_bytes
 from uros_build.target.profiles import find_profile, parse_profile
@@ -175,20 +175,22 @@ def test_the_verdict_says_by_how_much() -> None:
     assert fits and line.endswith("(static RAM only; heap and stack not measured: run uros probe)")
 
 
-def _report(**change: object) -> str:
+def _report(**change: object) -> bytes:
     data = {"status": 0, "verdict": "pass", "heap_bytes": 2920, "stack_bytes": 2112, "library_sha256": "aa"}
-    return json.dumps({**data, "map_sha256": "mm", **change})
+    return json.dumps({**data, "map_sha256": "mm", **change}).encode()
 
 
 def test_only_a_passed_probe_of_this_very_library_is_counted() -> None:
     work = Path("/ws/.uros/probe/cortex-m7-0123456789")
     assert measured(None, "aa", None, work) == "not measured: run uros probe"
     assert measured(_report(), "bb", "mm", work).startswith("not measured for this library")
+    assert measured(_report(), None, "mm", work).startswith("not measured for this library")
     failed = measured(_report(status=3, verdict="no session", heap_bytes=None), "aa", "mm", work)
     assert failed == "not measured: the last probe did not pass (no session; run uros probe)"
-    assert measured("{cut", "aa", None, work).startswith("not measured: the probe's report.json")
+    assert measured(b"{cut", "aa", None, work).startswith("not measured: the probe's report.json")
     got = measured(_report(), "aa", "mm", work)
-    assert got == Measured(2920, 2112, str(work / REPORT), str(work / MAP))
+    assert got == Measured(2920, 2112, str(work / REPORT), str(work / map_name(None)))
+    assert got.run == "uros probe, bare metal"
     # a map file another build replaced is not that run's: heap and stack still count, its map not
     assert measured(_report(), "aa", "other", work) == Measured(2920, 2112, str(work / REPORT), None)
     # the probe's own judgement of every stage counts over the firmware's status: a time stage the
@@ -196,6 +198,58 @@ def test_only_a_passed_probe_of_this_very_library_is_counted() -> None:
     host_failed = measured(_report(passed=False, verdict="stage time failed: ..."), "aa", "mm", work)
     assert host_failed == "not measured: the last probe did not pass (stage time failed: ...; run uros probe)"
     assert measured(_report(status=7, passed=True), "aa", "mm", work) == got
+
+
+@pytest.mark.parametrize(
+    ("change", "why"),
+    [
+        ({"heap_bytes": -100000}, "has heap_bytes -100000, not a byte count"),
+        ({"stack_bytes": True}, "has stack_bytes true, not a byte count"),
+        ({"heap_bytes": 2.5}, "has heap_bytes 2.5, not a byte count"),
+        ({"heap_bytes": 2**40}, "not a byte count"),
+        ({"heap_bytes": "2920"}, 'has heap_bytes "2920", not a byte count'),
+        ({"passed": "false"}, "did not pass"),
+        ({"passed": 1}, "did not pass"),
+        ({"status": False}, "did not pass"),
+        ({"rtos": "freertos"}, "not measured on bare metal: the probe's report.json is of a run on FreeRTOS"),
+        ({"verdict": "x\x1b[31m" * 50, "passed": False}, "did not pass (x?[31m"),
+    ],
+)
+def test_a_report_is_typed_and_ranged(change: dict[str, object], why: str) -> None:
+    """round 5: a negative heap gave negative RAM, true counted as 1 B, "false" as passed."""
+    got = measured(_report(**change), "aa", "mm", Path("/w"))
+    assert isinstance(got, str) and why in got, got
+    assert "\x1b" not in got
+
+
+def test_a_report_that_is_no_report_is_not_measured() -> None:
+    for raw, why in (
+        (b"\xff\xfe{}", "is not UTF-8 text"),
+        (b"[" * 100_000, "is not JSON"),
+        (b"[1, 2]", "is not a report"),
+        (b'{"heap_bytes": 1' + b"0" * 5000 + b"}", "is not JSON"),
+    ):
+        got = measured(raw, "aa", None, Path("/w"))
+        assert isinstance(got, str) and why in got, (raw[:20], got)
+    # a FreeRTOS run is kept apart and counts only for the FreeRTOS variant
+    freertos = measured(_report(rtos="freertos", machine="mps2-an500"), "aa", "mm", Path("/w"), "freertos")
+    assert isinstance(freertos, Measured) and freertos.report == "/w/report-freertos.json"
+    assert freertos.run == "uros probe, FreeRTOS in QEMU mps2-an500"
+
+
+def test_an_elf_is_a_linked_firmware_of_the_librarys_target() -> None:
+    def head(machine: int, flags: int = 0x5000400, e_type: int = 2, cls: int = 1) -> bytes:
+        ident = b"\x7fELF" + bytes([cls, 1, 1]) + bytes(9)
+        rest = e_type.to_bytes(2, "little") + machine.to_bytes(2, "little") + bytes(16)
+        return ident + rest + flags.to_bytes(4, "little") + bytes(24)
+
+    assert sizes.elf_problem(head(40), "ARM", "ELF32", "hard") is None
+    assert "an archive" in str(sizes.elf_problem(b"!<arch>\n" + bytes(60), "ARM"))
+    assert "not an ELF file" in str(sizes.elf_problem(b"hello", "ARM"))
+    assert "relocatable object" in str(sizes.elf_problem(head(40, e_type=1), "ARM"))
+    assert "for RISC-V (ELF32), not for the library's ARM" in str(sizes.elf_problem(head(243), "ARM"))
+    assert "soft-float" in str(sizes.elf_problem(head(40, flags=0x5000200), "ARM", "ELF32", "hard"))
+    assert sizes.elf_problem(head(243, flags=1), "RISC-V", "ELF32", "soft") is None
 
 
 def test_a_profile_names_its_chip_and_a_bad_size_names_the_key() -> None:

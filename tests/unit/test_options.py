@@ -39,12 +39,32 @@ def test_unknown_option_of_a_known_package_is_a_warning_with_the_closest() -> No
         ("rmw_microxrcedds.RMW_UXRCE_TRANSPORT=can", "must be one of udp, tcp, serial, custom"),
         ("microxrcedds_client.UCLIENT_PROFILE_DISCOVERY=maybe", "must be ON or OFF"),
         # round 3 (issue 34, 7): accepted, and compiled into a negative pool size or a C error
-        ("rmw_microxrcedds.RMW_UXRCE_MAX_NODES=-1", r"RMW_UXRCE_MAX_NODES must be 0 or more, got -1$"),
-        ("rmw_microxrcedds.RMW_UXRCE_MAX_TOPICS=-2", r"RMW_UXRCE_MAX_TOPICS must be -1 or more, got -2$"),
-        ("rmw_microxrcedds.RMW_UXRCE_MAX_NODES=1_000", r"must be a whole number \(0 or more\), got '1_000'"),
-        ("rmw_microxrcedds.RMW_UXRCE_MAX_NODES=+4", r"must be a whole number \(0 or more\), got '\+4'"),
         (
-            "rmw_microxrcedds.RMW_UXRCE_MAX_NODES=FOO BAR",
+            "rmw_microxrcedds.RMW_UXRCE_MAX_PUBLISHERS=-1",
+            r"RMW_UXRCE_MAX_PUBLISHERS must be 0 or more, got -1$",
+        ),
+        # round 5 (issue 43): ranges from meta/options.yaml, and no number of thousands of digits
+        (
+            "rmw_microxrcedds.RMW_UXRCE_MAX_NODES=0",
+            r"RMW_UXRCE_MAX_NODES must be 1 or more, got 0: a micro-ROS",
+        ),
+        (
+            "microxrcedds_client.UCLIENT_CUSTOM_TRANSPORT_MTU=0",
+            r"must be 28 or more, got 0: the client's first",
+        ),
+        ("microxrcedds_client.UCLIENT_UDP_TRANSPORT_MTU=65536", r"must be 65535 or less, got 65536"),
+        (
+            "rmw_microxrcedds.RMW_UXRCE_MAX_HISTORY=" + "9" * 5000,
+            r"\.\.\. \(5,0\d\d characters\): .* 5,000 digits$",
+        ),
+        ("rmw_microxrcedds.RMW_UXRCE_MAX_TOPICS=-2", r"RMW_UXRCE_MAX_TOPICS must be -1 or more, got -2$"),
+        (
+            "rmw_microxrcedds.RMW_UXRCE_MAX_HISTORY=1_000",
+            r"must be a whole number \(0 or more\), got '1_000'",
+        ),
+        ("rmw_microxrcedds.RMW_UXRCE_MAX_HISTORY=+4", r"must be a whole number \(0 or more\), got '\+4'"),
+        (
+            "rmw_microxrcedds.RMW_UXRCE_MAX_HISTORY=FOO BAR",
             r"must be a whole number \(0 or more\), got 'FOO BAR'",
         ),
         ("rmw_microxrcedds.RMW_UXRCE_MAX_NODES=\u0664", r"must be a whole number"),  # an Arabic-Indic 4

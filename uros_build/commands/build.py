@@ -102,7 +102,7 @@ def build(plan: BuildPlan) -> Outcome:
             return Outcome(plan.target.key, plan.output, "up to date")
         # From here the trees change: until this build succeeds, no state vouches for the output.
         fp.forget_state(found.state_path)
-        hit = team_cache.take(ctx, found.key)
+        hit = team_cache.take(ctx, found.key, sources)
         if hit is not None:
             left = deliver.swap_in(ctx, found, hit)
             assert plan.cache is not None

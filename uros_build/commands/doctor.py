@@ -34,6 +34,7 @@ from uros_build.config.settings import (
 from uros_build.defaults import BUILD_INFO
 from uros_build.errors import ConfigError, MissingToolError, StepFailed, UrosError, VerifyError
 from uros_build.output import folders as outputs
+from uros_build.output.buildinfo import read_build_info
 from uros_build.proc import Runner, new_run_log, user_log_dir
 from uros_build.run import agentbuild, machines
 from uros_build.sources.workspace import Workspace, check_extra_package
@@ -41,6 +42,7 @@ from uros_build.sources.wsfiles import CONFIG, Lock, load_config, read_lock
 from uros_build.steps import inputs as inputs_step
 from uros_build.target import compilers
 from uros_build.target.profiles import TargetProfile
+from uros_build.target.rtos import CONFIG_HEADER, recorded_digest
 
 OK, WARN, FAIL, SKIP = "ok", "warn", "FAIL", "skip"
 
@@ -287,6 +289,27 @@ def output_changes(ws: Workspace, key: str) -> list[str] | None:
     return changed
 
 
+def rtos_change(out: Path) -> str | None:
+    """The RTOS headers a library was compiled against (build-info.json's ``rtos``: the kernel's,
+    the port's and FreeRTOSConfig.h), when their content now differs from its ``headers_sha256``:
+    what the next build sees as a changed input (the headers' folders may come from uros.yaml or
+    from the command line, which doctor does not know, so the record's folders are read)."""
+    try:
+        info = read_build_info(out, "OUTPUT")
+    except UrosError:
+        return None
+    rtos = info.rtos
+    if rtos is None:
+        return None
+    try:
+        now = recorded_digest(rtos.kernel, rtos.port, rtos.config)
+    except OSError:
+        now = ""
+    if now == rtos.headers_sha256:
+        return None
+    return f"the FreeRTOS headers ({CONFIG_HEADER} in {rtos.config}, the kernel's or the port's)"
+
+
 def _under(records: Mapping[str, fp.FileRecord], prefix: str) -> dict[str, str]:
     return {rel: r.sha256 for rel, r in records.items() if rel.startswith(prefix + "/")}
 
@@ -401,7 +424,11 @@ def probe_workspace(runner: Runner, ws: Workspace) -> list[Check]:
         checks.append(eval_dev_ws(ws.dev_built(), same, ws.dev_dir.is_dir()))
     for key in outputs.target_keys(ws):
         built = (ws.default_output(key) / BUILD_INFO).is_file()
-        checks.append(eval_output(key, built, output_changes(ws, key) if built else None))
+        changed = output_changes(ws, key) if built else None
+        if built:
+            rtos = rtos_change(ws.default_output(key))
+            changed = [*(changed or []), rtos] if rtos else changed
+        checks.append(eval_output(key, built, changed))
     if not outputs.target_keys(ws):
         checks.append(Check("targets", OK, "none built yet"))
     return checks

@@ -11,9 +11,11 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from uros_build import console
 from uros_build.config.plan import finish_killed_swaps, resolve_output
 from uros_build.output import contents
 from uros_build.output.buildinfo import BuildInfo, read_build_info
+from uros_build.run.report import library_sha256
 
 
 def gather(out: Path) -> dict[str, Any]:
@@ -21,6 +23,8 @@ def gather(out: Path) -> dict[str, Any]:
     another output or with other options since, or whose clones moved, says nothing about this
     library."""
     info: BuildInfo = read_build_info(out, "OUTPUT")
+    # the file's own bytes: a library replaced since is not the one build-info.json describes
+    own = library_sha256(out / info.library.file)
     rows = [
         {
             "name": p,
@@ -52,6 +56,9 @@ def gather(out: Path) -> dict[str, Any]:
             "bytes": info.library.bytes,
             "members": info.library.members,
             "size": dict(info.library.size) if info.library.size else None,
+            "sha256": info.library.sha256,
+            "file_sha256": own,  # None: not there, or not a regular file uros can read
+            "matches_build_info": own == info.library.sha256,
         },
         "include": {"dir": info.include.dir, "files": info.include.files},
         "transport": info.transport,
@@ -80,7 +87,15 @@ def render(data: dict[str, Any]) -> str:
     lib = data["library"]
     size = lib["size"]
     sizes = f"; text {size['text']:,}, data {size['data']:,}, bss {size['bss']:,} bytes" if size else ""
-    lines.append(f"library    {lib['file']}: {lib['bytes']:,} bytes, {lib['members']:,} objects{sizes}")
+    if lib.get("matches_build_info", True):
+        lines.append(f"library    {lib['file']}: {lib['bytes']:,} bytes, {lib['members']:,} objects{sizes}")
+    else:  # never the old figures as if they were this file's
+        now = f"its sha256 is {lib['file_sha256'][:16]}" if lib["file_sha256"] else "it is gone or unreadable"
+        lines.append(
+            f"library    {lib['file']}: CHANGED since the build: {now}, not {lib['sha256'][:16]} as "
+            f"build-info.json records; the build's was {lib['bytes']:,} bytes, {lib['members']:,} objects "
+            "(uros build again, or put its library back)"
+        )
     lines.append(f"headers    {data['include']['files']:,} files in {data['include']['dir']}/")
     if data["ccache"]:
         hits, misses = data["ccache"].get("hits", 0), data["ccache"].get("misses", 0)
@@ -125,4 +140,9 @@ def show_info(output: Path | None, workspace: Path | None, toolchain: str | None
     finish_killed_swaps(output, workspace)
     out = resolve_output(output, workspace, toolchain).resolve()
     data = gather(out)
+    if not data["library"]["matches_build_info"]:
+        console.warn(
+            f"{out / data['library']['file']}: not the library build-info.json describes "
+            "(its bytes' sha256 differs): its sizes and objects are the build's, not this file's"
+        )
     sys.stdout.write(json.dumps(data, indent=2, sort_keys=True) + "\n" if as_json else render(data))

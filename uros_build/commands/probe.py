@@ -345,7 +345,7 @@ def _probe(
         pcap=str(pcap) if pcap is not None else None,
     )
     # kept for `uros size`, which counts a passed run's heap and stack against a chip's RAM
-    write_report(work, asdict(report), info.library.sha256)
+    write_report(work, asdict(report), out / info.library.file)  # its bytes' sha256, not build-info's
     if peer_run is not None:
         return _peer_report(report, info.target, machine.machine, as_json)
     if as_json:

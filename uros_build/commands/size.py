@@ -11,19 +11,20 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from uros_build import loader
+from uros_build import console, loader
 from uros_build.config.plan import finish_killed_swaps, resolve_output
 from uros_build.errors import ConfigError, VerifyError
+from uros_build.files import read_regular
 from uros_build.output import budget, sizes, symbols
 from uros_build.output.buildinfo import BuildInfo, read_build_info
 from uros_build.output.folders import is_uros_output
 from uros_build.output.sizes import Sizes
 from uros_build.proc import Runner, new_run_log, user_log_dir
-from uros_build.run.report import Measured, read_measured
+from uros_build.run.report import MAX_MAP_BYTES, Measured, library_sha256, read_measured
 from uros_build.sources.options import known_options
 from uros_build.sources.workspace import Workspace, workspace_of_output
 from uros_build.target.memsize import show_bytes
-from uros_build.target.profiles import Chip, find_profile
+from uros_build.target.profiles import Chip, TargetProfile, find_profile
 
 
 def size_tool(info: BuildInfo | None) -> str:
@@ -218,15 +219,33 @@ def show_size(
         raise ConfigError(
             f"{lib}: no such file", "pass libmicroros.a, a `uros build` output folder, or --toolchain NAME"
         )
+    if elf is not None:
+        check_elf(elf, profile_of(info))
+    own = library_sha256(lib)  # the file's own bytes: a replaced file is another library
+    if info is not None and own != info.library.sha256:
+        console.warn(
+            f"{lib}: not the library its build-info.json describes (its bytes' sha256 differs): "
+            "the sizes are this file's; a probe of the library built then is not counted"
+        )
     runner = Runner(new_run_log(user_log_dir(), "size"))
     data = measure(runner, lib.resolve(), info, elf, map_file, objects)
+    data["library_sha256"] = own
+    data["matches_build_info"] = info.library.sha256 == own if info is not None else None
     chip = profile_chip(info)
     ram_budget = ram_budget if ram_budget is not None else chip.ram_bytes
     flash_budget = flash_budget if flash_budget is not None else chip.flash_bytes
     fits, line = True, ""
     if ram_budget is not None or flash_budget is not None:
         data["budget"], fits, line = check_budget(
-            runner, lib.resolve(), info, data, ram_budget, flash_budget, chip, ram is None and flash is None
+            runner,
+            lib.resolve(),
+            info,
+            data,
+            ram_budget,
+            flash_budget,
+            chip,
+            ram is None and flash is None,
+            own,
         )
     if as_json:
         sys.stdout.write(json.dumps(data, indent=2, sort_keys=True) + "\n")
@@ -255,19 +274,67 @@ def _hint(b: dict[str, Any]) -> str:
     return hint
 
 
-def profile_chip(info: BuildInfo | None) -> Chip:
-    """The chip the library's shipped profile names (none for the user's own profile or toolchain
-    file: build-info.json records only a profile's file name)."""
+def profile_of(info: BuildInfo | None) -> TargetProfile | None:
+    """The library's shipped profile (none for the user's own profile or toolchain file:
+    build-info.json records only a profile's file name)."""
     if info is None or info.profile != f"{info.target}.yaml":
-        return Chip()
+        return None
     try:
-        return find_profile(info.target, alternative="").chip
+        return find_profile(info.target, alternative="")
     except ConfigError:
-        return Chip()
+        return None
+
+
+def profile_chip(info: BuildInfo | None) -> Chip:
+    """The chip the library's shipped profile names."""
+    profile = profile_of(info)
+    return profile.chip if profile is not None else Chip()
+
+
+def float_abi(profile: TargetProfile) -> str | None:
+    """ "hard" or "soft": the float ABI a profile's objects must show, where its ELF facts say one."""
+    elf = profile.elf
+    if ("Tag_ABI_VFP_args", "VFP registers") in elf.attributes or any(
+        "double-float ABI" in f or "single-float ABI" in f for f in elf.header_flags
+    ):
+        return "hard"
+    if "Tag_ABI_VFP_args" in elf.attributes_absent or "soft-float ABI" in elf.header_flags:
+        return "soft"
+    return None
+
+
+def check_elf(elf: Path, profile: TargetProfile | None) -> None:
+    """--elf is a linked firmware (an ELF executable: not an archive, an object or another file),
+    for the library's machine, class and float ABI when its profile is known."""
+    try:
+        head = _head(elf)
+    except OSError as exc:
+        raise ConfigError(f"--elf {elf}: cannot read: {exc.strerror or exc}") from None
+    problem = sizes.elf_problem(
+        head,
+        profile.elf.machine if profile is not None else None,
+        profile.elf.elf_class if profile is not None else "ELF32",
+        float_abi(profile) if profile is not None else None,
+    )
+    if problem is not None:
+        hint = "pass the ELF your firmware's link wrote (-o app.elf), with this library"
+        raise ConfigError(f"--elf {elf}: {problem}", hint)
+
+
+def _head(path: Path) -> bytes:
+    """The first 64 bytes of a regular file (a FIFO is refused, never waited on)."""
+    with path.open("rb") as handle:
+        return handle.read(64)
 
 
 def _linked_by_probe(map_file: str, library: str) -> Sizes:
-    members, _ = sizes.linked_members(sizes.parse_map(loader.read_text(Path(map_file), "probe map")), library)
+    """What the probe firmware linked of the library, from its map file's copy (bounded: it was
+    checked by its sha256 in the report, read again here)."""
+    try:
+        text = read_regular(map_file, MAX_MAP_BYTES).decode("utf-8", errors="replace")
+    except OSError:
+        text = ""
+    members, _ = sizes.linked_members(sizes.parse_map(text), library)
     return sum(members.values(), Sizes())
 
 
@@ -286,12 +353,14 @@ def check_budget(
     flash: int | None,
     chip: Chip,
     from_chip: bool,
+    library_sha256: str | None = None,
 ) -> tuple[dict[str, Any], bool, str]:
     """The budget's part of `uros size`: what the firmware needs against ``ram``/``flash``, the
     probe's heap and stack when a passed run of this very library measured them, the options that
     cost most RAM (their pools' sizes from the library's symbols)."""
+    # the run of this library's own variant: a FreeRTOS run's heap is the kernel's, not newlib's
     found: Measured | str = (
-        read_measured(library.parent, info.target, info.library.sha256)
+        read_measured(library.parent, info.target, library_sha256, info.rtos.name if info.rtos else None)
         if info is not None
         else "not measured: run uros probe"
     )
@@ -327,7 +396,15 @@ def check_budget(
         "rest_of_firmware": rest.as_dict() if rest is not None else None,
         "heap": need.heap,
         "stack": need.stack,
-        "probe": {"report": measured.report, "map": measured.map_file} if measured else str(found),
+        "probe": {
+            "report": measured.report,
+            "map": measured.map_file,
+            "rtos": measured.rtos,
+            "machine": measured.machine or None,
+            "run": measured.run,
+        }
+        if measured
+        else str(found),
         "need": {"static_ram": need.static_ram, "ram": need.ram, "flash": need.flash},
         "over": budget.over_by(need, ram, flash),
         "fits": fits,
@@ -369,7 +446,9 @@ def render_budget(b: dict[str, Any]) -> str:
         rest = b["rest_of_firmware"]
         ram += f" + {rest['data'] + rest['bss']:,} B the rest of your firmware"
     if b["heap"] is not None:
-        ram += f" + heap {b['heap']:,} B + stack {b['stack']:,} B (uros probe) = {b['need']['ram']:,} B"
+        ram += (
+            f" + heap {b['heap']:,} B + stack {b['stack']:,} B ({b['probe']['run']}) = {b['need']['ram']:,} B"
+        )
     else:
         ram += f"; heap and stack {b['probe']}"
     lines.append(ram)

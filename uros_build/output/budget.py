@@ -47,7 +47,8 @@ def budget_value(value: str | None, flag: str) -> int | None:
         return None
     number = parse_bytes(value)
     if number is None:
-        raise ConfigError(f"{flag} {value}: not a size more than 0: {SIZE_HELP}")
+        shown = value if len(value) <= 24 else f"{value[:20]}... ({len(value):,} characters)"
+        raise ConfigError(f"{flag} {shown}: not a size more than 0: {SIZE_HELP}")
     return number
 
 

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import base64
 import os
-import stat
 import time
 import urllib.parse
 from collections.abc import Mapping
@@ -19,7 +18,8 @@ from typing import TYPE_CHECKING, Protocol
 if TYPE_CHECKING:
     pass
 
-from uros_build.files import write_atomic
+from uros_build.files import read_regular, write_atomic
+from uros_build.files import reason as _reason
 from uros_build.output.team_cache import (
     MAX_MANIFEST_BYTES,
     MIN_RATE,
@@ -27,7 +27,6 @@ from uros_build.output.team_cache import (
     TOKEN_VARIABLE,
     CacheUnusable,
     CacheUrl,
-    _reason,
 )
 
 # ---------------------------------------------------------------------------------------------
@@ -46,28 +45,12 @@ class FileStore:
 
     def get(self, name: str, limit: int) -> bytes | None:
         path = self.folder / name
-        try:
-            # O_NONBLOCK: a FIFO put there opens at once (and is refused), never waits for a writer
-            fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_NOCTTY", 0))
+        try:  # only a regular file, bounded (a FIFO is refused at once, /dev/zero never read)
+            return read_regular(path, limit)
         except FileNotFoundError:
             return None
         except OSError as exc:
             raise CacheUnusable(f"{path}: {_reason(exc)}") from None
-        try:
-            info = os.fstat(fd)
-            if not stat.S_ISREG(info.st_mode):
-                raise CacheUnusable(f"{path}: not a regular file")
-            if info.st_size > limit:
-                raise CacheUnusable(f"{path}: {info.st_size:,} bytes, more than the {limit:,} expected")
-            with os.fdopen(fd, "rb", closefd=False) as f:
-                data = f.read(limit + 1)
-            if len(data) > limit:
-                raise CacheUnusable(f"{path}: more than the {limit:,} bytes expected")
-            return data
-        except OSError as exc:
-            raise CacheUnusable(f"{path}: {_reason(exc)}") from None
-        finally:
-            os.close(fd)
 
     def put(self, name: str, data: bytes) -> None:
         # written beside and renamed: a reader never sees half a file, two writers never mix

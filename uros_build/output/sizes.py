@@ -182,3 +182,42 @@ def by_package(
         total, count = out.get(package, (Sizes(), 0))
         out[package] = (total + sizes, count + 1)
     return out
+
+
+# e_machine of the ELF header (the System V ABI's EM_ numbers) by the name readelf prints, which a
+# profile's elf.machine names
+ELF_MACHINES = {40: "ARM", 243: "RISC-V", 94: "Tensilica Xtensa"}
+_EF_ARM_ABI_FLOAT_SOFT, _EF_ARM_ABI_FLOAT_HARD = 0x200, 0x400
+_EF_RISCV_FLOAT_ABI = 0x6
+
+
+def elf_problem(
+    head: bytes, machine: str | None = None, elf_class: str = "ELF32", float_abi: str | None = None
+) -> str | None:
+    """Why ``head`` (a file's first 64 bytes) is not a linked firmware for the target, or None:
+    an ELF executable of ``machine`` (readelf's name; None: any) and ``elf_class``, with the float
+    ABI ``float_abi`` ("hard", "soft"; None: either) where its header says one (pure)."""
+    if head.startswith(b"!<arch>\n"):
+        return "an archive (ar), not a linked firmware"
+    if not head.startswith(b"\x7fELF") or len(head) < 52 or head[5] not in (1, 2):
+        return "not an ELF file"
+    little = head[5] == 1
+    e_type = int.from_bytes(head[16:18], "little" if little else "big")
+    if e_type == 1:
+        return "a relocatable object (.o), not a linked firmware"
+    if e_type not in (2, 3):
+        return "not an executable ELF file"
+    found_class = {1: "ELF32", 2: "ELF64"}.get(head[4], "ELF?")
+    number = int.from_bytes(head[18:20], "little" if little else "big")
+    found = ELF_MACHINES.get(number, f"machine {number}")
+    if machine is not None and (found != machine or found_class != elf_class):
+        return f"a firmware for {found} ({found_class}), not for the library's {machine} ({elf_class})"
+    flags = int.from_bytes(head[36:40], "little" if little else "big") if found_class == "ELF32" else 0
+    abi = None
+    if found == "ARM" and flags & (_EF_ARM_ABI_FLOAT_SOFT | _EF_ARM_ABI_FLOAT_HARD):
+        abi = "hard" if flags & _EF_ARM_ABI_FLOAT_HARD else "soft"
+    elif found == "RISC-V":
+        abi = "soft" if not flags & _EF_RISCV_FLOAT_ABI else "hard"
+    if float_abi is not None and abi is not None and abi != float_abi:
+        return f"its float ABI is {abi}-float, the library's is {float_abi}-float: another target's firmware"
+    return None

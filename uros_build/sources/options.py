@@ -18,6 +18,9 @@ _BOOLS = ("ON", "OFF", "TRUE", "FALSE", "1", "0", "YES", "NO")
 # A whole number as CMake passes it on into a C #define: Python's int() also takes " 4", "1_000",
 # "+4" and other scripts' digits, which the compiler then rejects (or reads otherwise).
 _WHOLE = re.compile(r"-?[0-9]+")
+# an int option reaches the library's C code as a #define its types hold (int, size_t, uint16_t):
+# none is larger than a C int unless options.yaml says less (a 5000-digit value was an internal error)
+INT_MAX = 2**31 - 1
 
 
 @dataclass(frozen=True)
@@ -30,7 +33,7 @@ class KnownOption:
     choices: tuple[str, ...] = ()
     power_of_two: bool = False
     minimum: int = 0  # int options are counts, sizes and times: none is negative unless it says
-    maximum: int | None = None  # the largest value the option's code keeps whole (None: no bound)
+    maximum: int = INT_MAX  # the largest value the option's code keeps whole
     # the library's static arrays (symbols) whose size the option sets: `uros size` reads their
     # size from the library as the option's RAM cost
     pools: tuple[str, ...] = ()
@@ -42,6 +45,11 @@ class KnownOption:
     # macro there ("": the option's name)
     header: str = ""
     macro: str = ""
+    why: str = ""  # why the range is what it is (options.yaml's `range_why:`), said when it refuses
+
+    @property
+    def _why(self) -> str:
+        return f": {self.why}" if self.why else ""
 
     def problem(self, value: str) -> str | None:
         """Why ``value`` cannot be right for this option, or None."""
@@ -50,11 +58,13 @@ class KnownOption:
         if self.type == "int":
             if not _WHOLE.fullmatch(value):
                 return f"must be a whole number ({self.minimum} or more), got {value!r}"
+            if len(value.lstrip("-0")) > len(str(self.maximum)):
+                return f"must be {self.maximum} or less, got a number of {len(value.lstrip('-0')):,} digits"
             number = int(value)
             if number < self.minimum:
-                return f"must be {self.minimum} or more, got {number}"
-            if self.maximum is not None and number > self.maximum:
-                return f"must be {self.maximum} or less, got {number}"
+                return f"must be {self.minimum} or more, got {number}{self._why}"
+            if number > self.maximum:
+                return f"must be {self.maximum} or less, got {number}{self._why}"
             if self.power_of_two and (number < 1 or number & (number - 1)):
                 return "must be a power of two (1, 2, 4, 8, ...)"
         if self.type == "bool" and value.upper() not in _BOOLS:
@@ -85,6 +95,7 @@ def parse_options(data: object, source: str) -> tuple[KnownOption, ...]:
                     "per_value",
                     "header",
                     "macro",
+                    "range_why",
                 },
                 ("default", "cost"),
             )
@@ -100,12 +111,13 @@ def parse_options(data: object, source: str) -> tuple[KnownOption, ...]:
                 choices=loader.string_list(item, "choices", item_where),
                 power_of_two=loader.boolean(item, "power_of_two", item_where),
                 minimum=loader.integer(item, "minimum", item_where, 0),
-                maximum=loader.integer(item, "maximum", item_where) if "maximum" in item else None,
+                maximum=loader.integer(item, "maximum", item_where, INT_MAX),
                 pools=loader.string_list(item, "pools", item_where),
                 transport=loader.string(item, "transport", item_where) if "transport" in item else "",
                 per_value=loader.boolean(item, "per_value", item_where),
                 header=loader.string(item, "header", item_where) if "header" in item else "",
                 macro=loader.string(item, "macro", item_where) if "macro" in item else "",
+                why=loader.string(item, "range_why", item_where) if "range_why" in item else "",
             )
             if option.default and option.problem(option.default):
                 raise ConfigError(
@@ -152,7 +164,8 @@ def check_sets(
             continue
         problem = option.problem(value)
         if problem is not None:
+            shown = item if len(item) <= 100 else f"{item[:80]}... ({len(item):,} characters)"
             raise ConfigError(
-                f"{where} {item}: {name} {problem}", f"`uros meta options` lists {package}'s options"
+                f"{where} {shown}: {name} {problem}", f"`uros meta options` lists {package}'s options"
             )
     return warnings

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
+from collections.abc import Mapping
 from pathlib import Path
 
 from uros_build import console
@@ -32,12 +33,15 @@ from uros_build.steps.context import Context
 from uros_build.steps.deliver import Assembled
 
 
-def _from_cache(ctx: Context, settings: CacheSettings, key: str) -> Assembled | None:
+def _from_cache(
+    ctx: Context, settings: CacheSettings, key: str, sources: Mapping[str, str]
+) -> Assembled | None:
     """The output of the entry ``key``, unpacked beside the output and checked as a build's would
     be (every file has the manifest's size and sha256, its build-info names this key and target,
     the library has the sha256 it names, every object passes the ABI check, the CMake package and
-    toolchain.cmake are what this uros writes); None, with a line saying why, when there is none or
-    it cannot be used."""
+    toolchain.cmake are what this uros writes, every header the workspace's sources hold is theirs:
+    ``sources``, path -> sha256); None, with a line saying why, when there is none or it cannot be
+    used."""
     plan, shown = ctx.plan, settings.url.shown
     staging = outputs.staging_dir(plan.output)
     try:
@@ -57,6 +61,12 @@ def _from_cache(ctx: Context, settings: CacheSettings, key: str) -> Assembled | 
                 f"({differ[0]}{more}): building"
             )
             return None
+        poisoned = cache_mod.headers_not_the_workspaces(manifest, cache_mod.workspace_headers(sources))
+        if poisoned:
+            more = f" and {len(poisoned) - 1} more" if len(poisoned) > 1 else ""
+            raise CacheUnusable(
+                f"the entry {key[:16]}'s {poisoned[0]}{more} is not the workspace's header of that name"
+            )
         data = store.get(cache_mod.archive_name(key), manifest.archive_bytes)
         if data is None:
             raise CacheUnusable(f"the entry {key[:16]} has a manifest and no tarball")
@@ -176,13 +186,13 @@ def _upload(plan: BuildPlan, key: str, entries: list[str]) -> None:
         console.warn(f"cache {shown}: not uploaded: {cache_store.scrub(str(exc))}")
 
 
-def take(ctx: Context, key: str) -> Assembled | None:
-    """The team cache's output for this build key, checked (None: no cache, --rebuild, a miss or
-    an entry that cannot be used)."""
+def take(ctx: Context, key: str, sources: Mapping[str, fp.FileRecord]) -> Assembled | None:
+    """The team cache's output for this build key, checked against this uros's files and the
+    workspace's ``sources`` (None: no cache, --rebuild, a miss or an entry that cannot be used)."""
     plan = ctx.plan
     if plan.cache is None or plan.rebuild:
         return None
-    return _from_cache(ctx, plan.cache, key)
+    return _from_cache(ctx, plan.cache, key, {rel: record.sha256 for rel, record in sources.items()})
 
 
 def upload_if_asked(ctx: Context, key: str, entries: list[str]) -> None:

@@ -9,18 +9,21 @@ from __future__ import annotations
 
 import re
 
-_SIZE = re.compile(r"([0-9]+)\s*(|B|K|KB|KIB|M|MB|MIB)", re.IGNORECASE)
+# at most 12 digits: a number of thousands of digits is no size (int() refuses more than 4,300)
+_SIZE = re.compile(r"0*([0-9]{1,12})\s*(|B|K|KB|KIB|M|MB|MIB)", re.IGNORECASE)
 _SCALE = {"": 1, "B": 1, "K": 1024, "KB": 1024, "KIB": 1024, "M": 1024**2, "MB": 1024**2, "MIB": 1024**2}
-SIZE_HELP = "a whole number of bytes, or with K, KB, M or MB (1024-based), e.g. 256K or 2MB"
+MAX_BYTES = 4 * 1024**3  # a 32-bit address space: no microcontroller's memory is larger
+SIZE_HELP = "a whole number of bytes, or with K, KB, M or MB (1024-based), e.g. 256K or 2MB, up to 4 GB"
 
 
 def parse_bytes(text: str) -> int | None:
-    """``text`` (``"264K"``, ``"2 MB"``, ``"65536"``) as bytes, or None when it is no size or 0."""
+    """``text`` (``"264K"``, ``"2 MB"``, ``"65536"``) as bytes, or None when it is no size, 0 or
+    more than :data:`MAX_BYTES`."""
     found = _SIZE.fullmatch(text.strip())
     if found is None:
         return None
     number = int(found.group(1)) * _SCALE[found.group(2).upper()]
-    return number or None
+    return number if 0 < number <= MAX_BYTES else None
 
 
 def show_bytes(number: int) -> str:

@@ -194,6 +194,26 @@ def headers_digest(folders: list[tuple[str, Path, tuple[str, ...]]]) -> str:
     return h.hexdigest()
 
 
+def freertos_digest(kernel: Path, port_dirs: list[Path], config: Path) -> str:
+    """``headers_sha256`` of a FreeRTOS build: the kernel's include/*.h, each port folder's *.h and
+    the config folder's FreeRTOSConfig.h (what build-info.json records, what `uros doctor` compares)."""
+    return headers_digest(
+        [
+            ("include", kernel / "include", ()),
+            *((f"port{i}", d, ()) for i, d in enumerate(port_dirs)),
+            ("config", config, (CONFIG_HEADER,)),
+        ]
+    )
+
+
+def recorded_digest(kernel: str, port: str, config: str) -> str:
+    """:func:`freertos_digest` of the folders build-info.json's ``rtos`` records (its ``port``: the
+    port folders as named, joined by spaces; relative ones under the kernel's portable/)."""
+    base = Path(kernel)
+    ports = [Path(p) if Path(p).is_absolute() else base / PORTABLE / p for p in port.split(" ") if p]
+    return freertos_digest(base, ports, Path(config))
+
+
 def _flag(chosen_where: Mapping[str, str], name: str) -> str:
     return chosen_where.get(name, f"--{name.replace('_', '-')}")
 
@@ -264,13 +284,7 @@ def read_freertos(
                 f"{rtos_flag} ({profile.name}): the port folder {extra} does not exist",
                 "pass a complete FreeRTOS-Kernel (V11), or name the port's folder with --rtos-port",
             )
-    digest = headers_digest(
-        [
-            ("include", kernel / "include", ()),
-            *((f"port{i}", d, ()) for i, d in enumerate(port_dirs)),
-            ("config", config, (CONFIG_HEADER,)),
-        ]
-    )
+    digest = freertos_digest(kernel, port_dirs, config)
     dirs = (str(kernel / "include"), *(str(d) for d in port_dirs), str(config))
     return RtosHeaders(
         name=FREERTOS,
