@@ -140,7 +140,7 @@ def test_the_heap_and_stack_of_a_passed_probe_of_this_library_count(pools_ws: Pa
     assert (data["heap"], data["stack"]) == (2920, 2112)
     assert data["need"]["ram"] == data["need"]["static_ram"] + 2920 + 2112
     text = _size(ws, "--ram", "1M").stdout
-    assert "+ heap 2,920 B + stack 2,112 B (uros probe)" in text
+    assert "+ heap 2,920 B + stack 2,112 B (uros probe, bare metal)" in text
     assert "static RAM only" not in text.splitlines()[-1]
 
     _write_report(ws, "cortex-m7", **passed, library_sha256="0" * 64, map_sha256=None)

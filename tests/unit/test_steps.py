@@ -273,7 +273,7 @@ def test_deliver_assembles_swaps_in_and_records_the_state(
     assert inputs.up_to_date(ctx, inputs.resolve(ctx, toolchain, setup, sources, "outside"), False)
     deliver.say_done(ctx, assembled, [], 0.0, "")
     team_cache.upload_if_asked(ctx, found.key, deliver.entries_of(plan.output))  # no cache: nothing
-    assert team_cache.take(ctx, found.key) is None
+    assert team_cache.take(ctx, found.key, {}) is None
 
 
 # -- target_kind ---------------------------------------------------------------------------------

@@ -158,10 +158,10 @@ def test_up_to_date_needs_the_same_inputs_and_the_output_as_written(tmp_path: Pa
 
 def test_no_cache_or_a_rebuild_never_asks_one(tmp_path: Path) -> None:
     runner = FakeRunner(tmp_path / "log")
-    assert team_cache.take(_ctx(_plan(tmp_path), runner), "k" * 64) is None
+    assert team_cache.take(_ctx(_plan(tmp_path), runner), "k" * 64, {}) is None
     settings = SimpleNamespace(url=SimpleNamespace(shown="file:///nowhere"))
     plan = SimpleNamespace(rebuild=True, output=tmp_path / "out", cache=settings)
-    assert team_cache.take(_ctx(plan, runner), "k" * 64) is None
+    assert team_cache.take(_ctx(plan, runner), "k" * 64, {}) is None
     assert runner.calls == []
 
 
