@@ -9,16 +9,11 @@ import pytest
 from fake_idf import make_idf_build
 
 from uros_build import defaults, resources
-from uros_build.config.plan import (
-    ProfileTarget,
-    ToolchainFileTarget,
-    meta_option,
-    meta_transport,
-    plan_build,
-    resolve_target,
-)
+from uros_build.config.colconmeta import meta_option, meta_transport
+from uros_build.config.plan import plan_build
 from uros_build.config.settings import BuildArgs
 from uros_build.config.sourceplan import CreateArgs, plan_create, plan_sources
+from uros_build.config.targets import ProfileTarget, ToolchainFileTarget, resolve_target
 from uros_build.errors import ConfigError
 from uros_build.sources.distros import Distro, Mirror, MirrorRule, Override, Repo
 from uros_build.sources.meta import Meta

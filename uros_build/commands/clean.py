@@ -12,8 +12,8 @@ import shutil
 from pathlib import Path
 
 from uros_build import console
-from uros_build.config.plan import folder_key, named_keys
 from uros_build.config.settings import resolve_workspace
+from uros_build.config.targets import folder_key, named_keys
 from uros_build.errors import ConfigError, did_you_mean
 from uros_build.files import locked, remove_tree
 from uros_build.output import folders as outputs

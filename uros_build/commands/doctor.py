@@ -22,7 +22,6 @@ from pathlib import Path
 from uros_build.colcon import command as colcon
 from uros_build.colcon import fingerprint as fp
 from uros_build.colcon import hosttools
-from uros_build.config.plan import resolve_target
 from uros_build.config.settings import (
     AGENT,
     ROS2_VENV,
@@ -31,6 +30,7 @@ from uros_build.config.settings import (
     resolve_outside,
     resolve_workspace,
 )
+from uros_build.config.targets import resolve_target
 from uros_build.defaults import BUILD_INFO
 from uros_build.errors import ConfigError, MissingToolError, StepFailed, UrosError, VerifyError
 from uros_build.output import folders as outputs

@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from uros_build import console
-from uros_build.config.plan import finish_killed_swaps, resolve_output
+from uros_build.config.outputs import finish_killed_swaps, resolve_output
 from uros_build.output import contents
 from uros_build.output.buildinfo import BuildInfo, read_build_info
 from uros_build.run.report import library_sha256

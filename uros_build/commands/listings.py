@@ -8,8 +8,9 @@ from pathlib import Path
 from typing import Any
 
 from uros_build import console, defaults, loader
-from uros_build.config.plan import meta_for, resolve_target
+from uros_build.config.colconmeta import meta_for
 from uros_build.config.settings import resolve_workspace
+from uros_build.config.targets import resolve_target
 from uros_build.errors import ConfigError
 from uros_build.files import write_if_changed
 from uros_build.output import contents

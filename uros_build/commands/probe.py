@@ -20,8 +20,9 @@ from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 from uros_build import console
-from uros_build.config.plan import finish_killed_swaps, folder_key, resolve_output
+from uros_build.config.outputs import finish_killed_swaps, resolve_output
 from uros_build.config.settings import AGENT, FREERTOS, LWIP, ROS2_VENV, resolve_outside
+from uros_build.config.targets import folder_key
 from uros_build.errors import ConfigError, MissingToolError, VerifyError
 from uros_build.files import locked
 from uros_build.output.buildinfo import BuildInfo, read_build_info

@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from uros_build import console, loader
-from uros_build.config.plan import finish_killed_swaps, resolve_output
+from uros_build.config.outputs import finish_killed_swaps, resolve_output
 from uros_build.errors import ConfigError, VerifyError
 from uros_build.files import read_regular
 from uros_build.output import budget, sizes, symbols

@@ -17,7 +17,7 @@ from uros_build import console
 from uros_build.colcon import command as colcon
 from uros_build.colcon import depfiles, installtree
 from uros_build.colcon.hosttools import HostFacts
-from uros_build.config.plan import BuildPlan
+from uros_build.config.buildplan import BuildPlan
 from uros_build.errors import (
     DiskFull,
     StepFailed,

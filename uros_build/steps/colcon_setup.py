@@ -17,7 +17,7 @@ from uros_build import __version__, console
 from uros_build.colcon import command as colcon
 from uros_build.colcon import devws, hoststage, hosttools
 from uros_build.colcon import fingerprint as fp
-from uros_build.config.plan import BuildPlan
+from uros_build.config.buildplan import BuildPlan
 from uros_build.files import write_if_changed
 from uros_build.proc import Runner
 from uros_build.shim import gencache, pyshim

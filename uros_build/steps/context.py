@@ -7,7 +7,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from uros_build.colcon.hosttools import HostFacts
-from uros_build.config.plan import BuildPlan
+from uros_build.config.buildplan import BuildPlan
 from uros_build.proc import Runner
 from uros_build.steps.target_kind import TargetKind
 

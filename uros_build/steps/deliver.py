@@ -18,7 +18,8 @@ from typing import Any
 from uros_build import __version__, console
 from uros_build.colcon import fingerprint as fp
 from uros_build.colcon import installtree
-from uros_build.config.plan import BuildPlan, meta_transport
+from uros_build.config.buildplan import BuildPlan
+from uros_build.config.colconmeta import meta_transport
 from uros_build.defaults import BUILD_INFO
 from uros_build.errors import (
     ConfigError,

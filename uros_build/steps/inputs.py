@@ -17,7 +17,7 @@ from uros_build import __version__, console
 from uros_build.colcon import command as colcon
 from uros_build.colcon import fingerprint as fp
 from uros_build.colcon.hosttools import HostFacts
-from uros_build.config.plan import BuildPlan
+from uros_build.config.buildplan import BuildPlan
 from uros_build.errors import ConfigError
 from uros_build.output.buildinfo import read_build_info
 from uros_build.output.folders import owned_entries

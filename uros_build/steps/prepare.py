@@ -13,7 +13,7 @@ from uros_build.colcon import depfiles, installtree, relocate
 from uros_build.colcon import fingerprint as fp
 from uros_build.colcon.damage import damaged_archives, damaged_configures
 from uros_build.colcon.hosttools import HostFacts
-from uros_build.config.plan import BuildPlan
+from uros_build.config.buildplan import BuildPlan
 from uros_build.files import remove_tree, write_if_changed
 from uros_build.output import swap
 from uros_build.proc import stop_leftovers

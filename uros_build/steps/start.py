@@ -7,7 +7,7 @@ from __future__ import annotations
 from uros_build import console
 from uros_build.colcon import devws, hosttools
 from uros_build.colcon.hosttools import HostFacts
-from uros_build.config.plan import BuildPlan
+from uros_build.config.buildplan import BuildPlan
 from uros_build.proc import Runner
 from uros_build.steps.context import Context
 

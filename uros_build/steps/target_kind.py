@@ -16,7 +16,9 @@ from uros_build import console
 from uros_build.colcon import fingerprint as fp
 from uros_build.colcon.hosttools import HostFacts
 from uros_build.colcon.installtree import forget_configured_flags
-from uros_build.config.plan import BuildPlan, ProfileTarget, ToolchainFileTarget, meta_transport
+from uros_build.config.buildplan import BuildPlan
+from uros_build.config.colconmeta import meta_transport
+from uros_build.config.targets import ProfileTarget, ToolchainFileTarget
 from uros_build.files import write_if_changed
 from uros_build.output.buildinfo import Compiler, Flags, IdfInfo, IpStackInfo, RtosInfo
 from uros_build.proc import Runner

@@ -12,7 +12,7 @@ from pathlib import Path
 from uros_build import console
 from uros_build.colcon import depfiles
 from uros_build.colcon import fingerprint as fp
-from uros_build.config.plan import BuildPlan
+from uros_build.config.buildplan import BuildPlan
 from uros_build.defaults import BUILD_INFO
 from uros_build.errors import (
     ConfigError,
