@@ -15,6 +15,17 @@ import yaml
 from uros_build.errors import ConfigError, did_you_mean
 
 
+def is_count(value: object, limit: int) -> bool:
+    """A value read from JSON that others can write (a team cache's manifest, a probe's report) is
+    a count: a whole number (JSON's true is none) from 0 to ``limit``."""
+    return type(value) is int and 0 <= value <= limit
+
+
+def is_sha256(value: object) -> bool:
+    """The same for a sha256: 64 lowercase hex digits."""
+    return isinstance(value, str) and len(value) == 64 and all(c in "0123456789abcdef" for c in value)
+
+
 def read_text(path: Path, flag: str = "", hint: str | None = None) -> str:
     where = f"{flag} {path}" if flag else str(path)
     try:

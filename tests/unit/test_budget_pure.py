@@ -175,29 +175,32 @@ def test_the_verdict_says_by_how_much() -> None:
     assert fits and line.endswith("(static RAM only; heap and stack not measured: run uros probe)")
 
 
+AA, BB = "a" * 64, "b" * 64  # the sha256 of two libraries
+
+
 def _report(**change: object) -> bytes:
-    data = {"status": 0, "verdict": "pass", "heap_bytes": 2920, "stack_bytes": 2112, "library_sha256": "aa"}
+    data = {"status": 0, "verdict": "pass", "heap_bytes": 2920, "stack_bytes": 2112, "library_sha256": AA}
     return json.dumps({**data, "map_sha256": "mm", **change}).encode()
 
 
 def test_only_a_passed_probe_of_this_very_library_is_counted() -> None:
     work = Path("/ws/.uros/probe/cortex-m7-0123456789")
-    assert measured(None, "aa", None, work) == "not measured: run uros probe"
-    assert measured(_report(), "bb", "mm", work).startswith("not measured for this library")
+    assert measured(None, AA, None, work) == "not measured: run uros probe"
+    assert measured(_report(), BB, "mm", work).startswith("not measured for this library")
     assert measured(_report(), None, "mm", work).startswith("not measured for this library")
-    failed = measured(_report(status=3, verdict="no session", heap_bytes=None), "aa", "mm", work)
+    failed = measured(_report(status=3, verdict="no session", heap_bytes=None), AA, "mm", work)
     assert failed == "not measured: the last probe did not pass (no session; run uros probe)"
-    assert measured(b"{cut", "aa", None, work).startswith("not measured: the probe's report.json")
-    got = measured(_report(), "aa", "mm", work)
+    assert measured(b"{cut", AA, None, work).startswith("not measured: the probe's report.json")
+    got = measured(_report(), AA, "mm", work)
     assert got == Measured(2920, 2112, str(work / REPORT), str(work / map_name(None)))
     assert got.run == "uros probe, bare metal"
     # a map file another build replaced is not that run's: heap and stack still count, its map not
-    assert measured(_report(), "aa", "other", work) == Measured(2920, 2112, str(work / REPORT), None)
+    assert measured(_report(), AA, "other", work) == Measured(2920, 2112, str(work / REPORT), None)
     # the probe's own judgement of every stage counts over the firmware's status: a time stage the
     # host failed (status 0) is no pass; the service stage skipped without root (status 7) is
-    host_failed = measured(_report(passed=False, verdict="stage time failed: ..."), "aa", "mm", work)
+    host_failed = measured(_report(passed=False, verdict="stage time failed: ..."), AA, "mm", work)
     assert host_failed == "not measured: the last probe did not pass (stage time failed: ...; run uros probe)"
-    assert measured(_report(status=7, passed=True), "aa", "mm", work) == got
+    assert measured(_report(status=7, passed=True), AA, "mm", work) == got
 
 
 @pytest.mark.parametrize(
@@ -217,7 +220,7 @@ def test_only_a_passed_probe_of_this_very_library_is_counted() -> None:
 )
 def test_a_report_is_typed_and_ranged(change: dict[str, object], why: str) -> None:
     """round 5: a negative heap gave negative RAM, true counted as 1 B, "false" as passed."""
-    got = measured(_report(**change), "aa", "mm", Path("/w"))
+    got = measured(_report(**change), AA, "mm", Path("/w"))
     assert isinstance(got, str) and why in got, got
     assert "\x1b" not in got
 
@@ -229,10 +232,10 @@ def test_a_report_that_is_no_report_is_not_measured() -> None:
         (b"[1, 2]", "is not a report"),
         (b'{"heap_bytes": 1' + b"0" * 5000 + b"}", "is not JSON"),
     ):
-        got = measured(raw, "aa", None, Path("/w"))
+        got = measured(raw, AA, None, Path("/w"))
         assert isinstance(got, str) and why in got, (raw[:20], got)
     # a FreeRTOS run is kept apart and counts only for the FreeRTOS variant
-    freertos = measured(_report(rtos="freertos", machine="mps2-an500"), "aa", "mm", Path("/w"), "freertos")
+    freertos = measured(_report(rtos="freertos", machine="mps2-an500"), AA, "mm", Path("/w"), "freertos")
     assert isinstance(freertos, Measured) and freertos.report == "/w/report-freertos.json"
     assert freertos.run == "uros probe, FreeRTOS in QEMU mps2-an500"
 

@@ -38,6 +38,7 @@ if TYPE_CHECKING:
 from uros_build.errors import ConfigError
 from uros_build.files import reason as _reason
 from uros_build.files import sha256_regular
+from uros_build.loader import is_count, is_sha256
 
 FORMAT = 2  # 2: the manifest names every file with its size and sha256 (1: the tarball's only)
 TOKEN_VARIABLE = "UROS_CACHE_TOKEN"
@@ -198,14 +199,6 @@ class Manifest:
         return json.dumps(data, indent=1, sort_keys=True) + "\n"
 
 
-def _sha256_text(value: object) -> bool:
-    return isinstance(value, str) and len(value) == 64 and all(c in "0123456789abcdef" for c in value)
-
-
-def _size(value: object, limit: int) -> bool:
-    return isinstance(value, int) and not isinstance(value, bool) and 0 <= value <= limit
-
-
 def parse_manifest(data: bytes, key: str) -> Manifest:
     """The manifest of the entry ``key``; CacheUnusable when it is not one uros wrote for it."""
     try:
@@ -217,8 +210,8 @@ def parse_manifest(data: bytes, key: str) -> Manifest:
     headers = top.get("outside_headers", {})
     sha, size, listed = top.get("archive_sha256"), top.get("archive_bytes"), top.get("files")
     if (
-        not _sha256_text(sha)
-        or not _size(size, MAX_ARCHIVE_BYTES)
+        not is_sha256(sha)
+        or not is_count(size, MAX_ARCHIVE_BYTES)
         or not isinstance(headers, dict)
         or not all(isinstance(k, str) and isinstance(v, str) for k, v in headers.items())
         or not isinstance(listed, dict)
@@ -230,8 +223,8 @@ def parse_manifest(data: bytes, key: str) -> Manifest:
             raise CacheUnusable(f"the manifest of {key[:16]} names {name!r}, which no entry may hold")
         if (
             not isinstance(about, dict)
-            or not _size(about.get("bytes"), max_bytes(name))
-            or not _sha256_text(about.get("sha256"))
+            or not is_count(about.get("bytes"), max_bytes(name))
+            or not is_sha256(about.get("sha256"))
         ):
             raise CacheUnusable(f"the manifest of {key[:16]}: {name!r} has no size and sha256 within bounds")
         files[name] = (about["bytes"], about["sha256"])

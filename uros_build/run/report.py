@@ -27,6 +27,7 @@ from typing import Any
 
 from uros_build.colcon.fingerprint import digest
 from uros_build.files import read_regular, reason, sha256_regular, write_atomic
+from uros_build.loader import is_count, is_sha256
 from uros_build.proc import user_log_dir
 from uros_build.sources.workspace import workspace_of_output
 
@@ -132,9 +133,7 @@ def _shown(value: object, limit: int = 80) -> str:
 
 def _count(value: object) -> int | None:
     """A byte count from a report: a whole number (JSON's true is no count), 0 to MAX_MEASURED."""
-    if type(value) is int and 0 <= value <= MAX_MEASURED:
-        return value
-    return None
+    return value if type(value) is int and is_count(value, MAX_MEASURED) else None
 
 
 def measured(
@@ -158,7 +157,7 @@ def measured(
         return f"not measured: the probe's {name} is not JSON (run uros probe)"
     if not isinstance(data, dict):
         return f"not measured: the probe's {name} is not a report (run uros probe)"
-    if library is None or data.get("library_sha256") != library:
+    if library is None or not is_sha256(data.get("library_sha256")) or data["library_sha256"] != library:
         return "not measured for this library: the last probe ran another build of it (run uros probe)"
     ran_on = data.get("rtos")
     if ran_on != rtos:
