@@ -189,6 +189,18 @@ def test_elf_takes_only_a_linked_firmware_of_the_librarys_target(ws: Path, tmp_p
         done = run_uros("size", str(_out(ws)), "--elf", str(elf), "--map", str(map_file), check=False)
         assert done.returncode == 2, done.stderr
         assert done.stderr.splitlines()[0] == f"error: --elf {elf}: {why}", done.stderr
+    # a FIFO or /dev/zero as --map or --elf: one line, never read
+    fifo = tmp_path / "map.fifo"
+    os.mkfifo(fifo)
+    (tmp_path / "zero.map").symlink_to("/dev/zero")
+    for flag, path in (("--map", fifo), ("--map", tmp_path / "zero.map"), ("--elf", fifo)):
+        other = str(riscv if flag == "--map" else map_file)
+        argv = ["size", str(_out(ws)), flag, str(path), "--elf" if flag == "--map" else "--map", other]
+        done = run_uros(*argv, check=False)
+        assert (
+            done.returncode == 2
+            and done.stderr.splitlines()[0] == f"error: {flag} {path}: not a regular file"
+        )
     # the library's own target's firmware is taken (and its map read)
     fw_map = tmp_path / "fw.map"
     good = _link(

@@ -11,10 +11,10 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from uros_build import console, loader
+from uros_build import console
 from uros_build.config.outputs import finish_killed_swaps, resolve_output
 from uros_build.errors import ConfigError, VerifyError
-from uros_build.files import read_regular
+from uros_build.files import read_regular, reason
 from uros_build.output import budget, sizes, symbols
 from uros_build.output.buildinfo import BuildInfo, read_build_info
 from uros_build.output.folders import is_uros_output
@@ -74,7 +74,11 @@ def measure(
     linked_members: dict[str, Sizes] | None = None
     rest = None
     if map_file is not None:
-        entries = sizes.parse_map(loader.read_text(map_file, "--map"))
+        try:
+            text = read_regular(map_file, MAX_MAP_BYTES).decode("utf-8", errors="replace")
+        except OSError as exc:
+            raise ConfigError(f"--map {map_file}: {reason(exc)}") from None
+        entries = sizes.parse_map(text)
         if not entries:
             raise ConfigError(
                 f"--map {map_file}: no linker memory map in it",
@@ -211,8 +215,8 @@ def show_size(
     if elf is not None and map_file is None:
         raise ConfigError("--elf without --map", "link with -Wl,-Map=app.map and pass --map app.map too")
     for path, flag in ((elf, "--elf"), (map_file, "--map")):
-        if path is not None and not path.is_file():
-            raise ConfigError(f"{flag} {path}: no such file")
+        if path is not None and not path.is_file():  # a FIFO or a device is never read
+            raise ConfigError(f"{flag} {path}: {'not a regular file' if path.exists() else 'no such file'}")
     finish_killed_swaps(library, workspace)
     lib, info = _library(library, workspace, toolchain)
     if not lib.is_file():
