@@ -35,3 +35,19 @@ def write_lwip_config(folder: Path, mem_size: int = 1600) -> Path:
     _write(folder / "lwipopts.h", f"#define NO_SYS 0\n#define MEM_SIZE {mem_size}\n")
     _write(folder / "arch" / "cc.h", "#define FX_CC_H 1\n")
     return folder
+
+
+def make_standin_freertos_tcp(root: Path) -> Path:
+    """``root`` in FreeRTOS+TCP's layout with the headers the client's FreeRTOS_Plus_TCP code includes."""
+    _write(root / "source" / "include" / "FreeRTOS_Sockets.h", '#include "FreeRTOSIPConfig.h"\n')
+    _write(root / "source" / "include" / "FreeRTOS_IP.h", '#include "FreeRTOS_Sockets.h"\n')
+    _write(root / "source" / "portable" / "Compiler" / "GCC" / "pack_struct_start.h", "\n")
+    return root
+
+
+def write_tcp_config(folder: Path, mtu: int = 1500) -> Path:
+    """``folder``/FreeRTOSIPConfig.h (ipconfigNETWORK_MTU ``mtu``)."""
+    _write(
+        folder / "FreeRTOSIPConfig.h", f"#define FREERTOS_IP_CONFIG_H\n#define ipconfigNETWORK_MTU {mtu}\n"
+    )
+    return folder

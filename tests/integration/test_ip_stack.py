@@ -20,7 +20,7 @@ import subprocess
 from pathlib import Path
 
 import pytest
-from fixture_lwip import make_standin_lwip, write_lwip_config
+from fixture_lwip import make_standin_freertos_tcp, make_standin_lwip, write_lwip_config, write_tcp_config
 from fixture_rtos import make_standin_kernel, write_config
 from fixture_ws import add_plain_package
 from uros_helpers import need, run_uros, run_uros_here
@@ -193,3 +193,40 @@ def test_udp_on_bare_metal_without_a_stack_is_warned(tmp_path: Path) -> None:
     (ws / "mcu_ws" / "src" / "fx_net" / "fx_net.c").write_text("int fx_net(void) { return 1; }\n")
     done = run_uros("build", "--toolchain", "cortex-m7", "-w", str(ws), "--transport", "udp")
     assert "transport udp on cortex-m7 without an IP stack" in done.stderr, done.stderr
+
+
+FX_TCP_C = """\
+#include "FreeRTOS_Sockets.h"
+#define CAT(a, b) a##b
+#define NAME(p, v) CAT(p, v)
+int NAME(fx_net_mtu_, ipconfigNETWORK_MTU)(void) { return 1; }
+int NAME(fx_net_platform_, FX_PLATFORM)(void) { return 1; }
+"""
+
+
+def test_freertos_plus_tcp_is_the_second_stack(tmp_path: Path) -> None:
+    """--ip-stack freertos-tcp: its headers, FreeRTOSIPConfig.h and PLATFORM_NAME FreeRTOS_Plus_TCP."""
+    need("arm-none-eabi-gcc", "cmake", "ninja")
+    ws, flags = _setup(tmp_path)
+    (ws / "mcu_ws" / "src" / "fx_net" / "fx_net.c").write_text(FX_TCP_C)
+    tree = make_standin_freertos_tcp(tmp_path / "FreeRTOS-Plus-TCP")
+    config = write_tcp_config(tmp_path / "app" / "tcp", 1400)
+    flags = [
+        *flags[:8],
+        "--ip-stack",
+        "freertos-tcp",
+        "--ip-stack-dir",
+        str(tree),
+        "--ip-stack-config",
+        str(config),
+    ]
+    run_uros("build", "--toolchain", "cortex-m7", "-w", str(ws), *flags)
+    out = ws / "build" / "cortex-m7"
+    symbols = _symbols(out / "libmicroros.a")
+    assert "T fx_net_mtu_1400" in symbols and "T fx_net_platform_FreeRTOS_Plus_TCP" in symbols
+    stack = json.loads((out / "build-info.json").read_text())["ip_stack"]
+    assert (stack["name"], stack["platform"], stack["dir"]) == (
+        "freertos-tcp",
+        "FreeRTOS_Plus_TCP",
+        str(tree),
+    )

@@ -29,6 +29,7 @@ AGENT = os.environ.get("UROS_AGENT")
 KERNEL = os.environ.get("UROS_FREERTOS")
 LWIP = os.environ.get("UROS_LWIP")
 HUMBLE_WS = os.environ.get("UROS_HUMBLE_WS")
+FREERTOS_TCP = os.environ.get("UROS_FREERTOS_TCP")
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 _RUNS = pytest.mark.skipif(
     not ((MIRROR or HUMBLE_WS) and AGENT and KERNEL and LWIP and shutil.which("qemu-system-arm")),
@@ -41,15 +42,23 @@ _ROOT = pytest.mark.skipif(os.geteuid() != 0, reason="the agent's port is fixed 
 
 
 @pytest.fixture(scope="module")
-def udp_library(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    fw = humble_copy(tmp_path_factory.mktemp("probe-udp") / "fw", HUMBLE_WS, MIRROR)
-    out = fw.parent / "udp"
+def humble(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return humble_copy(tmp_path_factory.mktemp("probe-udp") / "fw", HUMBLE_WS, MIRROR)
+
+
+@pytest.fixture(scope="module")
+def udp_library(humble: Path) -> Path:
+    return _build(humble, "lwip", str(LWIP))
+
+
+def _build(fw: Path, stack: str, tree: str) -> Path:
+    out = fw.parent / stack
     run_uros(
         "build", "--toolchain", "cortex-m7", "-w", str(fw), "-j", "2", "--output", str(out),
         "--packages", "std_msgs", "--packages", "example_interfaces",
         "--transport", "udp",
         "--rtos", "freertos", "--rtos-dir", str(KERNEL), "--rtos-config", str(freertos.probe_config().parent),
-        "--ip-stack", "lwip", "--ip-stack-dir", str(LWIP), "--ip-stack-config", str(network.probe_config()),
+        "--ip-stack", stack, "--ip-stack-dir", tree, "--ip-stack-config", str(network.probe_config(stack)),
         "--set", "microxrcedds_client.UCLIENT_PROFILE_MULTITHREAD=ON",
         "--set", "rmw_microxrcedds.RMW_UXRCE_MAX_PUBLISHERS=2",
         "--set", "rmw_microxrcedds.RMW_UXRCE_MAX_SUBSCRIPTIONS=2",
@@ -74,20 +83,31 @@ def _udp_frames(pcap: Path, port: int) -> int:
 
 @_RUNS
 def test_every_stage_runs_over_udp(udp_library: Path) -> None:
-    proc = run_uros("probe", str(udp_library), "--json", "--agent", str(AGENT), check=False)
+    _every_stage(udp_library, "lwIP")
+
+
+@_RUNS
+@pytest.mark.skipif(not FREERTOS_TCP, reason="set UROS_FREERTOS_TCP (a FreeRTOS-Plus-TCP V4.4 tree)")
+def test_every_stage_runs_over_freertos_plus_tcp(humble: Path) -> None:
+    assert FREERTOS_TCP
+    _every_stage(_build(humble, "freertos-tcp", FREERTOS_TCP), "FreeRTOS+TCP")
+
+
+def _every_stage(library: Path, label: str) -> None:
+    proc = run_uros("probe", str(library), "--json", "--agent", str(AGENT), check=False)
     report = json.loads(proc.stdout)
     assert proc.returncode == 0 and report["passed"], proc.stderr
     stages = report["stages"]
     for name in ("session", "samples", "limits", "fragmentation", "service", "time", "restart", "two_tasks"):
         assert stages[name]["result"] == "pass", (name, stages[name])
     console = Path(report["console_log"]).read_text()
-    assert "lwIP on the LAN9118" in console and "agent at udp 10.0.2.2:" in console
+    assert f"{label} on the LAN9118" in console and "agent at udp 10.0.2.2:" in console
     agent_log = Path(report["agent_log"]).read_text()
     assert "UDPv4AgentLinux" in agent_log and "[==>> UDP <<==]" in agent_log
     pcap = Path(report["pcap"])
     port = int(console.split("agent at udp 10.0.2.2:")[1].split()[0])
     assert _udp_frames(pcap, port) > 100  # the session's every message went through the board's NIC
-    assert "UDP: lwIP on the LAN9118" in proc.stderr
+    assert f"UDP: {label} on the LAN9118" in proc.stderr
 
 
 @_RUNS

@@ -7,7 +7,7 @@ import os
 from pathlib import Path
 
 import pytest
-from fixture_lwip import make_standin_lwip, write_lwip_config
+from fixture_lwip import make_standin_freertos_tcp, make_standin_lwip, write_lwip_config, write_tcp_config
 from fixture_rtos import make_standin_kernel, write_config
 
 from uros_build.errors import ConfigError
@@ -93,3 +93,24 @@ def test_a_real_lwip_tree_is_accepted(tmp_path: Path) -> None:
         "cortex-m3",
     )
     assert all(Path(d).is_dir() for d in stack.include_dirs)
+
+
+def test_freertos_plus_tcp_is_the_second_stack(tmp_path: Path) -> None:
+    profile = find_profile("cortex-m7")
+    rtos = read_freertos(make_standin_kernel(tmp_path / "k"), write_config(tmp_path / "cfg"), None, profile)
+    tree = make_standin_freertos_tcp(tmp_path / "tcp")
+    stack = ipstack.read_ip_stack(
+        "freertos-tcp", tree, write_tcp_config(tmp_path / "ipcfg"), rtos, "udp", "cortex-m7"
+    )
+    assert stack.platform == "FreeRTOS_Plus_TCP"
+    assert stack.include_dirs == (
+        f"{tree}/source/include",
+        f"{tree}/source/portable/Compiler/GCC",
+        str(tmp_path / "ipcfg"),
+    )
+    other = ipstack.read_ip_stack(
+        "freertos-tcp", tree, write_tcp_config(tmp_path / "ipcfg2", 1400), rtos, "udp", "cortex-m7"
+    )
+    assert other.headers_sha256 != stack.headers_sha256
+    with pytest.raises(ConfigError, match=r"no FreeRTOSIPConfig\.h"):
+        ipstack.read_ip_stack("freertos-tcp", tree, tmp_path / "k", rtos, "udp", "cortex-m7")

@@ -63,7 +63,7 @@ def test_a_library_without_an_ip_stack_runs_over_the_serial_link(tmp_path: Path)
 
 def test_a_udp_library_runs_over_its_lwip_on_freertos(tmp_path: Path) -> None:
     chosen = network.choose(_stack(tmp_path), _machine("mps2-an500"), True, None)
-    assert chosen is not None and chosen.lwip == tmp_path / "lwip"
+    assert chosen is not None and chosen.tree == tmp_path / "lwip"
     assert network.cmake_defines(chosen, 40000) == [
         f"-DUROS_LWIP_DIR={tmp_path / 'lwip'}",
         "-DUROS_PROBE_NET_DEFINES=UROS_PROBE_AGENT_PORT_NUMBER=40000",
@@ -79,7 +79,7 @@ def test_without_freertos_or_with_the_tree_gone_it_says_so(tmp_path: Path) -> No
     with pytest.raises(ConfigError, match=r"lwIP tree .* is gone"):
         network.choose(gone, _machine("mps2-an500"), True, None)
     found = network.choose(gone, _machine("mps2-an500"), True, str(tmp_path / "lwip"))
-    assert found is not None and found.lwip == tmp_path / "lwip"
+    assert found is not None and found.tree == tmp_path / "lwip"
 
 
 def test_the_probe_s_own_lwip_config_is_shipped() -> None:
@@ -93,7 +93,7 @@ def test_the_console_s_network_line_is_read(tmp_path: Path) -> None:
         "uros-probe: boot\nuros-probe: network up in 3 ms: lwIP on the LAN9118 (52:54:00:12:34:56), "
         "10.0.2.15, agent at udp 10.0.2.2:8888\n"
     )
-    assert network.network_up(text) == (3, "52:54:00:12:34:56", "10.0.2.15", "10.0.2.2:8888")
+    assert network.network_up(text) == (3, "lwIP", "52:54:00:12:34:56", "10.0.2.15", "10.0.2.2:8888")
     assert "up in 3 ms" in network.describe_run(text, tmp_path / "board.pcap")
     assert "did not bring its network up" in network.describe_run("uros-probe: boot\n", tmp_path / "x.pcap")
 

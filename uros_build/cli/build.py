@@ -100,21 +100,21 @@ from uros_build.config.settings import BuildArgs
     "(default: the core's, meta/rtos/freertos.yaml).",
 )  # fmt: skip
 @click.option(
-    "--ip-stack", type=click.Choice(["lwip"]), metavar="lwip",
-    help="Compile the udp transport against an IP stack: lwip, with --ip-stack-dir and "
+    "--ip-stack", type=click.Choice(["lwip", "freertos-tcp"]), metavar="lwip|freertos-tcp",
+    help="Compile the udp transport against an IP stack: lwip or freertos-tcp, with --ip-stack-dir and "
     "--ip-stack-config (needs --rtos; default: uros.yaml's ip_stack:; docs/network.md).",
 )  # fmt: skip
 @click.option(
     "--ip-stack-dir",
     type=PATH_ARG,
     metavar="DIR",
-    help="The lwIP folder (holds src/include/lwip/ and contrib/).",
+    help="The stack's folder (lwIP: src/include/lwip/, contrib/; FreeRTOS+TCP: source/).",
 )
 @click.option(
     "--ip-stack-config",
     type=PATH_ARG,
     metavar="DIR",
-    help="The folder holding your lwipopts.h and arch/cc.h.",
+    help="The folder of your lwipopts.h and arch/cc.h, or FreeRTOSIPConfig.h.",
 )
 @click.option(
     "--cache", metavar="URL",

@@ -21,7 +21,7 @@ from pathlib import Path
 
 from uros_build import console
 from uros_build.config.outputs import finish_killed_swaps, resolve_output
-from uros_build.config.settings import AGENT, FREERTOS, LWIP, ROS2_VENV, resolve_outside
+from uros_build.config.settings import AGENT, FREERTOS, FREERTOS_TCP, LWIP, ROS2_VENV, resolve_outside
 from uros_build.config.targets import folder_key
 from uros_build.errors import ConfigError, MissingToolError, VerifyError
 from uros_build.files import locked
@@ -194,6 +194,14 @@ def _freertos(info: BuildInfo, given: str | None) -> freertos_mod.FreeRtos | Non
 MIN_TIMEOUT = 1.0
 
 
+def _network(
+    info: BuildInfo, machine: probe_mod.Machine, rtos: freertos_mod.FreeRtos | None
+) -> network_mod.Network | None:
+    """The IP stack the probe runs over (the library's, run/network.py), or None: the serial link."""
+    env, env_tcp = resolve_outside(LWIP, None).value, resolve_outside(FREERTOS_TCP, None).value
+    return network_mod.choose(info.ip_stack, machine, rtos is not None, env, env_tcp)
+
+
 def check_timeout(timeout: float) -> None:
     """--timeout is a number of seconds, at least MIN_TIMEOUT."""
     if not (math.isfinite(timeout) and timeout >= MIN_TIMEOUT):
@@ -274,10 +282,10 @@ def _probe(
     work = probe_work(base, info.target, out)
     if machine.chosen:  # another board of the target keeps its own work folder (firmware, console, logs)
         work = work.with_name(f"{work.name}-{machine.board.name}")
-    network = network_mod.choose(info.ip_stack, machine, rtos is not None, resolve_outside(LWIP, None).value)
+    network = _network(info, machine, rtos)
     on = f" on FreeRTOS ({rtos.why})" if rtos else ""
     if network is not None:
-        on += " over UDP (lwIP on the LAN9118)"
+        on += f" over UDP ({network.label} on the LAN9118)"
     title = f"uros probe: {out} ({info.target}) in QEMU {machine.machine}{on}"
     runner = _open_run(work, base, info.target, machine, title, verbose)
     if rtos is not None:
@@ -286,7 +294,8 @@ def _probe(
         if mismatch:
             console.warn(mismatch)
     if network is not None:
-        console.info(f"lwIP {network.lwip}, the probe's lwipopts.h ({network_mod.probe_config()})")
+        ours = network_mod.probe_config(network.stack)
+        console.info(f"{network.label} {network.tree}, the probe's config ({ours})")
         mismatch = network_mod.config_differs(network)
         if mismatch:
             console.warn(mismatch)
@@ -410,9 +419,9 @@ def _probe_app(
     title = f"uros probe --app {shown}: {out} ({info.target}) in QEMU {machine.machine}{on}"
     if rtos is not None:  # the FreeRTOS firmware keeps its own work folder
         work = work.with_name(f"{work.name}-freertos")
-    network = network_mod.choose(info.ip_stack, machine, rtos is not None, resolve_outside(LWIP, None).value)
+    network = _network(info, machine, rtos)
     if network is not None:
-        title += " over UDP (lwIP on the LAN9118)"
+        title += f" over UDP ({network.label} on the LAN9118)"
     runner = _open_run(work, base, info.target, machine, title, verbose)
     qemu_program = runner.which(machine.board.qemu, qemu_hint(machine.board.qemu))
     agent_program = _agent(agent, runner)

@@ -225,18 +225,19 @@ RTOS_PORT: Setting[str | None] = Setting(
 )  # fmt: skip
 IP_STACK: Setting[str | None] = Setting(
     "ip_stack", "--ip-stack", "ip_stack", None, None, "none",
-    "the IP stack the udp transport is compiled against: lwip (needs an RTOS, ip_stack_dir and "
-    "ip_stack_config; docs/network.md)",
+    "the IP stack the udp transport is compiled against: lwip or freertos-tcp (needs an RTOS, "
+    "ip_stack_dir and ip_stack_config; docs/network.md)",
 )  # fmt: skip
 IP_STACK_DIR: Setting[Path | None] = Setting(
     "ip_stack_dir", "--ip-stack-dir", "ip_stack_dir", None, None, "none",
-    "the IP stack's folder (lwIP: holds src/include/lwip/ and contrib/; uros.yaml's: relative to the "
-    "workspace)",
+    "the IP stack's folder (lwIP: holds src/include/lwip/ and contrib/; FreeRTOS+TCP: source/; "
+    "uros.yaml's: relative to the workspace)",
     from_config=_rtos_folder("ip_stack_dir"),
 )  # fmt: skip
 IP_STACK_CONFIG: Setting[Path | None] = Setting(
     "ip_stack_config", "--ip-stack-config", "ip_stack_config", None, None, "none",
-    "the folder holding your lwipopts.h and arch/cc.h (uros.yaml's: relative to the workspace)",
+    "the folder holding your lwipopts.h and arch/cc.h, or FreeRTOSIPConfig.h (uros.yaml's: relative to "
+    "the workspace)",
     from_config=_rtos_folder("ip_stack_config"),
 )  # fmt: skip
 CACHE: Setting[str | None] = Setting(
@@ -310,6 +311,12 @@ LWIP: Setting[str | None] = Setting(
     "own lwIP folder is gone",
     commands=("probe",),
 )  # fmt: skip
+FREERTOS_TCP: Setting[str | None] = Setting(
+    "freertos_tcp", None, None, "UROS_FREERTOS_TCP", None, "none",
+    "a FreeRTOS+TCP tree: `uros probe` of a library built with --ip-stack freertos-tcp compiles it when "
+    "the library's own folder is gone",
+    commands=("probe",),
+)  # fmt: skip
 
 # The table, in the order `uros build -v` prints it and docs/settings.md lists it.
 SETTINGS: tuple[Setting[Any], ...] = (
@@ -318,7 +325,7 @@ SETTINGS: tuple[Setting[Any], ...] = (
     IP_STACK, IP_STACK_DIR, IP_STACK_CONFIG, CACHE, CACHE_TIMEOUT, CACHE_UPLOAD,
     CCACHE, FORCE, REBUILD, VERBOSE, HOST_STAGE, COMPILER_SEED, GEN_CACHE, GEN_CACHE_DIR, AGENT,
     ROS2_VENV,
-    FREERTOS, LWIP,
+    FREERTOS, LWIP, FREERTOS_TCP,
 )  # fmt: skip
 
 

@@ -28,7 +28,7 @@ from uros_build import loader, resources
 from uros_build.errors import ConfigError
 from uros_build.target.rtos import RtosHeaders, headers_digest, placeholders
 
-NAMES = ("lwip",)  # the IP stacks uros knows (--ip-stack)
+NAMES = ("lwip", "freertos-tcp")  # the IP stacks uros knows (--ip-stack): meta/ipstack/<name>.yaml
 # The XRCE-DDS transports that run over an IP stack.
 IP_TRANSPORTS = ("udp",)
 
@@ -42,7 +42,7 @@ class StackFacts:
     marker: str  # a file under the stack's folder that says it is one
     include: tuple[str, ...]  # include folders under the stack's folder
     config: tuple[str, ...]  # headers the config folder must hold
-    rtos: Mapping[str, str]  # RTOS name -> the stack's port folder for it
+    rtos: Mapping[str, str]  # RTOS name -> the stack's port folder for it ("": it needs none)
     hashed: tuple[str, ...]  # folders under the stack's folder whose *.h are hashed
 
 
@@ -167,21 +167,22 @@ def read_ip_stack(
                 f"{config_flag} {config}: no {header} there",
                 f"pass the folder holding your application's {', '.join(facts.config)}",
             )
-    port_dir = folder / port
-    if not port_dir.is_dir():
-        raise ConfigError(
-            f"{dir_flag} {folder}: no {port} (the stack's {rtos.name} port)",
-            f"pass a complete {name} tree (its contrib/ holds the ports)",
-        )
+    port_dirs = [folder / port] if port else []
+    for port_dir in port_dirs:
+        if not port_dir.is_dir():
+            raise ConfigError(
+                f"{dir_flag} {folder}: no {port} (the stack's {rtos.name} port)",
+                f"pass a complete {name} tree (its contrib/ holds the ports)",
+            )
     config_parts = {str(Path(h).parent) for h in facts.config}
     digest = headers_digest(
         [
             *((f"stack/{sub}", folder / sub, ()) for sub in facts.hashed),
-            (f"port/{port}", port_dir / "arch", ()),
+            *((f"port/{port}", port_dir / "arch", ()) for port_dir in port_dirs),
             *((f"config/{part}", config / part, ()) for part in sorted(config_parts)),
         ]
     )
-    dirs = (*(str(folder / sub) for sub in facts.include), str(port_dir), str(config))
+    dirs = (*(str(folder / sub) for sub in facts.include), *(str(d) for d in port_dirs), str(config))
     return IpStackHeaders(
         name=name,
         dir=str(folder),

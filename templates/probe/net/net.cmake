@@ -16,6 +16,6 @@ target_include_directories(probe_lwip PUBLIC "${here}/../lwip" "${lwip}/src/incl
 target_link_libraries(probe_lwip PUBLIC freertos_kernel)
 target_compile_options(probe_lwip PRIVATE -g -Wno-address)
 set_source_files_properties(transport.c PROPERTIES HEADER_FILE_ONLY ON)
-target_sources(uros_probe PRIVATE "${here}/lan9118.c" "${here}/udp.c")
+target_sources(uros_probe PRIVATE "${here}/lan9118.c" "${here}/lwip_netif.c" "${here}/udp.c")
 target_compile_definitions(uros_probe PRIVATE UROS_PROBE_UDP=1 ${UROS_PROBE_NET_DEFINES})
 target_link_libraries(uros_probe PRIVATE probe_lwip)
