@@ -1,4 +1,4 @@
-/* uros probe: what main.c and the stage files share. Each stage prints one line,
+/* uros probe: what main.c, session.c and the stage files share. Each stage prints one line,
  *   uros-probe: stage <name> pass|fail|skip <detail>
  * (uros_build/run/stages.py reads them), and returns 0 or its own exit status. */
 #ifndef UROS_PROBE_STAGES_H
@@ -10,6 +10,7 @@
 #include <std_msgs/msg/int32.h>
 #include <stdbool.h>
 #include <stdint.h>
+#include <stdio.h>
 
 /* The exit statuses (uros_build/run/machines.py: VERDICTS). */
 enum {
@@ -42,21 +43,35 @@ typedef struct {
   std_msgs__msg__Int32 incoming;
 } probe_loop_t;
 
+/* A call that must succeed, else a FAIL line and `return status` (main.c, session.c). */
+#define EXPECT(call, status, what)                                                \
+  do {                                                                            \
+    rcl_ret_t ret_ = (call);                                                      \
+    if (ret_ != RCL_RET_OK) {                                                     \
+      printf("uros-probe: FAIL %s (%s returned %d)\n", what, #call, (int)ret_);   \
+      rcl_reset_error();                                                          \
+      return status;                                                              \
+    }                                                                             \
+  } while (0)
+
 /* A clean-up whose failure changes nothing (the error is cleared for the next call). */
 static inline void probe_ignore(rcl_ret_t ret) {
   if (ret != RCL_RET_OK) rcl_reset_error();
 }
 
+/* session.c: what the stages share */
 void probe_stage(const char *name, const char *result, const char *format, ...)
     __attribute__((format(printf, 3, 4)));
 void probe_spin_for(rclc_executor_t *executor, uint32_t ms);
 
 int probe_session_open(probe_session_t *session);
 int probe_loop_open(probe_loop_t *loop, probe_session_t *session);
-void probe_loop_close(probe_loop_t *loop, probe_session_t *session);
+int probe_loop_close(probe_loop_t *loop, probe_session_t *session); /* 0, or PROBE_TEARDOWN */
 /* Publish every 50 ms until `want` samples came back or `ms` passed; how many came back. */
 int probe_loop_samples(probe_loop_t *loop, int want, uint32_t ms, int *sent, uint32_t *took);
 
+/* the stages (stage_*.c), sequenced by main.c */
+int stage_limits(probe_session_t *session, probe_loop_t *loop);
 int stage_service(probe_session_t *session);
 int stage_parameters(probe_session_t *session);
 int stage_action(probe_session_t *session);
