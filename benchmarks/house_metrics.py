@@ -1,8 +1,14 @@
-"""Figures of the house (issue 30): how uros_build is laid out and how far one `uros build` travels.
+"""Figures of the house (issues 30, 38): how uros_build is laid out, how long its tests take and how far
+one `uros build` travels.
 
     python benchmarks/house_metrics.py                      # layout figures only
+    python benchmarks/house_metrics.py --tests              # also: run the README's test command, its time
+    python benchmarks/house_metrics.py --tests-log FILE     # ... or the time a saved pytest output reports
     python benchmarks/house_metrics.py --build -- ARGS...   # also: the modules one `uros ARGS` passes through
     python benchmarks/house_metrics.py --fixture DIR        # ... of a cold cortex-m7 build of the test fixture in DIR
+
+The test time is the wall clock and the CPU seconds (user + system of every process the suite started,
+which a loaded machine inflates less than the wall clock) of `python -m pytest -q` in the repository.
 
 The trip is taken in-process with sys.setprofile: every uros_build module whose code runs during the
 command, in first-visit order, and how many times control moved from one module to another.
@@ -12,10 +18,17 @@ from __future__ import annotations
 
 import argparse
 import ast
+import re
+import resource
+import subprocess
 import sys
+import time
+from collections import Counter
 from pathlib import Path
 
-PACKAGE = Path(__file__).resolve().parent.parent / "uros_build"
+REPO = Path(__file__).resolve().parent.parent
+PACKAGE = REPO / "uros_build"
+README_TEST = [sys.executable, "-m", "pytest", "-q"]  # README.md's test command (.ci/run checks it)
 
 
 def layout() -> None:
@@ -38,6 +51,56 @@ def layout() -> None:
     print("longest functions:")
     for n, name in sorted(funcs, reverse=True)[:10]:
         print(f"  {n:4d} {name}")
+    parameters()
+    most_imported()
+
+
+def parameters(limit: int = 6) -> None:
+    """Functions with ``limit`` or more named parameters (self and cls not counted)."""
+    many = []
+    for p in sorted(PACKAGE.rglob("*.py")):
+        for node in ast.walk(ast.parse(p.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+                a = node.args
+                names = [
+                    x.arg for x in (*a.posonlyargs, *a.args, *a.kwonlyargs) if x.arg not in ("self", "cls")
+                ]
+                if len(names) >= limit:
+                    many.append((len(names), f"{p.relative_to(PACKAGE)}:{node.name}"))
+    print(f"functions with {limit}+ parameters: {len(many)}")
+    for n, name in sorted(many, reverse=True):
+        print(f"  {n:4d} {name}")
+
+
+def most_imported(top: int = 10) -> None:
+    """The modules most uros_build modules import, with how many they import (tests/import_graph.py)."""
+    sys.path.insert(0, str(REPO / "tests"))
+    from import_graph import imports
+
+    graph = imports()
+    importers = Counter(dep for deps in graph.values() for dep in deps)
+    print(f"most-imported modules (imported by / imports), of {len(graph)}:")
+    for name, count in importers.most_common(top):
+        print(f"  {count:4d} / {len(graph.get(name, ())):2d} {name}")
+
+
+def tests(extra: list[str]) -> None:
+    """Run the README's test command in the repository: its wall clock and CPU seconds."""
+    started = time.monotonic()
+    done = subprocess.run([*README_TEST, *extra], cwd=REPO, capture_output=True, text=True)
+    wall = time.monotonic() - started
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    print(f"test command: {' '.join(['python', '-m', 'pytest', '-q', *extra])} (exit {done.returncode})")
+    print(f"  {_summary(done.stdout)}")
+    print(
+        f"  wall {wall:.0f} s, CPU {usage.ru_utime + usage.ru_stime:.0f} s (user {usage.ru_utime:.0f} + sys {usage.ru_stime:.0f})"
+    )
+
+
+def _summary(output: str) -> str:
+    """pytest's last line: how many passed, failed, skipped, in how many seconds."""
+    lines = [line.strip("= ") for line in output.splitlines() if re.search(r" in [0-9.]+s", line)]
+    return lines[-1] if lines else "no pytest summary line"
 
 
 def trip(argv: list[str]) -> None:
@@ -75,10 +138,16 @@ def trip(argv: list[str]) -> None:
 if __name__ == "__main__":
     parser = argparse.ArgumentParser()
     parser.add_argument("--build", action="store_true")
+    parser.add_argument("--tests", action="store_true", help="run the README's test command and time it")
+    parser.add_argument("--tests-log", type=Path, help="a saved pytest output: the time it reports")
     parser.add_argument("--fixture", type=Path)
     parser.add_argument("argv", nargs="*")
     args = parser.parse_args()
     layout()
+    if args.tests:
+        tests([])
+    elif args.tests_log:
+        print(f"tests ({args.tests_log}): {_summary(args.tests_log.read_text(errors='replace'))}")
     if args.fixture:
         sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
         from fixture_ws import fixture_build_args, make_fixture_workspace

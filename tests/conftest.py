@@ -1,12 +1,50 @@
 from __future__ import annotations
 
+import os
+import tempfile
+from collections.abc import Iterator
 
-def pytest_configure(config: object) -> None:
+import pytest
+
+
+def pytest_configure(config: pytest.Config) -> None:
     """Builds the tests start keep their generation cache (uros's, normally ~/.cache/uros/gen) in
     a folder of this run's own, unless the caller chose one: a test run neither reads nor fills
-    the user's."""
-    import os
-    import tempfile
+    the user's. Under pytest-xdist each worker has its own (the workers inherit the controller's
+    environment: one this conftest set is replaced, one the caller set is kept)."""
+    ours = os.environ.get("UROS_TEST_GEN_CACHE_DIR")
+    if not os.environ.get("UROS_GEN_CACHE_DIR") or os.environ["UROS_GEN_CACHE_DIR"] == ours:
+        os.environ["UROS_GEN_CACHE_DIR"] = os.environ["UROS_TEST_GEN_CACHE_DIR"] = tempfile.mkdtemp(
+            prefix="uros-test-gen-cache-"
+        )
 
-    if not os.environ.get("UROS_GEN_CACHE_DIR"):
-        os.environ["UROS_GEN_CACHE_DIR"] = tempfile.mkdtemp(prefix="uros-test-gen-cache-")
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """The tests marked serial first (their modules first, for --dist loadfile), in their order."""
+    serial = {item.module.__name__ for item in items if item.get_closest_marker("serial") and item.module}
+    items.sort(key=lambda item: item.module is None or item.module.__name__ not in serial)
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_protocol(item: pytest.Item, nextitem: pytest.Item | None) -> Iterator[None]:
+    """Under pytest-xdist a test marked serial runs with no other test running (its setup, the
+    session fixtures it builds and its teardown too): a lock that every test holds shared and a
+    serial test exclusive, with a turnstile that a waiting serial test holds, so that the other
+    workers' next tests wait for it (no starving). Without workers, nothing to do."""
+    if not os.environ.get("PYTEST_XDIST_WORKER"):
+        yield
+        return
+    import fcntl
+
+    root = item.config._tmp_path_factory.getbasetemp().parent  # type: ignore[attr-defined]
+    serial = item.get_closest_marker("serial") is not None
+    with open(root / "serial.turnstile", "a") as turnstile, open(root / "serial.lock", "a") as lock:
+        fcntl.flock(turnstile, fcntl.LOCK_EX)
+        fcntl.flock(lock, fcntl.LOCK_EX if serial else fcntl.LOCK_SH)
+        if not serial:
+            fcntl.flock(turnstile, fcntl.LOCK_UN)
+        try:
+            yield
+        finally:
+            fcntl.flock(lock, fcntl.LOCK_UN)
+            fcntl.flock(turnstile, fcntl.LOCK_UN)

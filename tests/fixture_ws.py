@@ -209,19 +209,34 @@ def make_fixture_workspace(root: Path) -> Path:
     return root
 
 
-def fixture_build_args(ws: Path, *more: str, meta: Path | None = None) -> list[str]:
+def fixture_build_args(
+    ws: Path, *more: str, meta: Path | None = None, toolchain: str = "cortex-m7"
+) -> list[str]:
     """`uros build` of the whole fixture workspace for cortex-m7 (its fixture.meta turns every
     package on), then ``more``."""
     return [
         "build",
         "--toolchain",
-        "cortex-m7",
+        toolchain,
         "--workspace",
         str(ws),
         "--meta",
         str(meta or ws / "fixture.meta"),
         *more,
     ]
+
+
+# `uros build` of fx_core alone (and what it needs: nothing), the quickest real build
+UP_TO_CORE = ("--packages-up-to", "fx_core")
+
+# The built fixture variants of the integration tests (their conftest's `built`), by the arguments
+# of build_fixture that build them: each is made and built once per worker, by the first test that
+# asks, then every test that asks gets a copy restored at the path it was built in (nothing
+# relocates: test_build_fixture checks that the same command finds it up to date).
+VARIANTS: dict[str, tuple[str, ...]] = {
+    "m7": (),  # the whole fixture for cortex-m7 with its fixture.meta
+    "core": UP_TO_CORE,  # fx_core alone
+}
 
 
 # Expected facts of the fixture build

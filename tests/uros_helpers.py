@@ -13,6 +13,7 @@ from collections import Counter
 from pathlib import Path
 
 import pytest
+from fixture_ws import UP_TO_CORE, fixture_build_args
 
 from uros_build.sources import distros
 
@@ -43,6 +44,19 @@ def run_uros(
             f"uros {' '.join(args)} failed ({proc.returncode}):\n{proc.stdout}\n{proc.stderr}"
         )
     return proc
+
+
+def build_fixture(
+    ws: Path,
+    *more: str,
+    meta: Path | None = None,
+    toolchain: str = "cortex-m7",
+    check: bool = True,
+    env: dict[str, str] | None = None,
+) -> subprocess.CompletedProcess[str]:
+    """`uros build` of the fixture workspace ``ws`` (fixture_ws.fixture_build_args: its fixture.meta
+    or ``meta``, cortex-m7 or ``toolchain``), then ``more`` (UP_TO_CORE: fx_core alone)."""
+    return run_uros(*fixture_build_args(ws, *more, meta=meta, toolchain=toolchain), check=check, env=env)
 
 
 def run_uros_here(
@@ -195,8 +209,10 @@ def git_commit(repo: Path, message: str) -> str:
 
 def fake_upstream(root: Path, distro_names: tuple[str, ...]) -> Path:
     """<root>/<owner>+<repo>: a real git repository per repository of these distros' manifests,
-    with the branch each asks for (as west's tests serve repositories from file paths)."""
+    with the branch each asks for (as west's tests serve repositories from file paths), the first
+    distro's checked out (where git_commit adds a commit)."""
     root.mkdir(parents=True, exist_ok=True)
+    first: dict[Path, str] = {}
     for name in distro_names:
         d = distros.load_distro(name)
         for repo in (*d.dev, *d.mcu):
@@ -211,6 +227,9 @@ def fake_upstream(root: Path, distro_names: tuple[str, ...]) -> Path:
             elif repo.version not in git_out("branch", "--format=%(refname:short)", cwd=path).split():
                 git_out("checkout", "-q", "-b", repo.version, cwd=path)
                 git_commit(path, f"{repo.version} starts")
+            first.setdefault(path, repo.version)
+    for path, version in first.items():
+        git_out("checkout", "-q", version, cwd=path)
     return root
 
 
@@ -288,11 +307,9 @@ def in_namespace(prefix: list[str], script: str) -> subprocess.CompletedProcess[
 
 
 def uros_build_line(ws: Path, log: Path, *more: str) -> str:
-    """A shell line running `uros build` of the fixture's fx_core for cortex-m7 into ``log``.{out,err,rc}."""
-    args = " ".join(
-        [sys.executable, "-m", "uros_build", "build", "--toolchain", "cortex-m7", "--workspace", str(ws),
-         "--packages-up-to", "fx_core", *more]
-    )  # fmt: skip
+    """A shell line running `uros build` of the fixture's fx_core for cortex-m7 into ``log``.{out,err,rc}
+    (build_fixture's command)."""
+    args = " ".join([sys.executable, "-m", "uros_build", *fixture_build_args(ws, *UP_TO_CORE, *more)])
     return f"{args} >{log}.out 2>{log}.err; echo $? >{log}.rc\n"
 
 

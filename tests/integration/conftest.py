@@ -2,22 +2,90 @@ from __future__ import annotations
 
 import os
 import shutil
+import stat
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
-from fixture_ws import fixture_build_args, make_fixture_workspace
-from uros_helpers import need, run_uros
+from fixture_ws import VARIANTS, make_fixture_workspace
+from uros_helpers import build_fixture, fake_upstream, need
 
 pytestmark = pytest.mark.integration
 
 
+def _remove(path: Path) -> None:
+    """rmtree that also removes what a test left read-only."""
+
+    def again(func: Callable[[str], object], name: str, _exc: object) -> None:
+        os.chmod(os.path.dirname(name), stat.S_IRWXU)
+        if os.path.isdir(name) and not os.path.islink(name):
+            os.chmod(name, stat.S_IRWXU)
+        func(name)
+
+    if path.exists() or path.is_symlink():
+        shutil.rmtree(path, onerror=again)
+
+
+class Built:
+    """The fixture variants built once per worker, in ``root``/<variant>/ws, kept as a snapshot
+    beside it; :meth:`restore` puts a fresh copy back in that same folder (copytree keeps every
+    mtime, so the next build of the variant's command is up to date)."""
+
+    def __init__(self, root: Path) -> None:
+        self.root = root
+        self.failed: dict[str, str] = {}
+
+    def restore(self, variant: str = "m7") -> Path:
+        need("arm-none-eabi-gcc", "cmake")
+        ws, snapshot = self.root / variant / "ws", self.root / variant / "snapshot"
+        if variant in self.failed:
+            pytest.fail(f"the {variant} fixture build failed in an earlier test:\n{self.failed[variant]}")
+        _remove(ws)
+        if snapshot.is_dir():
+            shutil.copytree(snapshot, ws, symlinks=True)
+            return ws
+        make_fixture_workspace(ws)
+        try:
+            build_fixture(ws, *VARIANTS[variant])
+        except AssertionError as exc:
+            self.failed[variant] = str(exc)
+            raise
+        shutil.copytree(ws, snapshot.with_name("snapshot.part"), symlinks=True)
+        snapshot.with_name("snapshot.part").rename(snapshot)
+        return ws
+
+
 @pytest.fixture(scope="session")
-def m7_build(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """The fixture workspace built once for cortex-m7 through the real CLI; returns the workspace."""
-    need("arm-none-eabi-gcc", "cmake")
-    ws = make_fixture_workspace(tmp_path_factory.mktemp("m7"))
-    run_uros(*fixture_build_args(ws))
-    return ws
+def fixture_builds(tmp_path_factory: pytest.TempPathFactory) -> Built:
+    """The built fixture variants of this worker (see :func:`built`)."""
+    return Built(tmp_path_factory.getbasetemp() / "built")
+
+
+@pytest.fixture
+def built(fixture_builds: Built) -> Callable[[str], Path]:
+    """``built(variant)``: a fixture workspace of VARIANTS built, fresh for this test, at a fixed
+    path of this worker (one test at a time there): the workspace."""
+    return fixture_builds.restore
+
+
+@pytest.fixture
+def m7_build(fixture_builds: Built) -> Path:
+    """The fixture workspace built for cortex-m7 through the real CLI (variant m7), fresh for this
+    test: the workspace."""
+    return fixture_builds.restore("m7")
+
+
+@pytest.fixture(scope="session")
+def _upstream_snapshot(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return fake_upstream(tmp_path_factory.mktemp("upstream-snapshot"), ("humble", "iron"))
+
+
+@pytest.fixture
+def upstream(_upstream_snapshot: Path, tmp_path: Path) -> Path:
+    """A fake upstream (uros_helpers.fake_upstream) of every repository humble and iron clone,
+    humble's branches checked out: made once per worker, a fresh copy for each test (which may
+    commit to it)."""
+    return Path(shutil.copytree(_upstream_snapshot, tmp_path / "upstream", symlinks=True))
 
 
 @pytest.fixture(scope="session")
@@ -44,3 +112,10 @@ def spanish_env(tmp_path_factory: pytest.TempPathFactory) -> dict[str, str]:
     if "Máquina:" not in header:
         pytest.skip("readelf has no Spanish messages here (binutils' translations are not installed)")
     return env
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """A test that asks for a built fixture runs a real colcon build (its worker's first): marked colcon."""
+    for item in items:
+        if {"built", "m7_build", "fixture_builds"} & set(getattr(item, "fixturenames", ())):
+            item.add_marker(pytest.mark.colcon)

@@ -10,14 +10,9 @@ from pathlib import Path
 
 import pytest
 import yaml
-from uros_helpers import fake_upstream, git_commit, git_out, need, run_uros, run_uros_here, upstream_mirror
+from uros_helpers import git_commit, git_out, need, run_uros, run_uros_here, upstream_mirror
 
 pytestmark = pytest.mark.integration
-
-
-@pytest.fixture(scope="module")
-def upstream(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    return fake_upstream(tmp_path_factory.mktemp("upstream"), ("humble",))
 
 
 def _interface_pkg(tmp_path: Path) -> Path:

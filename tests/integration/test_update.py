@@ -16,11 +16,6 @@ pytestmark = pytest.mark.integration
 _USER_YAML_LINE = "# my note: we build for the H7 board\n"
 
 
-@pytest.fixture(scope="module")
-def upstream(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    return fake_upstream(tmp_path_factory.mktemp("upstream"), ("humble", "iron"))
-
-
 def _workspace(upstream: Path, fw: Path) -> Path:
     run_uros(
         "create-firmware", "--distro", "humble", "-w", str(fw), "--no-dev-build", *upstream_mirror(upstream)
