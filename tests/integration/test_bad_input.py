@@ -12,7 +12,7 @@ from pathlib import Path
 
 import filelock
 import pytest
-from fixture_ws import fixture_build_args, make_fixture_workspace
+from fixture_ws import UP_TO_CORE, fixture_build_args, make_fixture_workspace
 from uros_helpers import Background, env_without, need, run_uros, run_uros_here
 
 pytestmark = pytest.mark.integration
@@ -344,7 +344,7 @@ def _hint(proc: subprocess.CompletedProcess[str]) -> str:
 def test_lock_hints_name_a_fix_that_works(tmp_path: Path) -> None:
     """Round 3 (issue 34, 7): every lock problem said "create the workspace once without --locked",
     also to --lock-file, to `uros update` and to a workspace that exists (where it cannot work)."""
-    missing = run_uros(
+    missing = run_uros_here(
         "create-firmware", "--workspace", str(tmp_path / "fw"), "--no-dev-build",
         "--lock-file", str(tmp_path / "team.lock"), check=False,
     )  # fmt: skip
@@ -356,7 +356,7 @@ def test_lock_hints_name_a_fix_that_works(tmp_path: Path) -> None:
     ws = _ws(tmp_path)
     (ws / "uros.yaml").write_text("distro: humble\n")
     (ws / "uros.lock").write_text('{"repositories": {\n')
-    corrupt = run_uros("update", "-w", str(ws), check=False)
+    corrupt = run_uros_here("update", "-w", str(ws), check=False)
     assert corrupt.returncode == 2 and "uros.lock:2:1: not valid JSON" in _one_error(corrupt)
     assert _hint(corrupt).startswith("hint: restore uros.lock (from version control or a copy)")
     assert "--locked" not in corrupt.stderr
@@ -407,9 +407,8 @@ def test_cmake_error_shows_the_package_and_the_message(tmp_path: Path) -> None:
     assert package_log.is_file() and "fx_dup needs FOO set" in package_log.read_text()
 
 
-def test_compile_error_names_the_package_among_parallel_ones(tmp_path: Path) -> None:
-    need("arm-none-eabi-gcc", "cmake")
-    ws = _ws(tmp_path)
+def test_compile_error_names_the_package_among_parallel_ones(m7_build: Path) -> None:
+    ws = m7_build
     (ws / "mcu_ws/src/fx_dup/src/b/common.c").write_text("int fx_dup_b(void) { return 'b' * ; }\n")
     args = fixture_build_args(ws)
     proc = run_uros(*args, check=False)
@@ -449,25 +448,23 @@ def test_set_and_meta_naming_no_package_warn_with_the_closest_names(tmp_path: Pa
 
 
 def test_missing_readelf_is_reported_before_the_build(tmp_path: Path) -> None:
-    need("arm-none-eabi-gcc", "cmake")
     ws = _ws(tmp_path)
     env = env_without(("readelf",), tmp_path / "no-readelf")
-    proc = run_uros("build", "--toolchain", "cortex-m7", "--workspace", str(ws), check=False, env=env)
+    proc = run_uros_here(
+        "build", "--toolchain", "cortex-m7", "--workspace", str(ws), check=False, env={"PATH": env["PATH"]}
+    )
     assert proc.returncode == 3, proc.stderr
     assert "'readelf' was not found on PATH" in _one_error(proc)
     assert "binutils" in proc.stderr and "colcon build" not in proc.stderr
     assert not (ws / ".uros" / "targets" / "cortex-m7" / "build").exists()
 
 
-def test_a_build_waiting_for_the_lock_says_so(tmp_path: Path) -> None:
-    need("arm-none-eabi-gcc", "cmake")
-    ws = _ws(tmp_path)
+@pytest.mark.serial
+def test_a_build_waiting_for_the_lock_says_so(built: Callable[[str], Path]) -> None:
+    ws = built("core")
     lock = ws / ".uros" / "targets" / "cortex-m7" / ".lock"
-    lock.parent.mkdir(parents=True)
     with filelock.FileLock(str(lock)):  # another build of this target, as far as uros can tell
-        run = Background(
-            "build", "--toolchain", "cortex-m7", "--workspace", str(ws), "--packages-up-to", "fx_core"
-        )
+        run = Background(*fixture_build_args(ws, *UP_TO_CORE))
         run.wait_for("waiting for another uros build")
         assert not any("colcon build" in line for line in run.lines)  # it waits before building
     assert run.end() == 0, "".join(run.lines)
@@ -475,10 +472,9 @@ def test_a_build_waiting_for_the_lock_says_so(tmp_path: Path) -> None:
     assert any(f"to finish (lock: {lock})" in line for line in lines)
 
 
-def test_a_cmake_package_without_package_xml_is_a_package(tmp_path: Path) -> None:
+def test_a_cmake_package_without_package_xml_is_a_package(m7_build: Path) -> None:
     """colcon builds a folder with only a CMakeLists.txt too: naming it is no typo."""
-    need("arm-none-eabi-gcc", "cmake")
-    ws = _ws(tmp_path)
+    ws = m7_build
     plain = ws / "mcu_ws/src/fx_plain"
     plain.mkdir()
     (plain / "CMakeLists.txt").write_text(

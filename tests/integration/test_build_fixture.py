@@ -5,12 +5,12 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import shutil
 import signal
 import subprocess
 import sys
 import time
 from collections import Counter
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -19,10 +19,11 @@ from fixture_ws import (
     FIXTURE_MEMBERS,
     FIXTURE_SKIPPED_PYTHON,
     FIXTURE_SYMBOLS,
+    VARIANTS,
     fixture_build_args,
     make_fixture_workspace,
 )
-from uros_helpers import default_sigint, defined_globals, need, run_uros
+from uros_helpers import build_fixture, default_sigint, defined_globals, need, run_uros, run_uros_here
 
 pytestmark = pytest.mark.integration
 
@@ -120,17 +121,24 @@ def test_second_build_reuses_trees_and_is_reproducible(m7_build: Path) -> None:
     assert _sha(out / "libmicroros.a") == before
 
 
-def _built(tmp_path: Path) -> tuple[Path, list[str], Path, str]:
-    """A fixture workspace built once: (workspace, its build command, the output, the library's sha256)."""
-    ws = make_fixture_workspace(tmp_path / "ws")
-    args = fixture_build_args(ws)
-    run_uros(*args)
+@pytest.mark.parametrize("variant", list(VARIANTS))
+def test_a_restored_fixture_build_is_up_to_date(built: Callable[[str], Path], variant: str) -> None:
+    """The tests' built fixtures (integration/conftest.py): a copy restored where it was built is a
+    build the same command finds up to date, so a test that starts from one starts from a real build."""
+    built(variant)
+    ws = built(variant)  # the first call may have built it: this one restored it
+    proc = build_fixture(ws, *VARIANTS[variant], "--verbose")
+    assert "up to date" in proc.stderr and "+ " not in proc.stderr, proc.stderr
+
+
+def _built(ws: Path) -> tuple[Path, list[str], Path, str]:
+    """A built fixture workspace: (the workspace, its build command, the output, the library's sha256)."""
     out = ws / "build" / "cortex-m7"
-    return ws, args, out, _sha(out / "libmicroros.a")
+    return ws, fixture_build_args(ws), out, _sha(out / "libmicroros.a")
 
 
-def test_failed_build_leaves_previous_output(m7_build: Path, tmp_path: Path) -> None:
-    ws, args, out, good = _built(tmp_path)
+def test_failed_build_leaves_previous_output(m7_build: Path) -> None:
+    ws, args, out, good = _built(m7_build)
     (ws / "mcu_ws/src/fx_util/src/scale.c").write_text("double fx_util_scale(double x) { return x * ; }\n")
     proc = run_uros(*args, check=False)
     assert proc.returncode == 4
@@ -141,8 +149,9 @@ def test_failed_build_leaves_previous_output(m7_build: Path, tmp_path: Path) -> 
     assert not [p for p in (ws / "build").iterdir() if "staging" in p.name]
 
 
-def test_interrupted_build_leaves_previous_output(m7_build: Path, tmp_path: Path) -> None:
-    ws, base, out, good = _built(tmp_path)
+@pytest.mark.serial
+def test_interrupted_build_leaves_previous_output(m7_build: Path) -> None:
+    ws, base, out, good = _built(m7_build)
     proc = subprocess.Popen(
         [sys.executable, "-m", "uros_build", *base, "--set", "fx_core.FX_SLOW=ON"],
         stdout=subprocess.PIPE,
@@ -202,7 +211,7 @@ def test_bad_input_is_one_line_and_nonzero(m7_build: Path, tmp_path: Path) -> No
         (["meta", "write", "--transport", "pigeon"], 2, "unknown transport 'pigeon'"),
     ]
     for args, code, text in cases:
-        proc = run_uros(*args, check=False)
+        proc = run_uros_here(*args, check=False)
         assert proc.returncode == code, (args, proc.stderr)
         errors = [line for line in proc.stderr.splitlines() if line.startswith("error:")]
         assert len(errors) == 1 and text in errors[0], (args, proc.stderr)
@@ -213,7 +222,7 @@ def test_output_folder_of_the_user_is_not_replaced(m7_build: Path, tmp_path: Pat
     mine = tmp_path / "mine"
     mine.mkdir()
     (mine / "notes.txt").write_text("keep me")
-    proc = run_uros(
+    proc = run_uros_here(
         "build",
         "--toolchain",
         "cortex-m7",
@@ -230,10 +239,7 @@ def test_output_folder_of_the_user_is_not_replaced(m7_build: Path, tmp_path: Pat
 
 
 def test_export_cmake_rewrites_and_copies(m7_build: Path, tmp_path: Path) -> None:
-    # on a copy: a rewritten output is no longer the one its build recorded (doctor and the next
-    # build see that), and the other tests share m7_build
-    ws = tmp_path / "ws"
-    shutil.copytree(m7_build, ws, symlinks=True)
+    ws = m7_build
     out = ws / "build" / "cortex-m7"
     (out / "microros.cmake").unlink()
     run_uros("export", "cmake", "--output", str(out))

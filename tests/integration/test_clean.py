@@ -4,11 +4,10 @@ uros's trees and outputs, keeps everything else, and says what it freed."""
 from __future__ import annotations
 
 import os
-import shutil
 from pathlib import Path
 
 import pytest
-from uros_helpers import run_uros
+from uros_helpers import run_uros, run_uros_here
 
 pytestmark = pytest.mark.integration
 
@@ -22,8 +21,7 @@ def _files(root: Path) -> set[str]:
 
 
 def test_clean_removes_only_uros_trees_and_outputs(m7_build: Path, tmp_path: Path) -> None:
-    ws = tmp_path / "ws"
-    shutil.copytree(m7_build, ws, symlinks=True)
+    ws = m7_build
     tree, out = ws / ".uros" / "targets" / "cortex-m7", ws / "build" / "cortex-m7"
     # the user's own things, among uros's
     (ws / "build" / "mine").mkdir()
@@ -46,16 +44,18 @@ def test_clean_removes_only_uros_trees_and_outputs(m7_build: Path, tmp_path: Pat
     out.rmdir()
     nothing = run_uros("clean", "--toolchain", "cortex-m7", "-w", str(ws), check=False)
     assert nothing.returncode == 2 and "nothing of it" in nothing.stderr
-    typo = run_uros("clean", "--toolchain", "cortex-m77", "-w", str(m7_build), check=False)
+
+
+def test_clean_refuses_a_typo_and_no_target_and_touches_nothing(m7_build: Path) -> None:
+    typo = run_uros_here("clean", "--toolchain", "cortex-m77", "-w", str(m7_build), check=False)
     assert typo.returncode == 2 and "did you mean cortex-m7" in typo.stderr, typo.stderr
-    which = run_uros("clean", "-w", str(m7_build), check=False)
+    which = run_uros_here("clean", "-w", str(m7_build), check=False)
     assert which.returncode == 2 and "--all" in which.stderr and "cortex-m7" in which.stderr
     assert (m7_build / "build" / "cortex-m7" / "libmicroros.a").is_file()  # the refusals touched nothing
 
 
 def test_clean_all_from_inside_the_workspace(m7_build: Path, tmp_path: Path) -> None:
-    ws = tmp_path / "fw"
-    shutil.copytree(m7_build, ws, symlinks=True)
+    ws = m7_build
     (ws / "uros.yaml").write_text("distro: humble\ntarget: cortex-m7\n")
     sources = _files(ws / "mcu_ws")
     entry = ws / ".uros" / "gen-cache" / "ab" / ("ab" + "0" * 62 + ".entry")

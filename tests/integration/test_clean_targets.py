@@ -41,8 +41,7 @@ def _clean_removes_exactly(ws: Path, key: str, *args: str, cwd: Path | None = No
 
 
 def test_clean_a_shipped_target_and_a_profile_file(m7_build: Path, tmp_path: Path) -> None:
-    ws = tmp_path / "ws"
-    shutil.copytree(m7_build, ws, symlinks=True)
+    ws = m7_build
     profile = tmp_path / "board.yaml"  # a profile whose name: is not its file name
     shown = run_uros("targets", "show", "cortex-m7").stdout
     profile.write_text(shown.replace("name: cortex-m7", "name: my-board", 1), encoding="utf-8")
@@ -55,8 +54,7 @@ def test_clean_a_shipped_target_and_a_profile_file(m7_build: Path, tmp_path: Pat
 
 
 def test_clean_a_toolchain_file_named_in_uros_yaml(m7_build: Path, tmp_path: Path) -> None:
-    ws = tmp_path / "ws"
-    shutil.copytree(m7_build, ws, symlinks=True)
+    ws = m7_build
     (ws / "boards").mkdir()
     run_uros(
         "toolchain", "render", "cortex-m7", "--for", "micro-ros", "-o", str(ws / "boards" / "my-tc.cmake")

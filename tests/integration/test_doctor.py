@@ -64,8 +64,7 @@ def test_doctor_sees_an_extra_package_that_changed_in_its_own_folder(m7_build: P
     mcu_ws) is copied into mcu_ws/extra_packages by each build; doctor judged the copy and said
     "up to date" after the package changed. It judges the sources as the next build will see them,
     and touches neither the copy nor anything else."""
-    ws = tmp_path / "ws"
-    shutil.copytree(m7_build, ws, symlinks=True)
+    ws = m7_build
     extra = add_plain_package(
         tmp_path / "mine" / "fx_extra", "fx_extra", "int fx_extra(void) { return 1; }\n"
     )

@@ -12,7 +12,6 @@ import subprocess
 from pathlib import Path
 
 import pytest
-from fixture_ws import make_fixture_workspace
 from uros_helpers import need, run_uros
 
 pytestmark = pytest.mark.integration
@@ -181,8 +180,7 @@ def test_one_arduino_library_for_two_boards(m7_build: Path, tmp_path: Path) -> N
     """Issue 20, item 2: the archive of each target where Arduino's builder looks for it
     (src/{build.mcu}/{fpu}-{float-abi}), one include tree, library.properties precompiled=true."""
     need("arm-none-eabi-gcc", "cmake")
-    ws = tmp_path / "ws"  # a copy: the shared fixture build keeps its one target
-    shutil.copytree(m7_build, ws, symlinks=True)
+    ws = m7_build
     run_uros("build", "--toolchain", "cortex-m4f", "--workspace", str(ws), "--meta", str(ws / "fixture.meta"))
     lib = tmp_path / "micro_ros_uros"
     m7, m4f = ws / "build" / "cortex-m7", ws / "build" / "cortex-m4f"
@@ -269,14 +267,12 @@ def test_the_zephyr_module_is_written_beside_the_library(m7_build: Path, tmp_pat
     assert {"zephyr", "Kconfig", "CMakeLists.txt"} <= set(owned)
 
 
-def test_exports_beside_the_library_survive_the_next_build(tmp_path: Path) -> None:
+def test_exports_beside_the_library_survive_the_next_build(m7_build: Path) -> None:
     """Issue 34, item 7: the README's flow exports beside the library (`--output build/cortex-m7`);
     the next `uros build` deleted microros.mk, .pc and .ini even when nothing changed. They are
     written again for the new library (the same bytes here), and the build after is up to date."""
-    need("arm-none-eabi-gcc", "cmake")
-    ws = make_fixture_workspace(tmp_path / "ws")
+    ws = m7_build
     build = ("build", "--toolchain", "cortex-m7", "-w", str(ws), "--meta", str(ws / "fixture.meta"))
-    run_uros(*build)
     out = ws / "build" / "cortex-m7"
     (out / "notes.txt").write_text("mine\n")  # the user's own file beside them
     for kind in ("make", "pkg-config", "meson"):

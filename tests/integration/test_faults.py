@@ -9,13 +9,14 @@ import signal
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
-from fixture_ws import make_fixture_workspace
+from fixture_ws import UP_TO_CORE, fixture_build_args, make_fixture_workspace
 from uros_helpers import in_namespace, line_result, mount_namespace, need, run_uros, uros_build_line
 
-pytestmark = pytest.mark.integration
+pytestmark = [pytest.mark.integration, pytest.mark.colcon]
 
 
 def _sha(path: Path) -> str:
@@ -23,7 +24,8 @@ def _sha(path: Path) -> str:
 
 
 def _args(ws: Path, *more: str) -> list[str]:
-    return ["build", "--toolchain", "cortex-m7", "--workspace", str(ws), "--packages-up-to", "fx_core", *more]
+    """build_fixture's command, fx_core alone (the "core" built fixture's)."""
+    return fixture_build_args(ws, *UP_TO_CORE, *more)
 
 
 def _running(marker: str) -> list[str]:
@@ -46,13 +48,13 @@ def _start_sleeping_build(ws: Path, marker: str) -> subprocess.Popen[str]:
     return proc
 
 
+@pytest.mark.serial
 @pytest.mark.parametrize(("signum", "code"), [(signal.SIGTERM, 143), (signal.SIGHUP, 129)])
-def test_sigterm_and_sighup_stop_the_tools(tmp_path: Path, signum: int, code: int) -> None:
+def test_sigterm_and_sighup_stop_the_tools(built: Callable[[str], Path], signum: int, code: int) -> None:
     """Issue 8, item 11: SIGTERM (CI cancel, `timeout`) printed nothing, left colcon, cmake and
     ninja running in their own session, and a `.staging-PID` folder."""
-    need("arm-none-eabi-gcc", "cmake", "pgrep")
-    ws = make_fixture_workspace(tmp_path / "ws")
-    run_uros(*_args(ws))
+    need("pgrep")
+    ws = built("core")
     out = ws / "build" / "cortex-m7"
     good = _sha(out / "libmicroros.a")
     marker = f"47.{os.getpid()}{signum}"
@@ -69,13 +71,13 @@ def test_sigterm_and_sighup_stop_the_tools(tmp_path: Path, signum: int, code: in
     assert sorted(p.name for p in (ws / "build").iterdir()) == ["COLCON_IGNORE", "cortex-m7"]
 
 
-def test_a_killed_build_leaves_nothing_running_into_the_next(tmp_path: Path) -> None:
+@pytest.mark.serial
+def test_a_killed_build_leaves_nothing_running_into_the_next(built: Callable[[str], Path]) -> None:
     """Issue 8, item 11: after SIGKILL of uros (the OOM killer, a CI runner) its tools ran on and a
     next build ran two ninjas in one folder. colcon dies with uros (parent-death signal); what it
     had started is stopped by the next build of the target, once it holds the target's lock."""
-    need("arm-none-eabi-gcc", "cmake", "pgrep")
-    ws = make_fixture_workspace(tmp_path / "ws")
-    run_uros(*_args(ws))
+    need("pgrep")
+    ws = built("core")
     marker = f"48.{os.getpid()}"
     proc = _start_sleeping_build(ws, marker)
     proc.kill()
@@ -91,9 +93,10 @@ def test_a_killed_build_leaves_nothing_running_into_the_next(tmp_path: Path) -> 
     assert sorted(p.name for p in (ws / "build").iterdir()) == ["COLCON_IGNORE", "cortex-m7"]
 
 
-def test_a_build_waiting_for_the_lock_names_the_build_it_waits_for(tmp_path: Path) -> None:
-    need("arm-none-eabi-gcc", "cmake", "pgrep")
-    ws = make_fixture_workspace(tmp_path / "ws")
+@pytest.mark.serial
+def test_a_build_waiting_for_the_lock_names_the_build_it_waits_for(built: Callable[[str], Path]) -> None:
+    need("pgrep")
+    ws = built("core")
     marker = f"49.{os.getpid()}"
     first = _start_sleeping_build(ws, marker)
     second = subprocess.Popen(
@@ -110,14 +113,12 @@ def test_a_build_waiting_for_the_lock_names_the_build_it_waits_for(tmp_path: Pat
     assert f"waiting for another uros build of cortex-m7 (pid {first.pid}) to finish" in err, err
 
 
-def test_damaged_configures_and_archives_are_repaired(tmp_path: Path) -> None:
+def test_damaged_configures_and_archives_are_repaired(m7_build: Path) -> None:
     """Issue 8, item 12: a full disk left rules.ninja empty (every later build: "unknown build
     rule"), a cache cut short ("Parse error in cache file"), an installed archive cut short ("file
     format not recognized"), until the user deleted .uros/targets by hand."""
-    need("arm-none-eabi-gcc", "cmake")
-    ws = make_fixture_workspace(tmp_path / "ws")
-    args = ["build", "--toolchain", "cortex-m7", "--workspace", str(ws), "--meta", str(ws / "fixture.meta")]
-    run_uros(*args)
+    ws = m7_build
+    args = fixture_build_args(ws)
     trees = ws / ".uros" / "targets" / "cortex-m7"
     (trees / "build" / "fx_core" / "CMakeFiles" / "rules.ninja").write_bytes(b"")
     cache = trees / "build" / "fx_util" / "CMakeCache.txt"
@@ -165,12 +166,11 @@ def test_a_full_disk_is_one_line_and_the_next_run_repairs_it(tmp_path: Path) -> 
     assert code == 0, err
 
 
-def test_a_full_output_disk_names_the_output_disk(tmp_path: Path) -> None:
+def test_a_full_output_disk_names_the_output_disk(built: Callable[[str], Path], tmp_path: Path) -> None:
     """Issue 16, item 9: the output on its own (full) disk -- a mount point, filled in place -- was
     reported with the free space of the workspace's disk."""
-    need("arm-none-eabi-gcc", "cmake")
     prefix = mount_namespace(tmp_path)
-    ws = make_fixture_workspace(tmp_path / "ws")
+    ws = built("core")
     out = tmp_path / "out"
     out.mkdir()
     logs = tmp_path / "logs"
@@ -205,14 +205,12 @@ def test_a_full_output_disk_names_the_output_disk(tmp_path: Path) -> None:
     assert "fx_core_more" in nm
 
 
-def test_a_config_file_a_full_disk_cut_short_is_written_again(tmp_path: Path) -> None:
+def test_a_config_file_a_full_disk_cut_short_is_written_again(built: Callable[[str], Path]) -> None:
     """Issue 16, item 9: a <pkg>Config.cmake that configure wrote when the disk filled up stays cut
     short (CMake writes it again only when it configures), and every later build fails in the
     packages that find_package() it. A colcon build that ran out of disk leaves uros's mark (here
     put in place as that build leaves it, with the file cut as the full disk cut it)."""
-    need("arm-none-eabi-gcc", "cmake")
-    ws = make_fixture_workspace(tmp_path / "ws")
-    run_uros(*_args(ws))
+    ws = built("core")
     trees = ws / ".uros" / "targets" / "cortex-m7"
     config = trees / "build" / "fx_core" / "fx_coreConfig.cmake"
     whole = config.read_text()

@@ -14,7 +14,7 @@ import time
 from pathlib import Path
 
 import pytest
-from uros_helpers import default_sigint, fake_upstream, need, run_uros, run_uros_here, upstream_mirror
+from uros_helpers import default_sigint, run_uros, run_uros_here, upstream_mirror
 
 pytestmark = pytest.mark.integration
 
@@ -54,12 +54,11 @@ def test_export_never_suggests_a_force_it_lacks(m7_build: Path, tmp_path: Path) 
 
 
 def test_a_lock_that_is_a_folder(tmp_path: Path) -> None:
-    need("arm-none-eabi-gcc", "cmake")
     from fixture_ws import make_fixture_workspace
 
     ws = make_fixture_workspace(tmp_path / "ws")
     (ws / ".uros/targets/cortex-m7/.lock").mkdir(parents=True)
-    proc = run_uros("build", "--toolchain", "cortex-m7", "-w", str(ws), check=False)
+    proc = run_uros_here("build", "--toolchain", "cortex-m7", "-w", str(ws), check=False)
     assert proc.returncode == 2
     assert ".uros/targets/cortex-m7/.lock: is a folder" in _error_line(proc.stderr)
     assert (ws / ".uros/targets/cortex-m7/.lock").is_dir()
@@ -69,6 +68,7 @@ def test_a_lock_that_is_a_folder(tmp_path: Path) -> None:
     assert "uros: error: " in log and ".lock: is a folder" in log.split("uros: error: ")[1]
 
 
+@pytest.mark.serial
 def test_ctrl_c_while_starting_up_is_no_traceback() -> None:
     for delay in (0.02, 0.05, 0.1, 0.15, 0.25):
         proc = subprocess.Popen(
@@ -89,11 +89,7 @@ def test_ctrl_c_while_starting_up_is_no_traceback() -> None:
         assert proc.returncode in (0, 130, -signal.SIGINT) or pythons_own, (delay, proc.returncode, err)
 
 
-@pytest.fixture(scope="module")
-def upstream(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    return fake_upstream(tmp_path_factory.mktemp("upstream"), ("humble",))
-
-
+@pytest.mark.serial
 def test_a_killed_create_firmware_is_finished_by_force(upstream: Path, tmp_path: Path) -> None:
     fw = tmp_path / "fw"
     args = [

@@ -294,13 +294,14 @@ def test_a_timeout_that_is_no_time_is_refused(m7_build: Path, timeout: str) -> N
 def test_an_output_and_a_toolchain_that_names_another_target_are_refused(m7_build: Path) -> None:
     """Issue 34, item 7: `uros probe OUTPUT --toolchain other` probed OUTPUT and ignored --toolchain."""
     out = m7_build / "build" / "cortex-m7"
-    proc = run_uros("probe", str(out), "--toolchain", "cortex-m4", check=False)
+    proc = run_uros_here("probe", str(out), "--toolchain", "cortex-m4", check=False)
     assert proc.returncode == 2, proc.stderr
     assert f"--toolchain cortex-m4: OUTPUT {out} is the output of cortex-m7, not cortex-m4" in _one_error(
         proc
     )
 
 
+@pytest.mark.serial
 def test_a_second_probe_of_a_target_waits_for_the_first(m7_build: Path, tmp_path: Path) -> None:
     """Issue 34, item 7: two probes at once shared one work folder (one removed the other's
     firmware and console log) and blamed a good library. A probe holds a lock per target; the

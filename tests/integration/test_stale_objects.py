@@ -11,10 +11,10 @@ from pathlib import Path
 
 import pytest
 import yaml
-from fixture_ws import FIXTURE_MEMBERS, fixture_build_args, make_fixture_workspace
-from uros_helpers import REPO, defined_globals, need, run_uros
+from fixture_ws import FIXTURE_MEMBERS, make_fixture_workspace
+from uros_helpers import REPO, build_fixture, defined_globals, need, run_uros
 
-pytestmark = pytest.mark.integration
+pytestmark = [pytest.mark.integration, pytest.mark.colcon]
 
 
 def _members(lib: Path) -> list[str]:
@@ -30,20 +30,12 @@ def _headers(out: Path) -> set[str]:
     return {p.relative_to(out / "include").parts[0] for p in (out / "include").rglob("*") if p.is_file()}
 
 
-def _build(
-    ws: Path, *more: str, meta: Path | None = None, check: bool = True
-) -> subprocess.CompletedProcess[str]:
-    return run_uros(*fixture_build_args(ws, *more, meta=meta), check=check)
-
-
-def test_a_package_removed_from_the_workspace_leaves_the_library(tmp_path: Path) -> None:
-    need("arm-none-eabi-gcc", "cmake")
-    ws = make_fixture_workspace(tmp_path / "ws")
-    _build(ws)
+def test_a_package_removed_from_the_workspace_leaves_the_library(m7_build: Path) -> None:
+    ws = m7_build
     out = ws / "build" / "cortex-m7"
     assert defined_globals(out / "libmicroros.a")["fx_flat_sum"] == 1
     shutil.rmtree(ws / "mcu_ws" / "src" / "fx_flat")  # nothing depends on it
-    proc = _build(ws)
+    proc = build_fixture(ws)
     assert "(no longer in the workspace): fx_flat" in proc.stderr
     assert "fx_flat_sum" not in defined_globals(out / "libmicroros.a")
     assert not [m for m in _members(out / "libmicroros.a") if m.startswith("libfx_flat")]
@@ -57,10 +49,8 @@ def test_a_package_removed_from_the_workspace_leaves_the_library(tmp_path: Path)
     assert not (trees / "build" / "fx_flat").exists()
 
 
-def test_a_renamed_package_is_in_the_library_once_under_its_new_name(tmp_path: Path) -> None:
-    need("arm-none-eabi-gcc", "cmake")
-    ws = make_fixture_workspace(tmp_path / "ws")
-    _build(ws)
+def test_a_renamed_package_is_in_the_library_once_under_its_new_name(m7_build: Path, tmp_path: Path) -> None:
+    ws = m7_build
     out = ws / "build" / "cortex-m7"
     # fx_flat becomes fx_level: another package name, library and header folder, same sources
     old, new = ws / "mcu_ws" / "src" / "fx_flat", ws / "mcu_ws" / "src" / "fx_level"
@@ -74,7 +64,7 @@ def test_a_renamed_package_is_in_the_library_once_under_its_new_name(tmp_path: P
     clock.write_text(clock.read_text().replace("<name>fx_time</name>", "<name>fx_clock</name>"))
     meta = tmp_path / "renamed.meta"
     meta.write_text(json.dumps({"names": {"fx_clock": {"cmake-args": ["-DFX_TIME_ENABLE=ON"]}}}))
-    proc = _build(ws, meta=meta)
+    proc = build_fixture(ws, meta=meta)
     assert "(no longer in the workspace): fx_flat, fx_time" in proc.stderr
     symbols = defined_globals(out / "libmicroros.a")
     assert symbols["fx_flat_sum"] == 1 and symbols["fx_time_now_ns"] == 1
@@ -139,13 +129,13 @@ def test_a_failed_package_is_in_no_library_and_no_build_info(tmp_path: Path) -> 
     need("arm-none-eabi-gcc", "cmake")
     ws = make_fixture_workspace(tmp_path / "ws")
     _add_failing_package(ws)
-    proc = _build(ws, check=False)
+    proc = build_fixture(ws, check=False)
     assert proc.returncode == 4 and "fx_bad" in proc.stderr
     out = ws / "build" / "cortex-m7"
     assert not out.exists()  # no library, no build-info.json
     installed = ws / ".uros" / "targets" / "cortex-m7" / "install" / "lib" / "libfx_bad.a"
     assert installed.is_file()  # what the failed install step left behind ...
-    _build(ws, "--packages-up-to", "fx_flat", "--packages-up-to", "fx_time")
+    build_fixture(ws, "--packages-up-to", "fx_flat", "--packages-up-to", "fx_time")
     assert "fx_bad_value" not in defined_globals(out / "libmicroros.a")  # ... is not shipped
     info = _info(out)
     assert "fx_bad" not in info["packages"]  # type: ignore[operator]

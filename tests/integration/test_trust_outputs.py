@@ -10,11 +10,22 @@ import os
 import shutil
 import subprocess
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
-from fixture_ws import make_fixture_workspace
-from uros_helpers import REPO, in_namespace, line_result, mount_namespace, need, run_uros, uros_build_line
+from fixture_ws import UP_TO_CORE, make_fixture_workspace
+from uros_helpers import (
+    REPO,
+    build_fixture,
+    in_namespace,
+    line_result,
+    mount_namespace,
+    need,
+    run_uros,
+    run_uros_here,
+    uros_build_line,
+)
 
 pytestmark = pytest.mark.integration
 
@@ -40,10 +51,7 @@ def _sha(path: Path) -> str:
 
 
 def _build(ws: Path, *more: str, check: bool = True) -> subprocess.CompletedProcess[str]:
-    return run_uros(
-        "build", "--toolchain", "cortex-m7", "--workspace", str(ws), "--packages-up-to", "fx_core", *more,
-        check=check,
-    )  # fmt: skip
+    return build_fixture(ws, *UP_TO_CORE, *more, check=check)
 
 
 @pytest.mark.parametrize("name", ["..", ".", "a/.."])
@@ -57,7 +65,7 @@ def test_a_profile_named_dotdot_deletes_nothing(tmp_path: Path, name: str) -> No
     profile = tmp_path / "dd.yaml"
     profile.write_text(text.replace("name: cortex-m7\n", f"name: {json.dumps(name)}\n"), encoding="utf-8")
     before = _listing(tmp_path)
-    proc = run_uros("build", "--profile", str(profile), "--workspace", str(ws), "--force", check=False)
+    proc = run_uros_here("build", "--profile", str(profile), "--workspace", str(ws), "--force", check=False)
     assert proc.returncode == 2, proc.stderr
     (error,) = _errors(proc)
     assert error.startswith(f"error: {profile}: name: {name!r} is not a target name"), error
@@ -69,18 +77,17 @@ def test_a_toolchain_file_whose_name_is_dots_is_refused(tmp_path: Path) -> None:
     tc = tmp_path / "..cmake"  # its stem is '.'
     tc.write_text("set(CMAKE_SYSTEM_NAME Generic)\n")
     before = _listing(tmp_path)
-    proc = run_uros("build", "--toolchain", str(tc), "--workspace", str(ws), "--force", check=False)
+    proc = run_uros_here("build", "--toolchain", str(tc), "--workspace", str(ws), "--force", check=False)
     assert proc.returncode == 2
     (error,) = _errors(proc)
     assert "'.' cannot name a target folder" in error
     assert _listing(tmp_path) == before
 
 
-def test_build_into_a_users_folder_keeps_its_files(tmp_path: Path) -> None:
+def test_build_into_a_users_folder_keeps_its_files(built: Callable[[str], Path], tmp_path: Path) -> None:
     """Issue 8, item 2, reproduced exactly: `echo {} > proj/build-info.json; uros build --output
     proj` deleted proj/src/main.c (with --force, and without it since build-info.json was there)."""
-    need("arm-none-eabi-gcc", "cmake")
-    ws = make_fixture_workspace(tmp_path / "ws")
+    ws = built("core")
     proj = tmp_path / "proj"
     (proj / "src").mkdir(parents=True)
     (proj / "src" / "main.c").write_text("int main(void) { return 0; }\n")
@@ -104,7 +111,7 @@ def test_build_into_a_users_folder_keeps_its_files(tmp_path: Path) -> None:
     (ws / "mcu_ws/src/fx_core/src/core.c").write_text("int fx_core_add(int a, int b) { return b + a; }\n")
     _build(ws, "--output", str(proj))
     assert (proj / "src" / "main.c").is_file() and (proj / "CMakeLists.txt").is_file()
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["proj", "ws"]  # no staging left beside it
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["proj"]  # no staging left beside it
 
 
 @pytest.mark.parametrize(
@@ -115,10 +122,10 @@ def test_build_into_a_users_folder_keeps_its_files(tmp_path: Path) -> None:
         ("mcu_ws/src", "is inside the workspace's mcu_ws/"),
     ],
 )
-def test_force_never_takes_the_workspace_or_other_outputs(tmp_path: Path, where: str, message: str) -> None:
-    need("arm-none-eabi-gcc", "cmake")
-    ws = make_fixture_workspace(tmp_path / "ws")
-    _build(ws)
+def test_force_never_takes_the_workspace_or_other_outputs(
+    built: Callable[[str], Path], where: str, message: str
+) -> None:
+    ws = built("core")
     before = _listing(ws)
     proc = _build(ws, "--output", str(ws / where), "--force", check=False)
     assert proc.returncode == 2, proc.stderr
@@ -131,18 +138,17 @@ def test_force_never_takes_the_workspace_or_other_outputs(tmp_path: Path, where:
 # -- outputs on mount points (docker -v, CI volumes) ----------------------------------------------
 
 
-def test_output_on_a_mount_point_is_filled_in_place(tmp_path: Path) -> None:
+def test_output_on_a_mount_point_is_filled_in_place(built: Callable[[str], Path], tmp_path: Path) -> None:
     """Issue 8, item 4: an output folder that is a mount point cannot be renamed (EBUSY), which
     failed with a traceback after the whole build. A bind mount (how docker -v mounts a host
-    folder) and a tmpfs (another file system: EXDEV)."""
-    need("arm-none-eabi-gcc", "cmake")
+    folder) and a tmpfs (another file system: EXDEV). The mount hides the built output: the first
+    build writes it into the volume."""
     prefix = mount_namespace(tmp_path)
-    ws = make_fixture_workspace(tmp_path / "ws")
+    ws = built("core")
     vol, logs = tmp_path / "vol", tmp_path / "logs"
     vol.mkdir()
     logs.mkdir()
     out = ws / "build" / "cortex-m7"
-    out.mkdir(parents=True)
     tmp_out = ws / "build" / "tmpfs-out"
     tmp_out.mkdir()
     script = (
@@ -180,12 +186,10 @@ def test_output_on_a_mount_point_is_filled_in_place(tmp_path: Path) -> None:
     assert sorted(p.name for p in (ws / "build").iterdir()) == ["COLCON_IGNORE", "cortex-m7", "tmpfs-out"]
 
 
-def test_a_read_only_previous_output_is_no_failure(tmp_path: Path) -> None:
+def test_a_read_only_previous_output_is_no_failure(built: Callable[[str], Path]) -> None:
     """Issue 8, item 4: a previous output uros cannot delete (read-only folders; for root, an
     immutable file) ended in "exit 1 + traceback" after the new output was already in place."""
-    need("arm-none-eabi-gcc", "cmake")
-    ws = make_fixture_workspace(tmp_path / "ws")
-    _build(ws)
+    ws = built("core")
     out = ws / "build" / "cortex-m7"
     header = out / "include" / "fx_core" / "core.h"
     immutable = os.geteuid() == 0
@@ -216,14 +220,14 @@ def test_a_read_only_previous_output_is_no_failure(tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize("journal", [True, False], ids=["journal", "uros-before-the-journal"])
-def test_a_swap_killed_half_way_is_undone_by_the_next_run(tmp_path: Path, journal: bool) -> None:
+def test_a_swap_killed_half_way_is_undone_by_the_next_run(
+    built: Callable[[str], Path], journal: bool
+) -> None:
     """Issue 8, item 5: a SIGKILL between the two renames left no output at all (it sat in
     `.cortex-m7.old-PID`), while "the previous output was left untouched" was printed. The next run
     puts it back before anything else; here that run fails to compile, so what is in place after it
     is what the recovery put there."""
-    need("arm-none-eabi-gcc", "cmake")
-    ws = make_fixture_workspace(tmp_path / "ws")
-    _build(ws)
+    ws = built("core")
     build = ws / "build"
     out = build / "cortex-m7"
     good = _sha(out / "libmicroros.a")
@@ -248,12 +252,10 @@ def _lib_sha(out: Path) -> str:
     return hashlib.sha256((out / "libmicroros.a").read_bytes()).hexdigest()
 
 
-def test_an_output_belongs_to_one_target(tmp_path: Path) -> None:
+def test_an_output_belongs_to_one_target(m7_build: Path) -> None:
     """Issue 16, item 7: a cortex-m4 build into cortex-m7's output replaced it without a word."""
-    need("arm-none-eabi-gcc", "cmake")
-    ws = make_fixture_workspace(tmp_path / "ws")
+    ws = m7_build
     base = ["build", "--workspace", str(ws), "--meta", str(ws / "fixture.meta")]
-    run_uros(*base, "--toolchain", "cortex-m7")
     m7 = ws / "build" / "cortex-m7"
     good = _lib_sha(m7)
     proc = run_uros(*base, "--toolchain", "cortex-m4", "--output", str(m7), check=False)

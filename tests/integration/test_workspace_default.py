@@ -72,6 +72,7 @@ def test_firmware_is_the_default_elsewhere(tmp_path: Path) -> None:
     assert proc.returncode == 2 and f"{fw}: already exists" in proc.stderr, proc.stderr
 
 
+@pytest.mark.colcon
 def test_uros_build_builds_every_target_uros_yaml_names(tmp_path: Path) -> None:
     """A colcon workspace with a hand-written uros.yaml: `uros build` with no options, from a
     folder inside it, builds each of its targets with its set: options."""
@@ -87,6 +88,7 @@ def test_uros_build_builds_every_target_uros_yaml_names(tmp_path: Path) -> None:
     assert "building 2 targets" not in one.stderr
 
 
+@pytest.mark.colcon
 def test_several_targets_on_the_command_line_each_say_how_they_ended(tmp_path: Path) -> None:
     """Issue 19, item 6: `--toolchain a --toolchain b` builds each, goes on after one fails, says
     per target how it ended, and exits with the first failure's code; a typo fails first."""
@@ -121,10 +123,10 @@ def test_several_targets_on_the_command_line_each_say_how_they_ended(tmp_path: P
     assert with_output.returncode == 2 and "--output with 2 targets" in with_output.stderr
 
 
-def test_a_uros_yaml_without_a_distro_builds_and_update_asks_for_one(tmp_path: Path) -> None:
+def test_a_uros_yaml_without_a_distro_builds_and_update_asks_for_one(m7_build: Path) -> None:
     """Issue 34, item 2: a plain colcon workspace whose uros.yaml has only `target:` builds (it was
     refused: "distro: is required but missing"); a distro is needed only to move clones."""
-    ws = make_fixture_workspace(tmp_path / "ws")
+    ws = m7_build
     (ws / "uros.yaml").write_text("target: cortex-m7\n")
     proc = run_uros("build", "--meta", str(ws / "fixture.meta"), cwd=ws / "mcu_ws")
     assert "target cortex-m7" in proc.stderr, proc.stderr
@@ -136,6 +138,7 @@ def test_a_uros_yaml_without_a_distro_builds_and_update_asks_for_one(tmp_path: P
     assert (ws / "uros.yaml").read_text() == "target: cortex-m7\n"
 
 
+@pytest.mark.colcon
 def test_a_profile_file_named_in_uros_yaml_is_a_profile(tmp_path: Path) -> None:
     """Issue 34, item 3: `target: boards/my_board.yaml` in uros.yaml is a profile, as --profile's
     (it reached CMake as a toolchain file: "Parse error. Expected a command name"); so is one in a
