@@ -448,11 +448,10 @@ def test_set_and_meta_naming_no_package_warn_with_the_closest_names(tmp_path: Pa
 
 
 def test_missing_readelf_is_reported_before_the_build(tmp_path: Path) -> None:
+    need("arm-none-eabi-gcc", "cmake")
     ws = _ws(tmp_path)
     env = env_without(("readelf",), tmp_path / "no-readelf")
-    proc = run_uros_here(
-        "build", "--toolchain", "cortex-m7", "--workspace", str(ws), check=False, env={"PATH": env["PATH"]}
-    )
+    proc = run_uros("build", "--toolchain", "cortex-m7", "--workspace", str(ws), check=False, env=env)
     assert proc.returncode == 3, proc.stderr
     assert "'readelf' was not found on PATH" in _one_error(proc)
     assert "binutils" in proc.stderr and "colcon build" not in proc.stderr

@@ -14,7 +14,15 @@ from pathlib import Path
 
 import pytest
 from fixture_ws import UP_TO_CORE, fixture_build_args, make_fixture_workspace
-from uros_helpers import in_namespace, line_result, mount_namespace, need, run_uros, uros_build_line
+from uros_helpers import (
+    Background,
+    in_namespace,
+    line_result,
+    mount_namespace,
+    need,
+    run_uros,
+    uros_build_line,
+)
 
 pytestmark = [pytest.mark.integration, pytest.mark.colcon]
 
@@ -99,17 +107,13 @@ def test_a_build_waiting_for_the_lock_names_the_build_it_waits_for(built: Callab
     ws = built("core")
     marker = f"49.{os.getpid()}"
     first = _start_sleeping_build(ws, marker)
-    second = subprocess.Popen(
-        [sys.executable, "-m", "uros_build", *_args(ws)],
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
-    time.sleep(3)
+    second = Background(*_args(ws))
+    second.wait_for("waiting for another uros build")  # not a fixed time: a loaded machine starts it late
     first.terminate()
     first.communicate(timeout=60)
-    _, err = second.communicate(timeout=120)
-    assert second.returncode == 0, err
+    code = second.end()
+    err = "".join(second.lines)
+    assert code == 0, err
     assert f"waiting for another uros build of cortex-m7 (pid {first.pid}) to finish" in err, err
 
 
