@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import signal
 import socket
 import subprocess
@@ -153,3 +154,43 @@ def _udp_bound(port: int) -> bool:
         except OSError:
             return True
     return False
+
+
+# ---------------------------------------------------------------------------------------------
+# the graph stage (issue 40 item 2): needs a built agent too, a built humble workspace
+# (UROS_HUMBLE_WS, a copy: the probe writes into it), qemu-system-arm and root
+
+HUMBLE_WS = os.environ.get("UROS_HUMBLE_WS")
+_GRAPH = pytest.mark.skipif(
+    not (ROS2_VENV and HUMBLE_WS and shutil.which("qemu-system-arm") and os.geteuid() == 0)
+    or not (Path(ROS2_VENV or "/nonexistent").expanduser() / "agent" / "current.json").is_file(),
+    reason="set UROS_ROS2_VENV (with an agent `uros agent build` made) and UROS_HUMBLE_WS (a built humble "
+    "workspace with cortex-m7), install qemu-system-arm, run as root",
+)
+
+
+def test_the_graph_stage_is_the_built_in_probe_s_own_peer() -> None:
+    proc = run_uros("probe", "--graph", "--peer", "peer.py", check=False)
+    assert proc.returncode == 2
+    assert "--graph with --peer: the graph stage is the built-in probe's" in _one_error(proc)
+
+
+@_GRAPH
+def test_the_board_is_in_the_ros_graph_with_micro_ros_agent_and_not_with_the_plain_agent() -> None:
+    assert HUMBLE_WS and ROS2_VENV
+    out = Path(HUMBLE_WS) / "build" / "cortex-m7"
+    proc = run_uros("probe", str(out), "--graph", "--json", env=_env(), check=False)
+    report = json.loads(proc.stdout)
+    graph = report["stages"]["graph"]
+    assert graph["result"] == "pass", graph
+    assert (
+        "node /uros_probe, topic /uros_probe [std_msgs/msg/Int32] publisher and subscription"
+        in graph["detail"]
+    )
+    pointer = Path(ROS2_VENV).expanduser() / "agent" / "current.json"
+    folder = pointer.parent / json.loads(pointer.read_text(encoding="utf-8"))["folder"]
+    plain = folder / "bin" / "MicroXRCEAgent"  # the same agent without the graph manager
+    proc = run_uros("probe", str(out), "--graph", "--agent", str(plain), env=_env(), check=False)
+    assert proc.returncode == 5, proc.stderr
+    line = _one_error(proc)
+    assert "stage graph failed: node /uros_probe not in the ROS graph: the agent is MicroXRCEAgent" in line

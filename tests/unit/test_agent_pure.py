@@ -12,7 +12,7 @@ import pytest
 
 from uros_build.commands import agent as agent_cmd
 from uros_build.errors import ConfigError
-from uros_build.run import agentbuild
+from uros_build.run import agentbuild, graph
 from uros_build.sources.distros import Repo, parse_repos
 
 XRCE = Repo("xrce_agent", "https://github.com/eProsima/Micro-XRCE-DDS-Agent.git", "v3.0.1")
@@ -179,3 +179,56 @@ def test_bad_transport_values_are_one_line(
 ) -> None:
     with pytest.raises(ConfigError, match=message):
         agent_cmd.check_transport(transport, level)
+
+
+# ---------------------------------------------------------------------------------------------
+# the graph stage (run/graph.py)
+
+SEEN = {
+    "graph": "seen",
+    "after": 0.12,
+    "nodes": [{"name": "uros_probe", "namespace": "/"}],
+    "topics": [{"name": "/uros_probe", "types": ["std_msgs/msg/Int32"]}],
+    "endpoints": [
+        {"topic": "/uros_probe", "kind": kind, "node": "uros_probe", "namespace": "/", "type": "std_msgs/msg/Int32",
+         "reliability": "reliable", "durability": "volatile", "history": "unknown", "depth": 0}
+        for kind in ("publisher", "subscription")
+    ],
+}  # fmt: skip
+
+
+def test_the_graph_stage_passes_on_the_node_its_topic_type_and_both_endpoints() -> None:
+    text = "some rclpy warning\n" + json.dumps(SEEN) + "\n"
+    stage = graph.stage(text, "micro_ros_agent")
+    assert stage.result == "pass" and stage.name == "graph"
+    assert stage.detail == (
+        "node /uros_probe, topic /uros_probe [std_msgs/msg/Int32] publisher and subscription "
+        "(reliable volatile depth 0), seen after 0.12 s"
+    )
+
+
+def test_the_graph_stage_names_the_plain_agent_when_nothing_was_seen() -> None:
+    stage = graph.stage('{"graph": "none", "after": 30.0}\n', "MicroXRCEAgent")
+    assert stage.result == "fail"
+    assert "the agent is MicroXRCEAgent, which has no graph manager" in stage.detail
+    assert "uros agent build" in stage.detail
+    assert "saw no node" in graph.stage("", "micro_ros_agent").detail
+
+
+def test_the_graph_stage_fails_on_another_node_or_a_missing_endpoint() -> None:
+    other = {**SEEN, "nodes": [{"name": "talker", "namespace": "/"}]}
+    assert "(it has //talker)" in graph.stage(json.dumps(other), "micro_ros_agent").detail
+    half = {**SEEN, "endpoints": SEEN["endpoints"][:1]}
+    assert "lacks its publisher or subscription" in graph.stage(json.dumps(half), "micro_ros_agent").detail
+    wrong = {**SEEN, "endpoints": [{**e, "type": "std_msgs/msg/String"} for e in SEEN["endpoints"]]}
+    assert graph.stage(json.dumps(wrong), "micro_ros_agent").result == "fail"
+
+
+def test_which_agent_a_program_is() -> None:
+    built = agentbuild.BuiltAgent(Path("/c/a"), "micro_ros_agent", "", "humble", {}, "v", 1.0)
+    assert agentbuild.program_name("/c/a/bin/uros-agent", built) == "micro_ros_agent"
+    assert agentbuild.program_name("/x/MicroXRCEAgent", built) == "MicroXRCEAgent"
+    assert agentbuild.program_name("/x/MicroXRCEAgent", None) == "MicroXRCEAgent"
+    assert agentbuild.program_path(Path("/c/a"), "micro_ros_agent") == Path(
+        "/c/a/lib/micro_ros_agent/micro_ros_agent"
+    )

@@ -185,6 +185,10 @@ def export_arduino(output: Path, sources: tuple[Path, ...]) -> None:
     "with --rtos freertos runs on FreeRTOS without it).",
 )  # fmt: skip
 @click.option("--board", help="Another QEMU board of the target (meta/probe/machines.yaml), e.g. microbit.")
+@click.option(
+    "--graph", is_flag=True,
+    help="Add the graph stage: an rclpy peer sees the board's node and topics (micro_ros_agent; root).",
+)  # fmt: skip
 @VERBOSE
 def probe(
     output: Path | None,
@@ -199,12 +203,13 @@ def probe(
     peer: Path | None,
     freertos: str | None,
     board: str | None,
+    graph: bool,
     verbose: bool,
 ) -> None:
     """Run a built library: boot a probe firmware (or your --app) in QEMU against a real XRCE-DDS Agent."""
     request = probe_cmd.app_request(app, defines, duration)
     probe_cmd.probe(
-        output, workspace, toolchain, agent, timeout, as_json, verbose, peer, freertos, board, request
+        output, workspace, toolchain, agent, timeout, as_json, verbose, peer, freertos, board, request, graph
     )
 
 

@@ -30,6 +30,7 @@ from uros_build.proc import Runner, new_run_log
 from uros_build.run import agentbuild, netns, peerenv
 from uros_build.run import app as app_mod
 from uros_build.run import freertos as freertos_mod
+from uros_build.run import graph as graph_mod
 from uros_build.run import machines as probe_mod
 from uros_build.run import network as network_mod
 from uros_build.run import stages as stages_mod
@@ -86,7 +87,7 @@ class ProbeReport:
 def _agent(given: str | None, runner: Runner) -> str:
     wanted = resolve_outside(AGENT, given or None).value  # --agent, else $UROS_AGENT
     if not wanted:  # else the agent `uros agent build` made
-        built = agentbuild.current_agent(resolve_outside(ROS2_VENV).value.expanduser())
+        built = agentbuild.current_agent(_agent_root())
         if built is None:
             raise MissingToolError("uros probe: no Micro XRCE-DDS Agent was given or built", _AGENT_HINT)
         console.info(f"agent: {built.describe()} (uros agent build)")
@@ -94,6 +95,10 @@ def _agent(given: str | None, runner: Runner) -> str:
     if os.sep in wanted and not (Path(wanted).is_file() and os.access(wanted, os.X_OK)):
         raise MissingToolError(f"--agent {wanted}: no such program", _AGENT_HINT)
     return runner.which(wanted, _AGENT_HINT)
+
+
+def _agent_root() -> Path:
+    return resolve_outside(ROS2_VENV).value.expanduser()
 
 
 def probe(
@@ -108,8 +113,11 @@ def probe(
     freertos: str | None = None,
     board: str | None = None,
     app: AppRequest | None = None,
+    graph: bool = False,
 ) -> ProbeReport | app_mod.AppReport:
     check_timeout(timeout)
+    if graph:  # the graph stage's peer is uros's own (run/graph.py)
+        peer = check_graph(peer, app is not None, os.geteuid())
     check_freertos(freertos)
     duration_ms = app_mod.check_duration(app.duration) if app is not None else 0
     defines = app_mod.parse_defines(app.defines) if app is not None else ()
@@ -140,7 +148,7 @@ def probe(
         stop_left_running(_owner(base, info.target))
         if plan is not None:
             return _probe_app(plan, out, info, machine, base, (agent, timeout, as_json, verbose), peer, rtos)
-        return _probe(out, info, machine, base, agent, timeout, as_json, verbose, peer, rtos)
+        return _probe(out, info, machine, base, agent, timeout, as_json, verbose, peer, rtos, graph)
 
 
 @dataclass(frozen=True)
@@ -161,6 +169,18 @@ def app_request(folder: Path | None, defines: tuple[str, ...], duration: float |
             raise ConfigError(f"{flag}: only with --app DIR", "give --app DIR, or drop it")
         return None
     return AppRequest(folder, defines, duration)
+
+
+def check_graph(peer: Path | None, app: bool, euid: int) -> Path:
+    """--graph: the built-in probe, with uros's own peer (one peer a run), in a namespace (root)."""
+    if peer is not None or app:
+        flag = "--peer" if peer is not None else "--app"
+        raise ConfigError(
+            f"--graph with {flag}: the graph stage is the built-in probe's, with a peer of its own",
+            f"drop --graph or {flag}",
+        )
+    netns.check_root(euid, "uros probe --graph")
+    return graph_mod.script()
 
 
 def check_peer(script: Path, euid: int) -> None:
@@ -278,6 +298,7 @@ def _probe(
     verbose: bool,
     peer: Path | None,
     rtos: freertos_mod.FreeRtos | None,
+    graph: bool = False,
 ) -> ProbeReport:
     work = probe_work(base, info.target, out)
     if machine.chosen:  # another board of the target keeps its own work folder (firmware, console, logs)
@@ -329,6 +350,10 @@ def _probe(
     used = probe_mod.resources_used(text)
     limits = probe_mod.limits_held(text)
     stages = stages_mod.stages_of(ran.lines, ran.restarts, middleware)
+    if graph and ran.peer_log is not None:  # uros's own peer: what it saw is a stage, not a verdict
+        name = agentbuild.program_name(agent_program, agentbuild.current_agent(_agent_root()))
+        stages = [*stages, graph_mod.stage(ran.peer_log.read_text(encoding="utf-8", errors="replace"), name)]
+        peer_run = None
     failed = stages_mod.failed(stages)
     ok = stages_mod.passed(status, stages)
     verdict = stages_mod.failure_line(failed) if failed else probe_mod.verdict(0 if ok else status)

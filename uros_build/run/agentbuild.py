@@ -39,7 +39,7 @@ from typing import Any
 from uros_build import console, loader, resources
 from uros_build.colcon.fingerprint import digest_json
 from uros_build.errors import ConfigError, StepFailed
-from uros_build.files import locked, remove_tree, write_atomic
+from uros_build.files import locked, remove_tree, write_atomic, write_if_changed
 from uros_build.proc import Runner
 from uros_build.run import peerenv
 from uros_build.sources import clones, distros
@@ -253,7 +253,10 @@ def wrapper_script(program: Path, libraries: Sequence[str], ament: Sequence[str]
         "# It runs the agent with the libraries of PyPI's ROS 2 wheels it was built against.\n"
         f"LD_LIBRARY_PATH={libs}${{LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}}\n"
         f"AMENT_PREFIX_PATH={index}${{AMENT_PREFIX_PATH:+:$AMENT_PREFIX_PATH}}\n"
-        "export LD_LIBRARY_PATH AMENT_PREFIX_PATH\n"
+        "# Fast DDS over UDP only, unless told otherwise: its shared-memory transport across a network\n"
+        "# namespace left the agent's participant undiscovered by a host peer in most short runs\n"
+        "FASTDDS_BUILTIN_TRANSPORTS=${FASTDDS_BUILTIN_TRANSPORTS:-UDPv4}\n"
+        "export LD_LIBRARY_PATH AMENT_PREFIX_PATH FASTDDS_BUILTIN_TRANSPORTS\n"
         f'exec {shlex.quote(str(program))} "$@"\n'
     )
 
@@ -315,6 +318,18 @@ def current_agent(root: Path) -> BuiltAgent | None:
     return parse_record(loader.load_json(record), str(record), folder)
 
 
+def program_path(folder: Path, program: str) -> Path:
+    """Where the program is installed in an agent's folder (pure): micro_ros_agent as ament
+    installs it, MicroXRCEAgent in bin/."""
+    return folder / "lib" / GRAPH / GRAPH if program == PROGRAMS[GRAPH] else folder / "bin" / PROGRAMS[XRCE]
+
+
+def program_name(path: str, built: BuiltAgent | None) -> str:
+    """Which agent a program path is (pure): the built one's program when it is that agent's
+    wrapper, else the file's name (micro_ros_agent, MicroXRCEAgent, ...)."""
+    return built.program if built is not None and Path(path) == built.run else Path(path).name
+
+
 # ---------------------------------------------------------------------------------------------
 # the build
 
@@ -341,6 +356,7 @@ def build_agent(
         work = agents / f"build-{key}"
         if (folder / RECORD).is_file() and (folder / WRAPPER).is_file():
             built = parse_record(loader.load_json(folder / RECORD), str(folder / RECORD), folder)
+            _write_wrapper(built, venv, key)  # derived from the record: an older uros's is renewed
             _make_current(agents, folder)
             remove_tree(fresh)
             return built, False
@@ -377,20 +393,14 @@ def _build(
         runner, b, xrce_configure_argv(b, src / XRCE, trees / XRCE), trees / XRCE, jobs, "eProsima's agent"
     )
     program, why = PROGRAMS[XRCE], f"{pin.source} names no micro_ros_agent"
-    executable = folder / "bin" / PROGRAMS[XRCE]
     if pin.graph is not None:
         try:
-            executable = _build_graph(runner, b, work, jobs)
+            _build_graph(runner, b, work, jobs)
             program = PROGRAMS[GRAPH]
             why = "micro_ros_agent built against the wheels (with the graph manager)"
         except StepFailed as exc:
             why = f"micro_ros_agent did not build against the wheels: {exc.message}"
             console.warn(f"{why}; the agent is MicroXRCEAgent (no graph manager)")
-    wrapper = folder / WRAPPER
-    what = f"{program} from {pin.source}, key {key}"
-    text = wrapper_script(executable, library_path(folder, venv, libs), [str(folder), str(venv)], what)
-    write_atomic(wrapper, text)
-    wrapper.chmod(0o755)
     record = {
         "program": program,
         "why": why,
@@ -400,9 +410,21 @@ def _build(
         "seconds": round(time.monotonic() - started, 1),
         "generated_by": "uros agent build",
     }
+    built = parse_record(record, str(folder / RECORD), folder)
+    _write_wrapper(built, venv, key)
     write_atomic(folder / RECORD, json.dumps(record, indent=2, sort_keys=True) + "\n")
     (folder / PARTIAL).unlink()
-    return parse_record(record, str(folder / RECORD), folder)
+    return built
+
+
+def _write_wrapper(built: BuiltAgent, venv: Path, key: str) -> None:
+    folder = built.folder
+    executable = program_path(folder, built.program)
+    libs = wheel_lib_dirs(venv, peerenv.python_version())
+    what = f"{built.program} ({built.distro}), key {key}"
+    text = wrapper_script(executable, library_path(folder, venv, libs), [str(folder), str(venv)], what)
+    if write_if_changed(folder / WRAPPER, text):
+        (folder / WRAPPER).chmod(0o755)
 
 
 def _clone(runner: Runner, pin: AgentPin, mirror: Mirror, dest: Path) -> dict[str, str]:
@@ -442,8 +464,8 @@ def _mend_fastdds(venv: Path, libs: Sequence[Path]) -> None:
         write_atomic(targets, fixed.encode("utf-8", "surrogateescape"))
 
 
-def _build_graph(runner: Runner, b: Build, work: Path, jobs: int) -> Path:
-    """micro_ros_msgs for the host, then micro_ros_agent, into the prefix; the program."""
+def _build_graph(runner: Runner, b: Build, work: Path, jobs: int) -> None:
+    """micro_ros_msgs for the host, then micro_ros_agent, into the prefix."""
     src, trees = work / "src", work / "build"
     console.step("building micro_ros_msgs for the host, then micro_ros_agent (the graph manager)")
     env = peerenv.build_env(os.environ, b.venv)
@@ -458,7 +480,6 @@ def _build_graph(runner: Runner, b: Build, work: Path, jobs: int) -> Path:
     graph_env = peerenv.build_env(os.environ, b.venv, [b.prefix])
     argv = graph_configure_argv(b, src / GRAPH / GRAPH, trees / GRAPH, unused)
     _cmake(runner, b, argv, trees / GRAPH, jobs, "micro_ros_agent", graph_env)
-    return b.prefix / "lib" / GRAPH / GRAPH
 
 
 def _cmake(

@@ -12,6 +12,7 @@ firmware says it lost it, starts it again on the same terminal."""
 
 from __future__ import annotations
 
+import os
 import random
 import socket
 import time
@@ -166,14 +167,32 @@ def _wait_for_pty(qemu_output: Path, qemu: Background, seconds: float) -> str | 
     return None
 
 
-def _wait_for_agent(agent_log: Path, agent: Background, seconds: float) -> None:
-    """Until the agent says it opened the link ("running..."), or exits, or ``seconds`` pass."""
+def _wait_for_agent(agent_log: Path, agent: Background, seconds: float, link: str | None = None) -> None:
+    """Until the agent says it opened the link ("running..."), or holds the link open (an agent
+    built without a logger, as `uros agent build`'s, says nothing), or exits, or ``seconds`` pass."""
     end = time.monotonic() + seconds
     while time.monotonic() < end:
         if agent_log.is_file() and "running..." in agent_log.read_text(encoding="utf-8", errors="replace"):
             return
+        if link is not None and _holds(agent.proc.pid, link):
+            return
         if agent.wait(0.05) is not None:
             return
+
+
+def _holds(pid: int, path: str) -> bool:
+    """Process ``pid`` has ``path`` open (Linux: /proc/<pid>/fd; elsewhere: never known)."""
+    try:
+        fds = os.listdir(f"/proc/{pid}/fd")
+    except OSError:
+        return False
+    for fd in fds:
+        try:
+            if os.readlink(f"/proc/{pid}/fd/{fd}") == path:
+                return True
+        except OSError:
+            continue
+    return False
 
 
 def _namespace(runner: Runner, work: Path) -> Background:
@@ -242,7 +261,7 @@ def run_session(
             agent_argv = netns.enter_argv(holder.proc.pid, agent_argv)
         agents.append(runner.start(agent_argv, step="the agent", output=agent_log))
         if peer is not None and holder is not None:
-            _wait_for_agent(agent_log, agents[0], 5.0)
+            _wait_for_agent(agent_log, agents[0], 5.0, None if spec.udp_port is not None else pty)
             peer_proc = runner.start(
                 netns.enter_argv(holder.proc.pid, peer.argv), step="the peer", output=peer.log, env=peer.env
             )
