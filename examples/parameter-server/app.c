@@ -3,7 +3,7 @@
  * runs in QEMU against the agent:
  *
  * - node "param_node" with a parameter server (rclc_parameter_server_init_with_option: notify changes
- *   over DDS, APP_MAX_PARAMS slots, low-memory mode APP_LOW_MEM) and APP_PARAMS int parameters
+ *   over DDS, APP_MAX_PARAMS slots, low-memory mode APP_LOW_MEM, off) and APP_PARAMS int parameters
  *   param_0 ... (values 0, 10, 20, ...), added one by one, each call's result printed;
  * - an executor initialised for exactly what the server needs (APP_HANDLES:
  *   RCLC_EXECUTOR_PARAMETER_SERVER_HANDLES; fewer makes rclc_executor_add_parameter_server fail);
@@ -15,7 +15,8 @@
  *
  * exit(0) when every parameter was added and (APP_SELF_CHECK) read back right through the agent; 1 the
  * parameter server could not be created, 2 a parameter could not be added (the line says which and
- * rclc's return code), 3 the executor, 4 the self-check's client, 5 no answer or wrong values. */
+ * rclc's return code), 3 the executor, 4 the self-check's client, 5 no answer or wrong values, 6 (with
+ * -D APP_PEER_WAIT_MS=N) the ROS 2 peer (peer.py) did not set param_0 to 123 within N ms. */
 #include <micro_ros_utilities/type_utilities.h>
 #include <rcl/error_handling.h>
 #include <rcl/rcl.h>
@@ -35,8 +36,10 @@
 #ifndef APP_MAX_PARAMS
 #define APP_MAX_PARAMS APP_PARAMS
 #endif
+/* rclc's low-memory mode (micro_ros_arduino#1596's choice) takes one name a get request and, in humble,
+ * leaves a set request's string_value unallocated, so a ROS 2 client's set is never answered: off */
 #ifndef APP_LOW_MEM
-#define APP_LOW_MEM 1
+#define APP_LOW_MEM 0
 #endif
 #ifndef APP_SELF_CHECK
 #define APP_SELF_CHECK 1
@@ -46,6 +49,11 @@
 #define APP_HANDLES RCLC_EXECUTOR_PARAMETER_SERVER_HANDLES
 #endif
 #define APP_CHECK_MS 8000u
+/* with a ROS 2 peer (peer.py): wait this long for it to set param_0 to APP_PEER_VALUE (0: no peer) */
+#ifndef APP_PEER_WAIT_MS
+#define APP_PEER_WAIT_MS 0u
+#endif
+#define APP_PEER_VALUE 123
 
 static uint32_t now_ms(void) {
   rcutils_time_point_value_t now = 0;
@@ -53,10 +61,13 @@ static uint32_t now_ms(void) {
   return (uint32_t)(now / 1000000);
 }
 
+static bool peer_set;
 static bool on_changed(const Parameter *old, const Parameter *new, void *context) {
   (void)old;
-  (void)new;
   (void)context;
+  if (new != NULL && strcmp(new->name.data, "param_0") == 0 && new->value.integer_value == APP_PEER_VALUE) {
+    peer_set = true;
+  }
   return true;
 }
 
@@ -166,6 +177,16 @@ void appMain(void *argument) {
 #if APP_SELF_CHECK
   status = self_check(&allocator);
 #endif
+  if (status == 0 && APP_PEER_WAIT_MS > 0) { /* the peer lists, gets, describes, then sets param_0 */
+    uint32_t begin = now_ms();
+    while (!peer_set && now_ms() - begin < APP_PEER_WAIT_MS) rclc_executor_spin_some(&executor, RCL_MS_TO_NS(10));
+    uint32_t set_at = now_ms();
+    while (peer_set && now_ms() - set_at < 1000u) rclc_executor_spin_some(&executor, RCL_MS_TO_NS(10));
+    int64_t value = 0;
+    (void)rclc_parameter_get_int(&param_server, "param_0", &value);
+    printf("app: the peer %s param_0 (now %ld)\n", peer_set ? "set" : "did not set", (long)value);
+    if (!peer_set) status = 6;
+  }
   printf("app: tearing down\n");
   (void)rclc_executor_fini(&executor);
   (void)rclc_parameter_server_fini(&param_server, &node);
