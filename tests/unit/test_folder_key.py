@@ -7,9 +7,9 @@ from pathlib import Path
 
 import pytest
 
+from uros_build.config.buildargs import BuildArgs
 from uros_build.config.outputs import resolve_output
 from uros_build.config.plan import plan_build
-from uros_build.config.settings import BuildArgs
 from uros_build.config.targets import folder_key, named_keys, resolve_target
 from uros_build.errors import ConfigError
 from uros_build.output.folders import write_marker

@@ -9,9 +9,9 @@ import pytest
 from fake_idf import make_idf_build
 
 from uros_build import defaults, resources
+from uros_build.config.buildargs import BuildArgs
 from uros_build.config.colconmeta import meta_option, meta_transport
 from uros_build.config.plan import plan_build
-from uros_build.config.settings import BuildArgs
 from uros_build.config.sourceplan import CreateArgs, plan_create, plan_sources
 from uros_build.config.targets import ProfileTarget, ToolchainFileTarget, resolve_target
 from uros_build.errors import ConfigError
@@ -159,7 +159,7 @@ def test_plan_build_reads_the_workspace_config(tmp_path: Path) -> None:
 
 
 def test_uros_yaml_names_the_targets_and_the_command_line_wins(tmp_path: Path) -> None:
-    from uros_build.config.settings import expand_targets
+    from uros_build.config.buildargs import expand_targets
 
     ws = _ws(tmp_path)
     (ws / "uros.yaml").write_text("distro: humble\ntargets: [cortex-m7, rp2040]\n", encoding="utf-8")
@@ -321,7 +321,7 @@ def test_plan_create_refuses_a_bad_config_file(tmp_path: Path, text: str, messag
 
 
 def test_workspace_default_is_the_nearest_uros_yaml_upward(tmp_path: Path) -> None:
-    from uros_build.config.settings import resolve_workspace
+    from uros_build.config.resolver import resolve_workspace
 
     (tmp_path / "fw" / "mcu_ws" / "src").mkdir(parents=True)
     (tmp_path / "fw" / "uros.yaml").write_text("distro: humble\n")

@@ -5,8 +5,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from uros_build.config.buildargs import BuildArgs
 from uros_build.config.plan import plan_build
-from uros_build.config.settings import BuildArgs
 
 
 def _ws(tmp_path: Path) -> Path:

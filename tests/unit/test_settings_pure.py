@@ -9,14 +9,9 @@ from pathlib import Path
 import pytest
 
 from uros_build.config import settings as rows
-from uros_build.config.settings import (
-    SETTINGS,
-    BuildArgs,
-    Chosen,
-    Setting,
-    build_settings,
-    resolve_one,
-)
+from uros_build.config.buildargs import BuildArgs, build_settings
+from uros_build.config.resolver import Chosen, resolve_one
+from uros_build.config.settings import SETTINGS, Setting
 from uros_build.errors import ConfigError
 from uros_build.sources.wsfiles import WorkspaceConfig
 

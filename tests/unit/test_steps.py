@@ -18,9 +18,9 @@ from uros_build.colcon import command as colcon
 from uros_build.colcon import fingerprint as fp
 from uros_build.colcon import hoststage, installtree
 from uros_build.colcon.hosttools import HostFacts
+from uros_build.config.buildargs import BuildArgs
 from uros_build.config.buildplan import BuildPlan
 from uros_build.config.plan import plan_build
-from uros_build.config.settings import BuildArgs
 from uros_build.errors import StepFailed
 from uros_build.output.archive import MergeReport
 from uros_build.steps import (

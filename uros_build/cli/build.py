@@ -27,7 +27,7 @@ from uros_build.commands import clean as clean_cmd
 from uros_build.commands import doctor as doctor_cmd
 from uros_build.commands import info as info_cmd
 from uros_build.commands import size as size_cmd
-from uros_build.config.settings import BuildArgs
+from uros_build.config.buildargs import BuildArgs
 
 
 @click.command()

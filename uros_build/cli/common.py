@@ -83,7 +83,7 @@ def toolchain_option(help_text: str) -> Decorator:
 
 
 def workspace_option(help_text: str) -> Decorator:
-    # One default everywhere, resolved by config.settings.resolve_workspace (None here: "not given").
+    # One default everywhere, resolved by config.resolver.resolve_workspace (None here: "not given").
     return click.option(
         "-w", "--workspace", "--dir", "workspace", cls=Option, aliases=("--dir",), type=PATH_ARG,
         default=None, show_default=defaults.WORKSPACE_HELP, help=help_text,

@@ -6,7 +6,7 @@ import shutil
 from pathlib import Path
 
 from uros_build import console
-from uros_build.config.settings import resolve_workspace
+from uros_build.config.resolver import resolve_workspace
 from uros_build.errors import ConfigError, StepFailed
 from uros_build.files import write_if_changed
 from uros_build.proc import Runner

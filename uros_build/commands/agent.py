@@ -20,7 +20,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from uros_build import console, defaults
-from uros_build.config.settings import ROS2_VENV, resolve_outside, resolve_workspace
+from uros_build.config.resolver import resolve_outside, resolve_workspace
+from uros_build.config.settings import ROS2_VENV
 from uros_build.errors import ConfigError, Interrupted, MissingToolError
 from uros_build.proc import Runner, new_run_log, user_log_dir
 from uros_build.run import agentbuild

@@ -16,9 +16,9 @@ from pathlib import Path
 
 from uros_build import console
 from uros_build.colcon import fingerprint as fp
+from uros_build.config.buildargs import BuildArgs, expand_targets
 from uros_build.config.buildplan import BuildPlan
 from uros_build.config.plan import plan_build
-from uros_build.config.settings import BuildArgs, expand_targets
 from uros_build.errors import (
     Interrupted,
     UrosError,

@@ -12,7 +12,7 @@ import shutil
 from pathlib import Path
 
 from uros_build import console
-from uros_build.config.settings import resolve_workspace
+from uros_build.config.resolver import resolve_workspace
 from uros_build.config.targets import folder_key, named_keys
 from uros_build.errors import ConfigError, did_you_mean
 from uros_build.files import locked, remove_tree

@@ -22,14 +22,9 @@ from pathlib import Path
 from uros_build.colcon import command as colcon
 from uros_build.colcon import fingerprint as fp
 from uros_build.colcon import hosttools
-from uros_build.config.settings import (
-    AGENT,
-    ROS2_VENV,
-    BuildArgs,
-    expand_targets,
-    resolve_outside,
-    resolve_workspace,
-)
+from uros_build.config.buildargs import BuildArgs, expand_targets
+from uros_build.config.resolver import resolve_outside, resolve_workspace
+from uros_build.config.settings import AGENT, ROS2_VENV
 from uros_build.config.targets import resolve_target
 from uros_build.defaults import BUILD_INFO
 from uros_build.errors import ConfigError, MissingToolError, StepFailed, UrosError, VerifyError

@@ -9,7 +9,7 @@ from typing import Any
 
 from uros_build import console, defaults, loader
 from uros_build.config.colconmeta import meta_for
-from uros_build.config.settings import resolve_workspace
+from uros_build.config.resolver import resolve_workspace
 from uros_build.config.targets import resolve_target
 from uros_build.errors import ConfigError
 from uros_build.files import write_if_changed

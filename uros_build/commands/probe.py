@@ -21,7 +21,8 @@ from pathlib import Path
 
 from uros_build import console
 from uros_build.config.outputs import finish_killed_swaps, resolve_output
-from uros_build.config.settings import AGENT, FREERTOS, FREERTOS_TCP, LWIP, ROS2_VENV, resolve_outside
+from uros_build.config.resolver import resolve_outside
+from uros_build.config.settings import AGENT, FREERTOS, FREERTOS_TCP, LWIP, ROS2_VENV
 from uros_build.config.targets import folder_key
 from uros_build.errors import ConfigError, MissingToolError, VerifyError
 from uros_build.files import locked

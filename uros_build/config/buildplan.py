@@ -6,9 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from uros_build.config.settings import (
-    Resolved,
-)
+from uros_build.config.resolver import Resolved
 from uros_build.config.targets import Target, target_profile
 from uros_build.output.team_cache import CacheSettings
 from uros_build.sources import firmware_scan

@@ -8,9 +8,7 @@ from collections.abc import Mapping
 from pathlib import Path
 
 from uros_build import console
-from uros_build.config.settings import (
-    resolve_workspace,
-)
+from uros_build.config.resolver import resolve_workspace
 from uros_build.config.targets import named_keys
 from uros_build.errors import ConfigError, did_you_mean
 from uros_build.output import swap

@@ -15,6 +15,7 @@ from pathlib import Path
 
 from uros_build import defaults
 from uros_build.config import settings as rows
+from uros_build.config.buildargs import BuildArgs, build_settings
 from uros_build.config.buildplan import BuildPlan, Selection
 from uros_build.config.colconmeta import meta_for, meta_transport, only_the_preset
 from uros_build.config.platform import (
@@ -26,13 +27,7 @@ from uros_build.config.platform import (
     rtos_headers,
     udp_without_stack,
 )
-from uros_build.config.settings import (
-    BuildArgs,
-    Chosen,
-    Resolved,
-    build_settings,
-    open_workspace,
-)
+from uros_build.config.resolver import Chosen, Resolved, open_workspace
 from uros_build.config.targets import names_a_file, resolve_target
 from uros_build.errors import ConfigError
 from uros_build.output import team_cache as cache_mod

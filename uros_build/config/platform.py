@@ -11,10 +11,7 @@ from typing import Any
 
 from uros_build.config import settings as rows
 from uros_build.config.colconmeta import meta_option
-from uros_build.config.settings import (
-    Chosen,
-    Resolved,
-)
+from uros_build.config.resolver import Chosen, Resolved
 from uros_build.config.targets import ProfileTarget, Target, target_profile
 from uros_build.errors import ConfigError
 from uros_build.sources import meta as meta_mod

@@ -1,5 +1,6 @@
-"""Every setting of uros, in one table, and the one resolver that decides each (issue 30 item 4;
-model: pypa/cibuildwheel's options.py, where every option goes through one ``OptionsReader.get``).
+"""Every setting of uros, in one table (issue 30 item 4; model: pypa/cibuildwheel's options.py,
+where every option goes through one ``OptionsReader.get``): where each can be given (a flag, a
+uros.yaml key, an environment variable), its default and what it means.
 
 The precedence, the same for every row: **the command line, then the environment, then the
 workspace's uros.yaml, then uros's default**. The environment comes before uros.yaml because it is
@@ -10,26 +11,23 @@ values first and the command line's after them, so that a later value of an opti
 ``unless`` names the flags whose presence makes uros.yaml's value not apply (``--for-firmware``
 reads what the firmware wants: uros.yaml's ``packages:`` is not added to it).
 
-Every command resolves what it reads through :func:`resolve` (`uros build` and the commands that
-find a target's folders: clean, info, size, probe, doctor); each value comes out with who chose it
-(:class:`Chosen`), which error messages name and `uros build -v` prints. The table is printed in
-docs/settings.md (:func:`markdown_table`; a unit test keeps the page and the code the same).
-Nothing here starts a process; plan.py validates the values (profiles, metas, packages, folders).
+Every command resolves what it reads through config/resolver.py (`uros build` and the commands
+that find a target's folders: clean, info, size, probe, doctor); `uros build`'s command line is
+config/buildargs.py. The table is printed in docs/settings.md (:func:`markdown_table`; a unit test
+keeps the page and the code the same). Nothing here starts a process; plan.py validates the values
+(profiles, metas, packages, folders).
 """
 
 from __future__ import annotations
 
-import os
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Generic, TypeVar, cast
+from typing import Any, Generic, TypeVar
 
 from uros_build import defaults
-from uros_build.errors import ConfigError
 from uros_build.output.team_cache import TIMEOUT_SECONDS
-from uros_build.sources.workspace import Workspace
-from uros_build.sources.wsfiles import CONFIG, WorkspaceConfig, find_workspace, load_config
+from uros_build.sources.wsfiles import WorkspaceConfig
 
 T = TypeVar("T")
 
@@ -327,272 +325,6 @@ SETTINGS: tuple[Setting[Any], ...] = (
     ROS2_VENV,
     FREERTOS, LWIP, FREERTOS_TCP,
 )  # fmt: skip
-
-
-# ---------------------------------------------------------------------------------------------
-# the resolver
-
-
-@dataclass(frozen=True)
-class Chosen(Generic[T]):
-    """A setting's value and who chose it: a flag (``--transport``), a uros.yaml line
-    (``/ws/uros.yaml: transport``), an environment variable (``$UROS_HOST_STAGE``) or ``default``."""
-
-    value: T
-    source: str
-
-
-def _given(value: object) -> bool:
-    """A value the command line (or uros.yaml) gave: None and an empty list are "not given"; an
-    empty string is given (``--cache ""``)."""
-    return value is not None and value != ()
-
-
-def resolve_one(
-    setting: Setting[T],
-    flags: Mapping[str, object],
-    cfg: WorkspaceConfig | None,
-    root: Path,
-    env: Mapping[str, str],
-) -> Chosen[T]:
-    """One row through the precedence (the module's docstring): the command line, the environment,
-    uros.yaml, the default."""
-    given = flags.get(setting.name)
-    blocked = any(_given(flags.get(name)) for name in setting.unless)
-    configured: tuple[T, str] | None = None
-    if cfg is not None and setting.key is not None and not blocked:
-        if setting.from_config is not None:
-            configured = setting.from_config(cfg, root)
-        else:
-            value = getattr(cfg, setting.key)
-            configured = (value, setting.key) if _given(value) else None
-    where = f"{root / CONFIG}: {configured[1]}" if configured else ""
-    if setting.adds:
-        # uros.yaml's first, then the command line's: a later value wins where they meet
-        parts: list[tuple[object, str]] = [(configured[0], where)] if configured else []
-        parts += [(given, str(setting.flag))] if _given(given) else []
-        if not parts:
-            return Chosen(setting.default, DEFAULT)
-        total = tuple(item for value, _ in parts for item in cast(tuple[Any, ...], value))
-        return Chosen(cast(T, total), ", then ".join(source for _, source in parts))
-    if _given(given):
-        return Chosen(cast(T, given), str(setting.flag))
-    text = env.get(setting.env) if setting.env and not blocked else None
-    if text:  # an empty variable is an unset one
-        return Chosen(_from_env(setting, text), f"${setting.env}")
-    if configured is not None:
-        return Chosen(configured[0], where)
-    if setting.default_from_env is not None:
-        return Chosen(setting.default_from_env(env), DEFAULT)
-    return Chosen(setting.default, DEFAULT)
-
-
-def _from_env(setting: Setting[T], text: str) -> T:
-    """The environment's text as the row's value; one it cannot be is one line naming the variable."""
-    if setting.from_env is None:
-        return cast(T, text)
-    try:
-        return setting.from_env(text)
-    except ValueError as bad:
-        raise ConfigError(
-            f"${setting.env}={text.strip()!r} is no {setting.name} value",
-            f"{bad} (or unset it: {setting.default_text})",
-        ) from None
-
-
-@dataclass(frozen=True)
-class Resolved:
-    """Every setting a command reads, each with who chose it."""
-
-    chosen: Mapping[str, Chosen[Any]]
-
-    def __getitem__(self, setting: Setting[T]) -> Chosen[T]:
-        return cast(Chosen[T], self.chosen[setting.name])
-
-    def value(self, setting: Setting[T]) -> T:
-        return self[setting].value
-
-    def lines(self) -> list[str]:
-        """One line a setting, in the table's order: its value and where it came from (`uros build -v`)."""
-        out = []
-        for setting in SETTINGS:
-            if setting.name in self.chosen:
-                chosen = self.chosen[setting.name]
-                out.append(f"{setting.name} = {shown(setting, chosen.value)}  ({chosen.source})")
-        return out
-
-
-def shown(setting: Setting[Any], value: object) -> str:
-    """A value as `uros build -v` prints it."""
-    if value is None:
-        return setting.default_text
-    if isinstance(value, bool):
-        return "on" if value else "off"
-    if isinstance(value, tuple):
-        return ", ".join(str(v) for v in value) if value else setting.default_text
-    return str(value)
-
-
-def resolve(
-    flags: Mapping[str, object],
-    cfg: WorkspaceConfig | None,
-    root: Path,
-    env: Mapping[str, str],
-    rows: tuple[Setting[Any], ...] = SETTINGS,
-) -> Resolved:
-    """The settings ``rows`` (all by default) for a command: ``flags`` (the command line's values
-    by row name; None or () for not given), ``cfg`` (the uros.yaml of the workspace at ``root``;
-    None: there is none) and ``env`` (the environment). Pure."""
-    chosen: dict[str, Chosen[Any]] = {}
-    for setting in rows:
-        if setting is WORKSPACE:
-            given = flags.get(setting.name) is not None
-            chosen[setting.name] = Chosen(root, str(setting.flag) if given else _found_where(root))
-        else:
-            chosen[setting.name] = resolve_one(setting, flags, cfg, root, env)
-    return Resolved(chosen)
-
-
-def resolve_outside(
-    setting: Setting[T], given: T | None = None, env: Mapping[str, str] | None = None
-) -> Chosen[T]:
-    """A setting read outside a workspace (the agent of `uros probe` and `uros doctor`): the command
-    line's value, else the environment's, else the default."""
-    return resolve_one(setting, {setting.name: given}, None, Path(), os.environ if env is None else env)
-
-
-def _found_where(root: Path) -> str:
-    return f"{root / CONFIG}: found upward" if (root / CONFIG).is_file() else DEFAULT
-
-
-# ---------------------------------------------------------------------------------------------
-# the workspace: one default for every command
-
-
-def resolve_workspace(given: Path | None, cwd: Path | None = None) -> Path:
-    """-w/--workspace as given, else the nearest folder upward with a uros.yaml, else ./firmware."""
-    if given is not None:
-        return given
-    here = cwd if cwd is not None else Path.cwd()
-    found = find_workspace(here)
-    return found if found is not None else here / defaults.FIRMWARE_DIR
-
-
-def open_workspace(given: Path | None, cwd: Path | None = None) -> Workspace:
-    """The workspace a build runs in. Without -w, a folder that is no uros workspace is refused
-    before anything is written: run in the wrong folder, a build would crawl every project below
-    it for packages and leave .uros/ and build/ behind."""
-    path = resolve_workspace(given, cwd)
-    if given is None and not path.exists():
-        here = cwd if cwd is not None else Path.cwd()
-        raise ConfigError(
-            f"no uros workspace here: no {CONFIG} in {here} or above it, and no ./{defaults.FIRMWARE_DIR}",
-            "cd into a firmware workspace, create one with `uros create-firmware generate_lib` "
-            "(makes ./firmware), or pass -w DIR (a colcon workspace with packages works too)",
-        )
-    return Workspace.open(path)
-
-
-# ---------------------------------------------------------------------------------------------
-# uros build
-
-
-@dataclass(frozen=True)
-class BuildArgs:
-    """What the command line said, unvalidated (one field a row of the table, by its name)."""
-
-    workspace: Path | None = None  # None: resolve_workspace's default
-    toolchain: str | None = None
-    toolchains: tuple[str, ...] = ()  # --toolchain given several times: one build each
-    profile: Path | None = None
-    metas: tuple[Path, ...] = ()
-    sets: tuple[str, ...] = ()
-    preset: str = defaults.PRESET
-    transport: str | None = None
-    output: Path | None = None
-    verbose: bool = False
-    force: bool = False
-    packages_up_to: tuple[str, ...] = ()
-    jobs: int | None = None
-    compiler_prefix: str | None = None
-    cflags: tuple[str, ...] = ()
-    rebuild: bool = False  # run every step even when no input changed
-    packages: tuple[str, ...] = ()  # --packages: what the firmware wants (the core is added)
-    for_firmware: Path | None = None  # --for-firmware: read what it wants from its sources
-    toolchain_from: str = "--toolchain"  # where toolchain came from (uros.yaml's target), for messages
-    idf_build: Path | None = None  # an ESP-IDF project's build folder to compile micro-ROS against
-    rtos: str | None = None  # --rtos freertos: the RTOS micro-ROS is compiled against
-    rtos_dir: Path | None = None  # its kernel's folder
-    rtos_config: Path | None = None  # the folder of FreeRTOSConfig.h
-    rtos_port: str | None = None  # the port folder, when not the core's
-    ip_stack: str | None = None  # --ip-stack lwip: the IP stack the udp transport is compiled against
-    ip_stack_dir: Path | None = None  # its folder
-    ip_stack_config: Path | None = None  # the folder of lwipopts.h and arch/cc.h
-    cache: str | None = None  # --cache URL: a team cache of outputs (default: uros.yaml's cache:)
-    cache_upload: bool = False  # --cache-upload: write this build's output to the cache
-    ccache: bool | None = None  # --ccache/--no-ccache (None: ccache when it is installed)
-
-    def names_a_target(self) -> bool:
-        return bool(self.toolchain or self.toolchains or self.profile or self.compiler_prefix or self.cflags)
-
-    def flags(self) -> dict[str, object]:
-        """The command line's values by row name (a flag left out: None, False or ())."""
-        given: dict[str, object] = {f.name: getattr(self, f.name) for f in fields(self)}
-        given["toolchains"] = self.toolchains or ((self.toolchain,) if self.toolchain else ())
-        for name in ("verbose", "force", "rebuild", "cache_upload"):  # on/off flags: off is "not given"
-            given[name] = True if given[name] else None
-        # click fills in --preset's default: that value is the default's, whoever typed it
-        given["preset"] = None if self.preset == PRESET.default else self.preset
-        return given
-
-
-def expand_targets(args: BuildArgs) -> tuple[BuildArgs, ...]:
-    """One BuildArgs per target to build: the command line's, else the workspace uros.yaml's
-    target or targets (the command line wins), else the command line's as it is (and plan_build
-    says that no target was given)."""
-    names = tuple(dict.fromkeys(args.toolchains))
-    if len(names) > 1:
-        if args.output is not None:
-            raise ConfigError(
-                f"--output with {len(names)} targets ({', '.join(names)})",
-                "each target has its own output (<workspace>/build/<target>): leave --output out",
-            )
-        if args.profile is not None:
-            raise ConfigError(
-                f"--profile with {len(names)} --toolchain targets", "give --toolchain or --profile, once"
-            )
-        return tuple(replace(args, toolchain=n, toolchains=(n,)) for n in names)
-    if names:
-        args = replace(args, toolchain=names[0])
-    if args.names_a_target():
-        return (args,)
-    root = resolve_workspace(args.workspace)
-    cfg = load_config(root) if root.is_dir() else None
-    chosen = resolve_one(TARGETS, args.flags(), cfg, root, {})  # no variable names a target
-    names = chosen.value
-    if not names:
-        return (args,)
-    if len(names) > 1 and args.output is not None:
-        raise ConfigError(
-            f"--output with {len(names)} targets ({', '.join(names)} from {root / CONFIG})",
-            "pass --toolchain NAME to build one of them into --output, or leave --output out",
-        )
-    return tuple(replace(args, toolchain=n, toolchain_from=chosen.source) for n in names)
-
-
-def build_settings(
-    args: BuildArgs, cfg: WorkspaceConfig | None, root: Path, env: Mapping[str, str] | None = None
-) -> Resolved:
-    """Every row for `uros build`: ``args`` over the environment over ``cfg`` (the uros.yaml of
-    the workspace at ``root``; None: there is none) over the defaults."""
-    resolved = resolve(args.flags(), cfg, root, env if env is not None else {}, _BUILD_ROWS)
-    if args.toolchain is None:
-        return resolved
-    # one target of the run (expand_targets): the one this build is for, and who named it
-    return Resolved({**resolved.chosen, TARGETS.name: Chosen((args.toolchain,), args.toolchain_from)})
-
-
-_BUILD_ROWS = tuple(s for s in SETTINGS if "build" in s.commands)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -11,7 +11,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from uros_build import console, defaults, loader
-from uros_build.config.settings import DISTRO, resolve_one, resolve_workspace
+from uros_build.config.resolver import resolve_one, resolve_workspace
+from uros_build.config.settings import DISTRO
 from uros_build.errors import ConfigError
 from uros_build.sources import distros as distros_mod
 from uros_build.sources.distros import Distro, Mirror, Source

@@ -10,9 +10,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from uros_build.config import settings as rows
-from uros_build.config.settings import (
-    resolve_one,
-)
+from uros_build.config.resolver import resolve_one
 from uros_build.errors import ConfigError
 from uros_build.sources.workspace import Workspace, target_key
 from uros_build.sources.wsfiles import CONFIG, load_config
