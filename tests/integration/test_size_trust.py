@@ -20,7 +20,7 @@ from pathlib import Path
 import pytest
 from fixture_rtos import make_standin_kernel, write_config
 from fixture_ws import add_plain_package, fixture_build_args, make_fixture_workspace
-from uros_helpers import need, run_uros
+from uros_helpers import need, run_uros, run_uros_here
 
 from uros_build.run.report import REPORT, probe_base, probe_work, report_name
 
@@ -31,11 +31,9 @@ PASSED = {"status": 0, "passed": True, "verdict": "pass", "heap_bytes": 2920, "s
 
 
 @pytest.fixture
-def ws(m7_build: Path, tmp_path: Path) -> Path:
-    """A copy of the built fixture workspace (reports written into its .uros/probe)."""
-    copy = tmp_path / "ws"
-    shutil.copytree(m7_build, copy, symlinks=True)
-    return copy
+def ws(m7_build: Path) -> Path:
+    """The built fixture workspace, fresh for this test (reports written into its .uros/probe)."""
+    return m7_build
 
 
 def _out(ws: Path) -> Path:
@@ -221,7 +219,7 @@ def test_elf_takes_only_a_linked_firmware_of_the_librarys_target(ws: Path, tmp_p
 def test_set_values_out_of_range_are_refused_before_building(tmp_path: Path, item: str, why: str) -> None:
     """round 5: --set took MAX_NODES=0 and an MTU of 0; 5000 digits were an internal error."""
     ws = make_fixture_workspace(tmp_path)
-    done = run_uros(*fixture_build_args(ws, "--set", item), check=False)
+    done = run_uros_here(*fixture_build_args(ws, "--set", item), check=False)  # refused before any process
     assert done.returncode == 2, done.stderr
     lines = done.stderr.splitlines()
     assert lines[0].startswith("error: --set ") and why in lines[0], done.stderr
