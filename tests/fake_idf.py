@@ -11,9 +11,11 @@ from typing import Any
 IDF53_FLAGS = "-mlongcalls  -fno-builtin-memcpy -fno-builtin-memset -fno-builtin-bzero"
 
 
-def make_idf_tree(tmp: Path, version: tuple[int, int, int] | None = (5, 3, 1)) -> Path:
+def make_idf_tree(
+    tmp: Path, version: tuple[int, int, int] | None = (5, 3, 1), target: str = "esp32s3"
+) -> Path:
     idf = tmp / "esp idf"  # a space: every path must stay one word
-    (idf / "components" / "soc" / "esp32s3" / "include").mkdir(parents=True)
+    (idf / "components" / "soc" / target / "include").mkdir(parents=True)
     for comp, incs in {
         "freertos": ["config/include", "FreeRTOS-Kernel/include"],
         "lwip": ["include"],
@@ -40,10 +42,12 @@ def make_idf_build(
     git_revision: str = "HEAD-HASH-NOTFOUND",
     description: dict[str, Any] | None = None,
     sdkconfig: str = "",
+    soc: str = "esp32s3",
 ) -> Path:
     """<tmp>/proj/build, configured for ``target``, with components freertos, lwip, main and soc
-    of an IDF tree in <tmp>/esp idf; ``sdkconfig``: more lines of sdkconfig.h."""
-    idf = make_idf_tree(tmp, version)
+    of an IDF tree in <tmp>/esp idf; ``sdkconfig``: more lines of sdkconfig.h; ``soc``: the chip
+    whose soc/<chip>/include the tree has (and CMakeCache.txt's IDF_TARGET, sdkconfig.h's target)."""
+    idf = make_idf_tree(tmp, version, soc)
     proj = tmp / "proj"
     (proj / "main").mkdir(parents=True)
     build = proj / "build"
@@ -52,9 +56,8 @@ def make_idf_build(
         "freertos": (idf / "components" / "freertos", ["config/include", "FreeRTOS-Kernel/include/"]),
         "lwip": (idf / "components" / "lwip", ["include"]),
         "main": (proj / "main", []),
-        "soc": (idf / "components" / "soc", ["esp32s3/include"]),
+        "soc": (idf / "components" / "soc", [f"{soc}/include"]),
     }
-    (idf / "components" / "soc" / "esp32s3" / "include").mkdir(parents=True, exist_ok=True)
     data: dict[str, Any] = {
         "version": "1.1",
         "idf_path": str(idf),
@@ -74,13 +77,13 @@ def make_idf_build(
         "# This is the CMakeCache file.\n//C Compiler Base Flags\n"
         f"CMAKE_C_FLAGS:STRING={c_flags}\n"
         f"CMAKE_CXX_FLAGS:STRING={c_flags if cxx_flags is None else cxx_flags}\n"
-        "IDF_TARGET:STRING=esp32s3\n",
+        f"IDF_TARGET:STRING={soc}\n",
         encoding="utf-8",
     )
     (build / "config" / "sdkconfig.h").write_text(
         "/*\n * Automatically generated file. DO NOT EDIT.\n"
         " * Espressif IoT Development Framework (ESP-IDF) 5.3.1 Configuration Header\n */\n"
-        '#pragma once\n#define CONFIG_IDF_TARGET "esp32s3"\n' + sdkconfig,
+        f'#pragma once\n#define CONFIG_IDF_TARGET "{soc}"\n' + sdkconfig,
         encoding="utf-8",
     )
     return build

@@ -1,7 +1,7 @@
 """`uros probe` on every core QEMU runs here (issue 32, item 3): a real Humble std_msgs library per
 target, booted on its machine from meta/probe/machines.yaml (Cortex-M33 on mps2-an505 in Secure state,
-Cortex-M55 on mps3-an547, ARMv6-M code on an M3 that traps unaligned accesses, RV32IMC on RISC-V virt,
-the ESP8266's lx106 on Xtensa lx60), talks to a real Micro XRCE-DDS Agent. Needs UROS_MIRROR (upstream
+Cortex-M55 on mps3-an547, ARMv6-M code on an M3 that traps unaligned accesses, RV32IMC, RV32IMAC and
+RV32IMAFC/ilp32f on RISC-V virt, the ESP8266's lx106 on Xtensa lx60), talks to a real Micro XRCE-DDS Agent. Needs UROS_MIRROR (upstream
 clones) and UROS_AGENT (a MicroXRCEAgent), and the machine's QEMU program; UROS_HUMBLE_WS names an
 already-built Humble workspace (a copy of one) so that only the target's library is built. Without
 them each test skips."""
@@ -61,6 +61,8 @@ def _probe(ws: Path, target: str) -> tuple[int, str, dict[str, object]]:
         ("cortex-m55", "mps3-an547"),
         ("cortex-m0plus", "mps2-an385"),
         ("rv32imc", "virt"),
+        ("rv32imac", "virt"),  # the ESP32-C6/H2 ISA
+        ("rv32imafc", "virt"),  # the ESP32-P4 ISA, ilp32f: the start-up turns the FPU on
         ("esp8266", "lx60-nommu"),
     ],
 )

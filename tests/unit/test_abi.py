@@ -14,7 +14,7 @@ import pytest
 
 from uros_build.errors import VerifyError
 from uros_build.target import abi
-from uros_build.target.profiles import ElfFacts, find_profile
+from uros_build.target.profiles import ElfFacts, find_profile, shipped_profiles
 
 DATA = Path(__file__).parent / "data"
 
@@ -89,8 +89,36 @@ def test_riscv_arch_pattern_and_float_abi() -> None:
     )
     single = replace(rv, flags="0x3, RVC, single-float ABI")
     assert abi.differences(single, find_profile("rv32imc")) == [
-        "Flags are '0x3, RVC, single-float ABI', rv32imc expects 'soft-float ABI'"
+        "Flags are '0x3, RVC, single-float ABI', rv32imc expects 'soft-float ABI' "
+        "(objects built with -mabi=ilp32f, ilp32 expected)"
     ]
+
+
+def test_ilp32f_objects_for_the_p4_and_ilp32_ones_are_told_apart() -> None:
+    rv = _objects("readelf-mixed.txt")[1]
+    # what Debian's riscv64-unknown-elf-gcc 12.2 writes with -march=rv32imafc -mabi=ilp32f
+    p4 = replace(
+        rv,
+        flags="0x3, RVC, single-float ABI",
+        attributes=(("Tag_RISCV_arch", "rv32i2p1_m2p0_a2p1_f2p2_c2p0_zicsr2p0_zifencei2p0_zmmul1p0"),),
+    )
+    assert abi.differences(p4, find_profile("esp32p4")) == []
+    assert abi.differences(p4, find_profile("rv32imafc")) == []
+    # the same ISA with the soft-float ABI (-mabi=ilp32): floats in integer registers
+    soft = replace(p4, flags="0x1, RVC, soft-float ABI")
+    assert abi.differences(soft, find_profile("esp32p4")) == [
+        "Flags are '0x1, RVC, soft-float ABI', esp32p4 expects 'single-float ABI' "
+        "(objects built with -mabi=ilp32, ilp32f expected)"
+    ]
+    # an ESP32-C6 (rv32imac) library is not a P4 one, nor the other way round
+    c6 = replace(soft, attributes=(("Tag_RISCV_arch", "rv32i2p1_m2p0_a2p1_c2p0_zicsr2p0_zmmul1p0"),))
+    assert abi.differences(c6, find_profile("esp32c6")) == []
+    assert len(abi.differences(c6, find_profile("esp32p4"))) == 2
+    assert "Tag_RISCV_arch is rv32i2p1_m2p0_a2p1_f2p2" in abi.differences(p4, find_profile("esp32c6"))[1]
+    # the C6, the H2 and the bare-metal rv32imac show the same ELF facts: the check says so
+    names = sorted(shipped_profiles())
+    alike = abi.look_alikes(find_profile("esp32c6"), [find_profile(n) for n in names])
+    assert alike == ["esp32h2", "rv32imac"]
 
 
 def test_xtensa_call0_object_fails_windowed_esp32s3() -> None:

@@ -41,6 +41,8 @@ def test_the_shipped_table() -> None:
         "cortex-m55": "mps3-an547",
         "cortex-m0plus": "mps2-an385",
         "rv32imc": "virt",
+        "rv32imac": "virt",
+        "rv32imafc": "virt",
         "esp8266": "lx60-nommu",
     }
     microbit = machines.machine_for("cortex-m0plus", table, "microbit")
@@ -202,7 +204,7 @@ def test_doctor_says_which_qemu_runs_which_targets() -> None:
     assert arm.status == doctor.OK and "cortex-m33" in arm.detail and "cortex-m0plus" in arm.detail
     assert (
         riscv.status == doctor.SKIP
-        and "cannot run rv32imc" in riscv.detail
+        and "cannot run rv32imac, rv32imafc, rv32imc" in riscv.detail
         and "qemu-system-misc" in riscv.fix
     )
     assert xtensa.status == doctor.SKIP and "cannot run esp8266" in xtensa.detail

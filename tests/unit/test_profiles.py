@@ -1,13 +1,23 @@
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import pytest
 import yaml
 from profile_data import minimal_profile
 
+from uros_build import resources
 from uros_build.errors import ConfigError
-from uros_build.target.profiles import derive_profile, find_profile, load_profile_file, shipped_profiles
+from uros_build.target.profiles import (
+    RISCV_FLOAT_ABI,
+    derive_profile,
+    find_profile,
+    load_profile_file,
+    riscv_float_abi,
+    riscv_mabi,
+    shipped_profiles,
+)
 
 
 def _write(tmp_path: Path, data: object) -> Path:
@@ -141,11 +151,16 @@ SHIPPED = {
     "cortex-m33": ("arm-none-eabi-", "-mcpu=cortex-m33", "Tag_CPU_arch", "v8-M.mainline"),
     "cortex-m55": ("arm-none-eabi-", "-mcpu=cortex-m55", "Tag_MVE_arch", "MVE Integer and FP"),
     "rv32imc": ("riscv64-unknown-elf-", "-march=rv32imc", None, None),
+    "rv32imac": ("riscv64-unknown-elf-", "-march=rv32imac", None, None),
+    "rv32imafc": ("riscv64-unknown-elf-", "-march=rv32imafc", None, None),
     "esp8266": ("xtensa-lx106-elf-", "-mlongcalls", None, None),
     "esp32": ("xtensa-esp32-elf-", "-mlongcalls", None, None),
     "esp32s2": ("xtensa-esp32s2-elf-", "-mlongcalls", None, None),
     "esp32s3": ("xtensa-esp32s3-elf-", "-mlongcalls", None, None),
     "esp32c3": ("riscv32-esp-elf-", "-march=rv32imc_zicsr_zifencei", None, None),
+    "esp32c6": ("riscv32-esp-elf-", "-march=rv32imac_zicsr_zifencei", None, None),
+    "esp32h2": ("riscv32-esp-elf-", "-march=rv32imac_zicsr_zifencei", None, None),
+    "esp32p4": ("riscv32-esp-elf-", "-march=rv32imafc_zicsr_zifencei", None, None),
 }
 
 
@@ -175,6 +190,74 @@ def test_soft_float_and_single_precision_facts() -> None:
     assert find_profile("esp32s3").elf.xtensa_abi == "0"
     assert find_profile("rv32imc").elf.header_flags == ("RVC", "soft-float ABI")
     assert find_profile("rv32imc").libc_flags == ("--specs=picolibc.specs",)
+
+
+# The RISC-V chips' ISA facts: (-mabi, float ABI in e_flags, ISA letters Tag_RISCV_arch must hold,
+# and must not), from the ESP-IDF toolchain files and readelf over Debian's GCC 12.2 objects.
+RISCV_FACTS = {
+    "rv32imc": ("ilp32", "soft-float ABI", "imc", "af"),
+    "esp32c3": ("ilp32", "soft-float ABI", "imc", "af"),
+    "rv32imac": ("ilp32", "soft-float ABI", "imac", "f"),
+    "esp32c6": ("ilp32", "soft-float ABI", "imac", "f"),
+    "esp32h2": ("ilp32", "soft-float ABI", "imac", "f"),
+    "rv32imafc": ("ilp32f", "single-float ABI", "imafc", "d"),
+    "esp32p4": ("ilp32f", "single-float ABI", "imafc", "d"),
+}
+
+
+def _arch_tag(letters: str, extra: str = "_zicsr2p0_zifencei2p0_zmmul1p0") -> str:
+    versions = {"i": "2p1", "m": "2p0", "a": "2p1", "f": "2p2", "d": "2p2", "c": "2p0"}
+    return "rv32" + "_".join(f"{c}{versions[c]}" for c in letters) + extra
+
+
+@pytest.mark.parametrize("name", sorted(RISCV_FACTS))
+def test_riscv_chips_abi_facts(name: str) -> None:
+    mabi, float_abi, has, lacks = RISCV_FACTS[name]
+    p = find_profile(name)
+    assert riscv_mabi(p.cpu_flags) == mabi and RISCV_FLOAT_ABI[mabi] == float_abi
+    assert p.elf.header_flags == ("RVC", float_abi)
+    pattern = dict(p.elf.attribute_patterns)["Tag_RISCV_arch"]
+    # what Debian's riscv64-unknown-elf-gcc 12.2 writes for the ISA passes; one letter more or less fails
+    assert re.fullmatch(pattern, _arch_tag(has)), name
+    for extra in lacks:
+        more = "".join(sorted(has + extra, key="imafdc".index))
+        assert not re.fullmatch(pattern, _arch_tag(more)), (name, more)
+    assert not re.fullmatch(pattern, _arch_tag(has.replace("c", ""))), name
+    # the ESP-IDF chips: UDP over lwIP, IDF's own atomics (none of 1/2/4 bytes where "A" inlines them)
+    if p.idf_target:
+        assert p.idf_target == name and p.transport == "udp"
+        assert p.missing_atomics == (() if "a" not in has else ("1", "2", "4"))
+
+
+def test_the_p4_pattern_lets_espressifs_pie_extension_through() -> None:
+    # ESP-IDF >= 5.3 compiles the P4 with -march=rv32imafc_zicsr_zifencei_xesppie
+    pattern = dict(find_profile("esp32p4").elf.attribute_patterns)["Tag_RISCV_arch"]
+    assert re.fullmatch(pattern, _arch_tag("imafc", "_zicsr2p0_zifencei2p0_zmmul1p0_xesppie1p0"))
+
+
+def test_a_riscv_profile_whose_mabi_and_float_abi_disagree_is_refused(tmp_path: Path) -> None:
+    text = (resources.toolchains_dir() / "esp32p4.yaml").read_text(encoding="utf-8")
+    path = tmp_path / "p4.yaml"
+    path.write_text(text.replace("-mabi=ilp32f]", "-mabi=ilp32]"), encoding="utf-8")
+    with pytest.raises(
+        ConfigError,
+        match=r"p4.yaml: elf.header_flags: says 'single-float ABI', but cpu_flags' -mabi=ilp32 makes "
+        r"objects with 'soft-float ABI'",
+    ) as info:
+        load_profile_file(path)
+    assert info.value.hint == "write header_flags: [RVC, soft-float ABI] (or change -mabi)"
+    path.write_text(text.replace("-mabi=ilp32f]", "-mabi=ilp32x]"), encoding="utf-8")
+    with pytest.raises(ConfigError, match=r"cpu_flags: -mabi=ilp32x is not a RISC-V ABI GCC knows"):
+        load_profile_file(path)
+
+
+def test_riscv_float_abi_from_readelf_flags() -> None:
+    assert riscv_float_abi("0x3, RVC, single-float ABI") == "single-float ABI"
+    assert riscv_float_abi("0x1, RVC, soft-float ABI") == "soft-float ABI"
+    assert riscv_float_abi("0x5, RVC, double-float ABI") == "double-float ABI"
+    assert riscv_float_abi("0x300") is None
+    assert riscv_mabi(("-march=rv32imafc", "-mabi=ilp32", "-mabi=ilp32f")) == "ilp32f"
+    assert riscv_mabi(("-mlongcalls",)) is None
 
 
 def test_derive_from_a_target_keeps_flags_as_words() -> None:

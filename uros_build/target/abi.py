@@ -22,7 +22,13 @@ from typing import Any
 
 from uros_build.errors import VerifyError
 from uros_build.proc import Runner
-from uros_build.target.profiles import ElfFacts, TargetProfile, shipped_profiles
+from uros_build.target.profiles import (
+    RISCV_FLOAT_ABI,
+    ElfFacts,
+    TargetProfile,
+    riscv_float_abi,
+    shipped_profiles,
+)
 
 READELF = "readelf"
 READELF_HINT = "install GNU binutils (it reads every target's objects): apt-get install binutils"
@@ -159,7 +165,7 @@ def differences(obj: ObjectFacts, profile: TargetProfile) -> list[str]:
         found.append(f"Class is {obj.elf_class}, {target} expects {want.elf_class}")
     for flag in want.header_flags:
         if flag not in obj.flags:
-            found.append(f"Flags are '{obj.flags}', {target} expects '{flag}'")
+            found.append(f"Flags are '{obj.flags}', {target} expects '{flag}'{_mabi_note(obj.flags, flag)}")
     attrs = dict(obj.attributes)
     for tag, value in want.attributes:
         if attrs.get(tag) != value:
@@ -183,6 +189,16 @@ def differences(obj: ObjectFacts, profile: TargetProfile) -> list[str]:
                 "(multiple definition at the firmware link: set rcutils' RCUTILS_NO_64_ATOMIC=OFF)"
             )
     return found
+
+
+def _mabi_note(flags: str, wanted: str) -> str:
+    """Where a RISC-V float ABI differs: which -mabi gives the objects' and which the target's
+    (ilp32 vs ilp32f: floats in integer or in f registers; GNU ld refuses to link them together)."""
+    mabis = {abi: name for name, abi in reversed(RISCV_FLOAT_ABI.items()) if name.startswith("ilp32")}
+    have, want = riscv_float_abi(flags), riscv_float_abi(wanted)
+    if have not in mabis or want not in mabis or have == want:
+        return ""
+    return f" (objects built with -mabi={mabis[have]}, {mabis[want]} expected)"
 
 
 def expected_summary(facts: ElfFacts) -> dict[str, Any]:

@@ -330,7 +330,8 @@ def read_idf_build(build: Path, idf_target: str, uros_target: str, flag: str = "
     if not idf_target:
         raise ConfigError(
             f"{flag}: target {uros_target} is not an ESP-IDF target",
-            "build for esp32, esp32s2, esp32s3 or esp32c3 (uros build --toolchain esp32s3 --idf-build DIR)",
+            "build for esp32, esp32s2, esp32s3, esp32c3, esp32c6, esp32h2 or esp32p4 "
+            "(uros build --toolchain esp32s3 --idf-build DIR)",
         )
     source = f"{flag} {desc_path}"
     desc = parse_description(loader.load_json(desc_path, flag, _RECONFIGURE), source)

@@ -190,6 +190,54 @@ def _build(cls: Any, source: str, data: Any, prefix: str = "") -> Any:
 
 _SEARCH_PLACEHOLDERS = ("{IDF_TOOLS_PATH}", "{IDF_PATH}")
 
+# RISC-V: the float ABI each -mabi gives, as readelf -h prints it in "Flags:" (e_flags bits 1-2,
+# EF_RISCV_FLOAT_ABI; binutils' readelf.c). ilp32f (the ESP32-P4, rv32imafc) passes floats in f
+# registers, ilp32 in integer ones: GNU ld refuses to link the two ("can't link single-float modules
+# with soft-float modules"), so a profile's -mabi and its elf.header_flags must say the same.
+RISCV_FLOAT_ABI = {
+    "ilp32": "soft-float ABI",
+    "ilp32e": "soft-float ABI",
+    "lp64": "soft-float ABI",
+    "ilp32f": "single-float ABI",
+    "lp64f": "single-float ABI",
+    "ilp32d": "double-float ABI",
+    "lp64d": "double-float ABI",
+    "lp64q": "quad-float ABI",
+}
+
+
+def riscv_mabi(flags: tuple[str, ...]) -> str | None:
+    """The last -mabi= of ``flags`` (GCC takes the last), or None."""
+    found = [f.split("=", 1)[1] for f in flags if f.startswith("-mabi=")]
+    return found[-1] if found else None
+
+
+def riscv_float_abi(header_flags: str | tuple[str, ...]) -> str | None:
+    """The float ABI named in readelf's "Flags:" text (or a profile's header_flags), or None."""
+    text = header_flags if isinstance(header_flags, str) else ", ".join(header_flags)
+    return next((abi for abi in sorted(set(RISCV_FLOAT_ABI.values())) if abi in text), None)
+
+
+def _check_riscv_abi(profile: TargetProfile, source: Path | str) -> None:
+    mabi = riscv_mabi(profile.cpu_flags)
+    if profile.system_processor != "riscv" or mabi is None:
+        return
+    if mabi not in RISCV_FLOAT_ABI:
+        raise _fail(
+            source,
+            "cpu_flags",
+            f"-mabi={mabi} is not a RISC-V ABI GCC knows ({', '.join(RISCV_FLOAT_ABI)})",
+            "e.g. -mabi=ilp32 (soft float) or -mabi=ilp32f (the ESP32-P4's single-precision FPU)",
+        )
+    said = riscv_float_abi(profile.elf.header_flags)
+    if said is not None and said != RISCV_FLOAT_ABI[mabi]:
+        raise _fail(
+            source,
+            "elf.header_flags",
+            f"says '{said}', but cpu_flags' -mabi={mabi} makes objects with '{RISCV_FLOAT_ABI[mabi]}'",
+            f"write header_flags: [RVC, {RISCV_FLOAT_ABI[mabi]}] (or change -mabi)",
+        )
+
 
 # A target's name is an identifier: it names <workspace>/.uros/targets/<name> and the default
 # output <workspace>/build/<name>, so '..', '.', '' or 'a/b' would point those at the workspace
@@ -300,6 +348,7 @@ def _validate(profile: TargetProfile, source: Path | str) -> TargetProfile:
         value = getattr(profile.chip, key)
         if value and parse_bytes(value) is None:
             raise _fail(source, f"chip.{key}", f"{value!r} is not a size: {SIZE_HELP}")
+    _check_riscv_abi(profile, source)
     if profile.elf.xtensa_abi not in ("", "0", "1"):
         raise _fail(source, "elf.xtensa_abi", f"{profile.elf.xtensa_abi!r} is not 0 (windowed) or 1 (call0)")
     return replace(profile, source=str(source))

@@ -84,6 +84,12 @@ void probe_reset(void) {
 
 __attribute__((naked, section(".text.start"))) void probe_start(void) {
   __asm volatile(
+#ifdef __riscv_flen
+      /* F code (rv32imafc, the ESP32-P4's ISA): the FPU is off after reset (mstatus.FS = Off) and its
+       * first instruction would trap: FS = Initial. picolibc's start-up would do the same. */
+      "li t0, 0x2000\n"
+      "csrs mstatus, t0\n"
+#endif
       "la sp, probe_stack_top\n"
       "la tp, probe_tls_base\n" /* picolibc keeps errno in TLS */
       "j probe_reset\n");
