@@ -87,3 +87,18 @@ def make_idf_build(
         encoding="utf-8",
     )
     return build
+
+
+def xrce_client_stand_in(root: Path) -> Path:
+    """<root>/mcu_ws/src/microxrcedds_client with its package.xml: a stand-in for the XRCE-DDS client
+    (its name gets the client's colcon.meta entries and PLATFORM_NAME); the caller writes its sources."""
+    pkg = root / "mcu_ws" / "src" / "microxrcedds_client"
+    pkg.mkdir(parents=True)
+    (pkg / "package.xml").write_text(
+        '<?xml version="1.0"?>\n<package format="3">\n'
+        "  <name>microxrcedds_client</name><version>0.1.0</version><description>uros test</description>\n"
+        '  <maintainer email="dev@example.com">uros tests</maintainer><license>Apache-2.0</license>\n'
+        "  <export><build_type>cmake</build_type></export>\n</package>\n",
+        encoding="utf-8",
+    )
+    return pkg

@@ -22,7 +22,7 @@ import textwrap
 from pathlib import Path
 
 import pytest
-from fake_idf import make_idf_build
+from fake_idf import make_idf_build, xrce_client_stand_in
 from uros_helpers import need, run_uros
 
 pytestmark = pytest.mark.integration
@@ -43,18 +43,7 @@ def _write(path: Path, text: str) -> None:
 
 
 def _workspace(root: Path, chip: str) -> Path:
-    pkg = root / "mcu_ws" / "src" / "microxrcedds_client"
-    _write(
-        pkg / "package.xml",
-        """
-        <?xml version="1.0"?>
-        <package format="3">
-          <name>microxrcedds_client</name><version>0.1.0</version><description>uros test</description>
-          <maintainer email="dev@example.com">uros tests</maintainer><license>Apache-2.0</license>
-          <export><build_type>cmake</build_type></export>
-        </package>
-        """,
-    )
+    pkg = xrce_client_stand_in(root)
     _write(
         pkg / "CMakeLists.txt",
         """

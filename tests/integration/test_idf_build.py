@@ -19,7 +19,7 @@ import textwrap
 from pathlib import Path
 
 import pytest
-from fake_idf import make_idf_build
+from fake_idf import make_idf_build, xrce_client_stand_in
 from uros_helpers import REPO, need, run_uros
 
 pytestmark = pytest.mark.integration
@@ -47,19 +47,7 @@ def _profile(tmp: Path) -> Path:
 
 
 def _workspace(root: Path) -> Path:
-    # a stand-in for the XRCE-DDS client: its name gets the client's colcon.meta entries
-    pkg = root / "mcu_ws" / "src" / "microxrcedds_client"
-    _write(
-        pkg / "package.xml",
-        """
-        <?xml version="1.0"?>
-        <package format="3">
-          <name>microxrcedds_client</name><version>0.1.0</version><description>uros test</description>
-          <maintainer email="dev@example.com">uros tests</maintainer><license>Apache-2.0</license>
-          <export><build_type>cmake</build_type></export>
-        </package>
-        """,
-    )
+    pkg = xrce_client_stand_in(root)
     # What the XRCE-DDS client reads, where it reads it: its UCLIENT_C_STANDARD cache entry is
     # created before project() reads the toolchain file; PLATFORM_NAME is read after it.
     _write(
