@@ -24,6 +24,7 @@ LAYERS: tuple[tuple[str, str], ...] = (
         "what runs a built library: QEMU machines, the probe and app firmware, the agent session, the peer",
     ),
     ("config", "what the user asked: settings and their precedence, the build and source plans"),
+    ("probesteps", "a probe's steps, siblings over one frozen probe context"),
     ("steps", "a build's steps, each over the frozen plan"),
     ("commands", "one module a command"),
     ("cli", "click: options and the one place errors become messages"),

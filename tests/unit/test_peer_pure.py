@@ -12,8 +12,8 @@ from pathlib import Path
 import pytest
 
 from tests.unit.fake_runner import FakeRunner
-from uros_build.commands.probe import check_peer
 from uros_build.errors import ConfigError, StepFailed
+from uros_build.probesteps.plan import check_peer
 from uros_build.run import netns, peerenv
 from uros_build.run.peer import peer_verdict
 from uros_build.sources.packages import PackageInfo

@@ -9,9 +9,9 @@ from pathlib import Path
 
 import pytest
 
-from uros_build.commands import probe as probe_cmd
 from uros_build.errors import ConfigError, StepFailed
 from uros_build.output.symbols import NmSymbol
+from uros_build.probesteps import plan as probe_plan
 from uros_build.run import app
 from uros_build.run.stages import ConsoleLine
 from uros_build.target.toolsearch import bintools_beside
@@ -153,11 +153,11 @@ def test_durations_and_timeouts() -> None:
 
 
 def test_define_or_duration_without_app_is_refused() -> None:
-    assert probe_cmd.app_request(None, (), None) is None
+    assert probe_plan.app_request(None, (), None) is None
     with pytest.raises(ConfigError, match="--duration: only with --app"):
-        probe_cmd.app_request(None, (), 3.0)
+        probe_plan.app_request(None, (), 3.0)
     with pytest.raises(ConfigError, match="--define: only with --app"):
-        probe_cmd.app_request(None, ("X",), None)
+        probe_plan.app_request(None, ("X",), None)
 
 
 NONCE = "0123456789abcdef0123456789abcdef"

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from uros_build.commands import probe as probe_cmd
 from uros_build.errors import ConfigError
+from uros_build.probesteps import plan as probe_plan
 from uros_build.run import machines as probe
 
 
@@ -75,13 +75,13 @@ def test_a_timeout_is_some_seconds(timeout: float) -> None:
     """`--timeout 0`/`-1` gave a false "did not finish" verdict (issue 34, item 7); `1e-9` started
     QEMU for nothing (issue 43)."""
     with pytest.raises(ConfigError, match="must be a number of seconds, at least 1"):
-        probe_cmd.check_timeout(timeout)
-    probe_cmd.check_timeout(1.0)
+        probe_plan.check_timeout(timeout)
+    probe_plan.check_timeout(1.0)
 
 
 def test_a_toolchain_beside_an_output_must_name_its_target() -> None:
     """`uros probe OUTPUT --toolchain other` ignored --toolchain (issue 34, item 7)."""
     out = Path("/ws/build/cortex-m7")
-    probe_cmd.check_toolchain_matches("cortex-m7", "cortex-m7", out, "cortex-m7")
+    probe_plan.check_toolchain_matches("cortex-m7", "cortex-m7", out, "cortex-m7")
     with pytest.raises(ConfigError, match=r"--toolchain cortex-m4: OUTPUT /ws/build/cortex-m7 is the output"):
-        probe_cmd.check_toolchain_matches("cortex-m4", "cortex-m4", out, "cortex-m7")
+        probe_plan.check_toolchain_matches("cortex-m4", "cortex-m4", out, "cortex-m7")

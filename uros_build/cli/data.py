@@ -207,10 +207,13 @@ def probe(
     verbose: bool,
 ) -> None:
     """Run a built library: boot a probe firmware (or your --app) in QEMU against a real XRCE-DDS Agent."""
-    request = probe_cmd.app_request(app, defines, duration)
     probe_cmd.probe(
-        output, workspace, toolchain, agent, timeout, as_json, verbose, peer, freertos, board, request, graph
-    )
+        probe_cmd.ProbeRequest(
+            output=output, workspace=workspace, toolchain=toolchain, agent=agent, timeout=timeout,
+            as_json=as_json, verbose=verbose, peer=peer, freertos=freertos, board=board,
+            app=probe_cmd.app_request(app, defines, duration), graph=graph,
+        )
+    )  # fmt: skip
 
 
 @click.group(cls=Group)

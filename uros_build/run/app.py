@@ -11,7 +11,8 @@ DIR → its interface packages (its ``#include <pkg/msg|srv|action/...>``) check
 library's packages before anything is built → the firmware's CMakeLists rendered (every value
 escaped) → built against the output like the probe → its size (the target's ``size``, LC_ALL=C) →
 the QEMU + agent session → one verdict. The pure parts are the scan, the checks, the CMake text and
-the verdicts; :func:`run_app` runs them.
+the verdicts; :func:`stage_app` and :func:`build_app` make the firmware, and
+uros_build/probesteps/ runs it (the probe's steps).
 
 What the app cannot forge: the verdict comes from the runner's end line (templates/probe/app_main.c),
 marked with a random nonce made for each run and compiled into the runner alone, which carries the
@@ -26,7 +27,6 @@ build file), and their objects may define no symbol the board's objects define (
 from __future__ import annotations
 
 import math
-import os
 import re
 import secrets
 import shutil
@@ -34,19 +34,17 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from uros_build import console, resources, templating
+from uros_build import resources, templating
 from uros_build.colcon.fingerprint import digest
 from uros_build.errors import ConfigError, StepFailed
 from uros_build.output.sizes import Sizes, parse_berkeley
 from uros_build.output.symbols import STRONG, NmSymbol, parse_nm
 from uros_build.proc import Runner
-from uros_build.run import freertos as freertos_mod
 from uros_build.run import machines
-from uros_build.run import network as network_mod
-from uros_build.run.firmware import build_firmware
-from uros_build.run.session import PeerRun, Session, SessionSpec, free_udp_port, middleware_for, run_session
+from uros_build.run.firmware import FirmwareBuild, build_firmware
+from uros_build.run.session import Session
 from uros_build.run.stages import ConsoleLine
-from uros_build.target.toolsearch import bintools_beside
+from uros_build.target.toolsearch import BinTools
 
 # QEMU's exit statuses the runner chooses (app_main.c's probe_exit_status): the app's own 0-63 as
 # they are, any other OUT_OF_RANGE (its end line has it whole); the runner's and the board's 70 and up.
@@ -422,69 +420,42 @@ class AppRun:
     started: float | None  # host time uros saw appMain start
 
 
-def run_app(
-    runner: Runner,
-    plan: AppPlan,
-    out: Path,
-    compiler_path: str | None,
-    qemu_program: str,
-    machine: machines.Machine,
-    agent_program: str,
-    work: Path,
-    timeout: float,
-    verbose: bool,
-    peer: PeerRun | None = None,
-    rtos: freertos_mod.FreeRtos | None = None,
-    network: network_mod.Network | None = None,
-    cmake_options: Mapping[str, Mapping[str, str]] | None = None,
-) -> AppRun:
-    """Build the app firmware against ``out``, check its objects, measure it, run it against the agent
-    (``network``: over UDP through lwIP, docs/network.md)."""
-    app, defines, duration_ms = plan.app, plan.defines, plan.duration_ms
-    nonce = secrets.token_hex(16)  # this run's: only the runner's compile sees it
+def stage_app(plan: AppPlan, work: Path) -> tuple[Path, str]:
+    """The app firmware's sources in work/app-src (the probe's board, the rendered CMakeLists, the
+    app's -D response file) and this run's nonce (only the runner's compile sees it)."""
+    nonce = secrets.token_hex(16)
     staged = work / "app-src"
     shutil.rmtree(staged, ignore_errors=True)
     shutil.copytree(resources.templates_dir() / "probe", staged)
-    (staged / "CMakeLists.txt").write_text(app_cmake(app, defines, duration_ms, nonce), encoding="utf-8")
-    if defines:
-        (staged / "app-defines.rsp").write_text(response_file(defines), encoding="utf-8")
-    middleware = middleware_for(peer is not None, os.geteuid())
-    port = network_mod.NAMESPACE_PORT if middleware == "dds" else free_udp_port()
-    tools = bintools_beside(compiler_path)
+    (staged / "CMakeLists.txt").write_text(
+        app_cmake(plan.app, plan.defines, plan.duration_ms, nonce), encoding="utf-8"
+    )
+    if plan.defines:
+        (staged / "app-defines.rsp").write_text(response_file(plan.defines), encoding="utf-8")
+    return staged, nonce
+
+
+def build_app(
+    runner: Runner, spec: FirmwareBuild, verbose: bool, app: AppSources, tools: BinTools
+) -> tuple[Path, Sizes]:
+    """Build the app firmware (``spec``, its sources staged by :func:`stage_app`), check its objects
+    against the board's (a failed link says the linker's reason) and measure it: its ELF and sizes."""
+    build = spec.work / "build"
     try:
-        elf = build_firmware(
-            runner, staged, work, out, "uros_app", verbose, machine,
-            defines=[*freertos_mod.cmake_defines(rtos), *network_mod.cmake_defines(network, port)],
-            folders=[*freertos_mod.firmware_folders(rtos), *network_mod.firmware_folders(network)],
-            links={"app": app.folder},
-        )  # fmt: skip
+        elf = build_firmware(runner, spec, verbose)
     except StepFailed as failed:
-        conflict = _check_objects(runner, tools.nm, work / "build", app)
+        conflict = _check_objects(runner, tools.nm, build, app)
         if conflict is not None:
             raise conflict from failed
         said = link_error(failed.output)
         if said is not None:
             raise StepFailed(f"link the uros_app firmware: {said}", failed.hint) from failed
         raise
-    conflict = _check_objects(runner, tools.nm, work / "build", app)
+    conflict = _check_objects(runner, tools.nm, build, app)
     if conflict is not None:
         raise conflict
     size = runner.query([tools.size, str(elf)], step="size of the app firmware")
-    sizes = elf_sizes(size)
-    wait = session_timeout(timeout, duration_ms)
-    # without root (no namespace to run DDS in) the agent's CED middleware, as for the built-in probe:
-    # an app's topics need no DDS, its services do (said so)
-    pcap = work / network_mod.PCAP if network is not None else None
-    note = network_mod.default_address_note(cmake_options or {}, port) if network is not None else None
-    if note:
-        console.info(note)
-    spec = SessionSpec(middleware=middleware, udp_port=port if network is not None else None, pcap=pcap)
-    if spec.middleware == "ced":
-        console.info(
-            "not root: the agent runs its CED middleware (no network namespace): services cannot be created"
-        )
-    ran = run_session(runner, qemu_program, machine, elf, agent_program, work, wait, peer=peer, spec=spec)
-    return AppRun(elf, sizes, ran, run_end(ran.lines, nonce), app_started(ran.lines, nonce))
+    return elf, elf_sizes(size)
 
 
 def _objects(folder: Path) -> list[Path]:
@@ -542,40 +513,6 @@ class AppReport:
     run_log: str
     peer_status: int | None = None  # --peer: its exit status (None: none ran, or it did not finish)
     peer_log: str | None = None
-
-
-def app_report(
-    target: str, machine: str, plan: AppPlan, ran: AppRun, runner: Runner, rtos: str | None = None
-) -> AppReport:
-    app, duration_ms = plan.app, plan.duration_ms
-    passed, said = verdict(ran.session.status, ran.end, duration_ms, ran.started)
-    return AppReport(
-        target=target,
-        machine=machine,
-        app=str(app.folder),
-        sources=tuple(p.name for p in app.sources),
-        rtos=rtos,
-        packages=tuple(app.packages),
-        defines=plan.defines,
-        duration=duration_ms / 1000 if duration_ms else None,
-        status=ran.session.status,
-        exit_status=ran.end.status if ran.end is not None and ran.end.kind == "exit" else None,
-        ended_by=ran.end.kind if ran.end is not None else None,
-        passed=passed,
-        verdict=said,
-        seconds=round(ran.session.seconds, 2),
-        flash_bytes=ran.sizes.text + ran.sizes.data,
-        ram_bytes=ran.sizes.data + ran.sizes.bss,
-        size=ran.sizes.as_dict(),
-        heap_bytes=ran.end.heap_bytes if ran.end is not None else None,
-        stack_bytes=ran.end.stack_bytes if ran.end is not None else None,
-        elf=str(ran.elf),
-        console_log=str(ran.session.console_log),
-        agent_log=str(ran.session.agent_log),
-        run_log=str(runner.log_path),
-        peer_status=ran.session.peer_status,
-        peer_log=str(ran.session.peer_log) if ran.session.peer_log else None,
-    )
 
 
 def describe(report: AppReport) -> str:

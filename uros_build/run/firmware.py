@@ -5,7 +5,8 @@ folder. The probe firmware is one; `uros probe --app` builds another from the sa
 from __future__ import annotations
 
 import shutil
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from uros_build.errors import StepFailed
@@ -13,22 +14,28 @@ from uros_build.proc import Runner
 from uros_build.run.machines import Machine, board_files, ram_overflow
 
 
-def build_firmware(
-    runner: Runner,
-    sources: Path,
-    work: Path,
-    out: Path,
-    name: str,
-    verbose: bool,
-    machine: Machine,
-    defines: Sequence[str] = (),
-    folders: Sequence[str] = (),
-    links: Mapping[str, Path] = {},
-) -> Path:
-    """Copy `sources` (its files, and the sub-folders named in `folders`: the FreeRTOS variant's) to
-    work/src and the machine's board files (start-up, UART, memory map) to work/src/board, configure
-    and build it against `out` (with `defines`, -DNAME=VALUE); the ELF called `name`. `links`: names
-    in work/src that link to folders (an app's: its path is then in no build file)."""
+@dataclass(frozen=True)
+class FirmwareBuild:
+    """One firmware's build: its sources, the name of its ELF, the machine whose board files it takes,
+    the output it is built against, the work folder it is built in, and what its configure is given."""
+
+    sources: Path
+    name: str
+    machine: Machine
+    out: Path
+    work: Path
+    defines: tuple[str, ...] = ()  # -DNAME=VALUE
+    folders: tuple[str, ...] = ()  # the sub-folders of sources copied too (the FreeRTOS variant's)
+    links: Mapping[str, Path] = field(default_factory=dict)  # names in work/src linking to folders
+
+
+def build_firmware(runner: Runner, spec: FirmwareBuild, verbose: bool) -> Path:
+    """Copy `spec.sources` (its files, and the sub-folders named in `spec.folders`) to work/src and the
+    machine's board files (start-up, UART, memory map) to work/src/board, configure and build it
+    against `spec.out` (with `spec.defines`); the ELF called `spec.name`. `spec.links`: names in
+    work/src that link to folders (an app's: its path is then in no build file)."""
+    sources, name, machine, out, work = spec.sources, spec.name, spec.machine, spec.out, spec.work
+    defines, folders, links = spec.defines, spec.folders, spec.links
     cmake = runner.which("cmake")
     src, build = work / "src", work / "build"
     # afresh every time (it takes a second): another output of the target has another toolchain file

@@ -114,6 +114,19 @@ def _stop_the_rest(runner: Runner, namespace: str | None) -> None:
 
 
 @dataclass(frozen=True)
+class SessionRun:
+    """What one session runs: QEMU and the agent (the programs found), the firmware's ELF on its
+    machine, the work folder its logs go to, and how long the firmware may take."""
+
+    qemu_program: str
+    agent_program: str
+    machine: machines.Machine
+    elf: Path
+    work: Path
+    timeout: float
+
+
+@dataclass(frozen=True)
 class PeerRun:
     """A host program the run starts once the agent is up, beside the firmware (its exit status
     counts in the verdict)."""
@@ -214,16 +227,10 @@ def _namespace(runner: Runner, work: Path) -> Background:
 
 
 def run_session(
-    runner: Runner,
-    qemu_program: str,
-    machine: machines.Machine,
-    elf: Path,
-    agent_program: str,
-    work: Path,
-    timeout: float,
-    peer: PeerRun | None = None,
-    spec: SessionSpec = SessionSpec(),
+    runner: Runner, run: SessionRun, peer: PeerRun | None = None, spec: SessionSpec = SessionSpec()
 ) -> Session:
+    qemu_program, agent_program, machine, elf = run.qemu_program, run.agent_program, run.machine, run.elf
+    work, timeout = run.work, run.timeout
     console_log, qemu_log, agent_log = work / "console.log", work / "qemu.log", work / "agent.log"
     console_log.unlink(missing_ok=True)
     udp = spec.udp_port is not None
