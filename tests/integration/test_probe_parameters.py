@@ -141,3 +141,31 @@ def test_the_example_runs_and_an_executor_too_small_for_it_is_caught_before_and_
     assert code == 5 and data["status"] == 3, data
     console = Path(str(data["console_log"])).read_text()
     assert "app: rclc_executor_add_parameter_server returned 1: the executor (4 handles)" in console
+
+
+@pytest.mark.skipif(
+    not (os.environ.get("UROS_ROS2_VENV") and os.geteuid() == 0),
+    reason="set UROS_ROS2_VENV (the peer's ROS 2 environment's cache) and run as root (the run's namespace)",
+)
+def test_a_ros2_peer_lists_gets_describes_and_sets_the_example_s_parameters(tmp_path: Path) -> None:
+    """examples/parameter-server with its peer.py (rclpy through the agent, what `ros2 param` does): in
+    full mode list, get, describe, set param_0=123 and read it back all pass; in rclc's low-memory mode
+    the set is never answered (humble's rclc_parameter leaves the set request's string_value without
+    room), and the peer says so by name."""
+    out = tmp_path / "room"
+    _build(out, services=5, clients=1, publishers=1, subscriptions=1)
+    peer = ["--peer", str(EXAMPLE / "peer.py"), "--timeout", "300", "-D", "APP_PEER_WAIT_MS=60000"]
+    proc = run_uros("probe", "--json", str(out), "--app", str(EXAMPLE), *peer, check=False)
+    data = json.loads(proc.stdout)
+    assert proc.returncode == 0 and data["peer_status"] == 0, proc.stderr
+    log = Path(str(data["peer_log"])).read_text()
+    assert "peer: PASS listed, got, described, set param_0=123 and read it back" in log
+    assert "app: the peer set param_0 (now 123)" in Path(str(data["console_log"])).read_text()
+
+    low = [*peer, "-D", "APP_LOW_MEM=1"]
+    proc = run_uros("probe", "--json", str(out), "--app", str(EXAMPLE), *low, check=False)
+    data = json.loads(proc.stdout)
+    assert proc.returncode == 5 and data["peer_status"] == 1, proc.stderr
+    log = Path(str(data["peer_log"])).read_text()
+    assert "peer: get_parameters: 6 values right, one name a request" in log
+    assert "peer: FAIL set: no answer in 20 s" in log
