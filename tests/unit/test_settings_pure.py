@@ -4,12 +4,13 @@ is read."""
 
 from __future__ import annotations
 
+from dataclasses import fields
 from pathlib import Path
 
 import pytest
 
 from uros_build.config import settings as rows
-from uros_build.config.buildargs import BuildArgs, build_settings
+from uros_build.config.buildargs import BuildArgs, build_settings, unmatched
 from uros_build.config.resolver import Chosen, resolve_one
 from uros_build.config.settings import SETTINGS, Setting
 from uros_build.errors import ConfigError
@@ -70,15 +71,15 @@ def test_an_empty_value_is_given_an_empty_list_is_not() -> None:
 
 # a row with all four places, to pin the order between the environment and uros.yaml (no shipped
 # row has both today)
-BOTH: Setting[str | None] = Setting("transport", "--transport", "transport", "UROS_T", None, "x", "test")
+BOTH: Setting[str | None] = Setting("transport", "--transport", "transport", rows.ENV, None, "x", "test")
 
 
 @pytest.mark.parametrize(
     ("flag", "env", "cfg", "expected"),
     [
-        ("udp", {"UROS_T": "custom"}, CFG, Chosen("udp", "--transport")),
-        (None, {"UROS_T": "custom"}, CFG, Chosen("custom", "$UROS_T")),
-        (None, {"UROS_T": ""}, CFG, Chosen("serial", "/ws/uros.yaml: transport")),  # empty: unset
+        ("udp", {"UROS_TRANSPORT": "custom"}, CFG, Chosen("udp", "--transport")),
+        (None, {"UROS_TRANSPORT": "custom"}, CFG, Chosen("custom", "$UROS_TRANSPORT")),
+        (None, {"UROS_TRANSPORT": ""}, CFG, Chosen("serial", "/ws/uros.yaml: transport")),  # empty: unset
         (None, {}, CFG, Chosen("serial", "/ws/uros.yaml: transport")),
         (None, {}, None, Chosen(None, "default")),
     ],
@@ -168,3 +169,35 @@ def test_the_distro_is_uros_yaml_s_and_none_without_a_line() -> None:
     no_line = WorkspaceConfig(target="cortex-m7")  # a plain colcon workspace's uros.yaml
     assert resolve_one(rows.DISTRO, {}, no_line, ROOT, {}) == Chosen(None, "default")
     assert resolve_one(rows.DISTRO, {"distro": "jazzy"}, CFG, ROOT, {}) == Chosen("jazzy", "--distro")
+
+
+def test_a_build_option_missing_from_the_table_or_from_buildargs_is_named() -> None:
+    """`uros build`'s options are made from the rows (issue 38 item 4): a BuildArgs field without a
+    row, or a row with an option and no field, is refused when config/buildargs.py is imported."""
+    assert (
+        unmatched(tuple(f.name for f in fields(BuildArgs) if f.name not in BuildArgs.DERIVED), SETTINGS) == []
+    )
+    row = Setting(
+        "shiny", "--shiny", None, None, False, "off", "a new switch", option=rows.CommandLine(kind="flag")
+    )
+    assert unmatched(("jobs", "shiny_typo"), (rows.JOBS, row)) == [
+        "BuildArgs.shiny_typo has no row with an option in config/settings.py",
+        "setting shiny has an option but no BuildArgs field",
+    ]
+
+
+def test_a_row_s_environment_variable_is_derived_from_its_name() -> None:
+    assert rows.HOST_STAGE.env == "UROS_HOST_STAGE"
+    assert (
+        Setting("new_thing", None, None, rows.ENV, None, "none", "x", commands=("probe",)).env
+        == "UROS_NEW_THING"
+    )
+    with pytest.raises(TypeError, match="UROS_NEW_THING"):
+        Setting("new_thing", None, None, "UROS_OTHER", None, "none", "x")
+    with pytest.raises(TypeError, match="needs a flag"):
+        Setting("new_thing", None, None, None, None, "none", "x", option=rows.CommandLine())
+
+
+def test_an_option_s_help_is_its_meaning_as_a_sentence_unless_it_says_more() -> None:
+    assert rows.FORCE.help == "Write into an --output folder holding other files (kept)."
+    assert rows.WORKSPACE.help == "The firmware workspace."

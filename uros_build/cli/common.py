@@ -1,5 +1,6 @@
 """What every command of the `uros` command line shares: the option and group classes (hidden old
-spellings, suggestions for typos), shell completion, the options spelled alike across commands
+spellings, suggestions for typos), shell completion, a settings row as its option (`uros build`'s
+options are made from the table, config/settings.py), the options spelled alike across commands
 (--toolchain, -w/--workspace, -o/--output) and table output."""
 
 from __future__ import annotations
@@ -14,6 +15,8 @@ from click.shell_completion import CompletionItem
 
 from uros_build import defaults
 from uros_build.commands import listings
+from uros_build.config import settings as rows
+from uros_build.config.settings import Setting
 from uros_build.errors import did_you_mean
 
 PATH_ARG = click.Path(path_type=Path)
@@ -75,6 +78,46 @@ def complete_sets(ctx: click.Context, param: click.Parameter, incomplete: str) -
     return matching(listings.set_candidates(ctx.params.get("workspace")), incomplete)
 
 
+_COMPLETIONS = {"targets": complete_targets, "packages": complete_packages, "sets": complete_sets}
+_TYPES: dict[str, Any] = {"text": None, "path": PATH_ARG, "int": int}
+
+
+def setting_option(setting: Setting[Any]) -> Decorator:
+    """A row of the settings table as its click option: its flag, its name (the keyword the callback
+    gets, a field of BuildArgs), its help (the meaning, or the option's own text) and the rest of
+    its ``option`` (config/settings.py CommandLine)."""
+    spec = setting.option
+    if spec is None or setting.flag is None:
+        raise TypeError(f"setting {setting.name} is no option")
+    spellings = [setting.flag] if spec.kind == "switch" else setting.flag.split("/")
+    extra: dict[str, Any] = {}
+    if spec.kind == "flag":
+        extra["is_flag"] = True
+    elif spec.kind == "switch":
+        extra["default"] = None
+    if spec.show_default:  # the value itself, or the words for a default that is no value
+        extra["default"] = setting.default
+        extra["show_default"] = True if setting.default is not None else setting.default_text
+    if spec.complete is not None:
+        extra["shell_complete"] = _COMPLETIONS[spec.complete]
+    return click.option(
+        *spellings, *spec.aliases, setting.name, cls=Option, aliases=spec.aliases, help=setting.help,
+        type=click.Choice(list(spec.choices)) if spec.choices else _TYPES[spec.type],
+        multiple=spec.multiple, metavar="|".join(spec.choices) or spec.metavar, **extra,
+    )  # fmt: skip
+
+
+def setting_options(table: tuple[Setting[Any], ...]) -> Decorator:
+    """Every row of ``table`` with an option, in the table's order (the order --help lists them)."""
+
+    def decorate(command: Callable[..., Any]) -> Callable[..., Any]:
+        for setting in reversed([s for s in table if s.option is not None]):
+            command = setting_option(setting)(command)
+        return command
+
+    return decorate
+
+
 def toolchain_option(help_text: str) -> Decorator:
     return click.option(
         "--toolchain", "--target", "toolchain", cls=Option, aliases=("--target",), help=help_text,
@@ -110,19 +153,11 @@ def mirror_override_option(repo_help: str) -> Decorator:
     )  # fmt: skip
 
 
-METAS = click.option(
-    "--meta", "metas", multiple=True, type=PATH_ARG, help="A colcon.meta merged on top (repeatable)."
-)
-SETS = click.option(
-    "--set", "sets", multiple=True, metavar="PKG.OPTION=VALUE", help="Set a CMake option of a package.",
-    shell_complete=complete_sets,
-)  # fmt: skip
-TRANSPORT = click.option(
-    "--transport", help="XRCE-DDS transport: custom, udp or serial (default: the target's)."
-)
-PRESET = click.option(
-    "--preset", default=defaults.PRESET, show_default=True, help="colcon.meta starting point (meta/presets/)."
-)
+# uros build's own, and meta write's: made from their rows
+METAS = setting_option(rows.METAS)
+SETS = setting_option(rows.SETS)
+TRANSPORT = setting_option(rows.TRANSPORT)
+PRESET = setting_option(rows.PRESET)
 # `--from` names the build output to copy; without it, --output is that output, rewritten in place.
 FROM = click.option(
     "--from", "source", type=PATH_ARG, help="A `uros build` output to copy (default: --output itself)."

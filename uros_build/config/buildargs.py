@@ -7,10 +7,11 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass, fields, replace
 from pathlib import Path
+from typing import Any, ClassVar
 
 from uros_build import defaults
 from uros_build.config.resolver import Chosen, Resolved, resolve, resolve_one, resolve_workspace
-from uros_build.config.settings import PRESET, SETTINGS, TARGETS
+from uros_build.config.settings import PRESET, SETTINGS, TARGETS, Setting
 from uros_build.errors import ConfigError
 from uros_build.sources.wsfiles import CONFIG, WorkspaceConfig, load_config
 
@@ -20,7 +21,12 @@ from uros_build.sources.wsfiles import CONFIG, WorkspaceConfig, load_config
 
 @dataclass(frozen=True)
 class BuildArgs:
-    """What the command line said, unvalidated (one field a row of the table, by its name)."""
+    """What the command line said, unvalidated: one field a row of the table with an ``option``
+    (cli/build.py passes click's values as they are, ``BuildArgs(**values)``), by its name, and the
+    fields a build sets itself (``DERIVED``). A field without a row, or a row without a field, is an
+    error when this module is imported (:func:`unmatched`)."""
+
+    DERIVED: ClassVar[tuple[str, ...]] = ("toolchain", "toolchain_from")  # not from the command line
 
     workspace: Path | None = None  # None: resolve_workspace's default
     toolchain: str | None = None
@@ -60,11 +66,26 @@ class BuildArgs:
         """The command line's values by row name (a flag left out: None, False or ())."""
         given: dict[str, object] = {f.name: getattr(self, f.name) for f in fields(self)}
         given["toolchains"] = self.toolchains or ((self.toolchain,) if self.toolchain else ())
-        for name in ("verbose", "force", "rebuild", "cache_upload"):  # on/off flags: off is "not given"
+        for name in _FLAGS:  # on/off flags: off is "not given"
             given[name] = True if given[name] else None
         # click fills in --preset's default: that value is the default's, whoever typed it
         given["preset"] = None if self.preset == PRESET.default else self.preset
         return given
+
+
+def unmatched(names: tuple[str, ...], rows: tuple[Setting[Any], ...]) -> list[str]:
+    """What keeps a record's fields (``names``) and the rows with an option apart: a field no row
+    names, a row no field takes (as cibuildwheel refuses an option its table does not list). Pure."""
+    options = [s.name for s in rows if s.option is not None]
+    return [
+        f"BuildArgs.{n} has no row with an option in config/settings.py" for n in names if n not in options
+    ] + [f"setting {n} has an option but no BuildArgs field" for n in options if n not in names]
+
+
+_PROBLEMS = unmatched(tuple(f.name for f in fields(BuildArgs) if f.name not in BuildArgs.DERIVED), SETTINGS)
+if _PROBLEMS:
+    raise TypeError("; ".join(_PROBLEMS))
+_FLAGS = tuple(s.name for s in SETTINGS if s.option is not None and s.option.kind == "flag")
 
 
 def expand_targets(args: BuildArgs) -> tuple[BuildArgs, ...]:

@@ -37,6 +37,31 @@ T = TypeVar("T")
 DEFAULT = "default"  # the source of a value no one gave
 
 
+ENV = "UROS_<NAME>"  # a row's environment variable: UROS_ and the row's name in capitals
+
+
+@dataclass(frozen=True)
+class CommandLine:
+    """How `uros build` offers a row on its command line: what click needs besides the row's
+    ``flag`` (its spelling), ``name`` (the option's and BuildArgs' field) and ``meaning`` (the help).
+    cli/build.py makes the options from these, in the table's order; config/buildargs.py refuses, at
+    import, a BuildArgs field without such a row or such a row without a field."""
+
+    kind: str = "value"  # "value"; "flag": on when given; "switch": --x/--no-x (None when neither)
+    type: str = "text"  # "text", "path" or "int"
+    choices: tuple[str, ...] = ()  # the only values it takes (its metavar: them, with |)
+    multiple: bool = False  # repeatable: a tuple of every value given
+    metavar: str | None = None  # the value's name in --help (None: click's, from the type)
+    complete: str | None = None  # what the shell completes: "targets", "packages" or "sets"
+    help: str | None = None  # the --help text (None: the meaning as a sentence)
+    aliases: tuple[str, ...] = ()  # old spellings that still work, out of --help
+    show_default: bool = False  # --help says the default (its default_text)
+
+    def __post_init__(self) -> None:
+        if self.kind not in ("value", "flag", "switch") or self.type not in ("text", "path", "int"):
+            raise TypeError(f"CommandLine: kind {self.kind!r} or type {self.type!r} is none uros knows")
+
+
 @dataclass(frozen=True)
 class Setting(Generic[T]):
     """One row of the table: where a setting can be given, its default and what it means."""
@@ -44,7 +69,7 @@ class Setting(Generic[T]):
     name: str  # the field of BuildArgs it comes from on the command line (and its name in `-v`)
     flag: str | None  # the command line's spelling (None: no flag)
     key: str | None  # the uros.yaml key (None: none)
-    env: str | None  # the environment variable (None: none)
+    env: str | None  # the environment variable: ENV (UROS_<NAME>) or None
     default: T
     default_text: str  # the default as the docs and `-v` say it
     meaning: str
@@ -57,6 +82,29 @@ class Setting(Generic[T]):
     from_config: Callable[[WorkspaceConfig, Path], tuple[T, str] | None] | None = None
     # a default that depends on the environment (the XDG cache folder)
     default_from_env: Callable[[Mapping[str, str]], T] | None = None
+    # how `uros build` offers it (None: no option of uros build; its flag, if any, is another command's)
+    option: CommandLine | None = None
+
+    def __post_init__(self) -> None:
+        # the environment's name is the row's: one spelling, and none that drifts from the name
+        derived = f"UROS_{self.name.upper()}"
+        if self.env == ENV:
+            object.__setattr__(self, "env", derived)
+        elif self.env is not None and self.env != derived:
+            raise TypeError(
+                f"setting {self.name}: its environment variable is ENV ({derived}), not {self.env}"
+            )
+        if self.option is not None and (self.flag is None or "build" not in self.commands):
+            raise TypeError(
+                f"setting {self.name}: an option of uros build needs a flag and 'build' in commands"
+            )
+
+    @property
+    def help(self) -> str:
+        """The option's --help text: its own, else the meaning as a sentence."""
+        if self.option is not None and self.option.help is not None:
+            return self.option.help
+        return self.meaning[:1].upper() + self.meaning[1:] + "."
 
 
 _ON = ("on", "1", "true", "yes")
@@ -127,32 +175,58 @@ def _ros2_cache(env: Mapping[str, str]) -> Path:
 
 _TARGETED = ("build", "clean", "doctor", "info", "size", "probe")
 
-WORKSPACE: Setting[Path | None] = Setting(
-    "workspace", "-w/--workspace", None, None, None, defaults.WORKSPACE_HELP,
-    "the firmware workspace (a folder with mcu_ws/, or a colcon workspace)",
-    commands=("build", "clean", "doctor", "info", "size", "probe", "create-firmware", "update",
-              "add-package"),
-)  # fmt: skip
 TARGETS: Setting[tuple[str, ...]] = Setting(
     "toolchains", "--toolchain", "target / targets", None, (), "none: an error",
     "the target(s): a shipped target name, a profile file (.yaml, as --profile) or your own CMake "
     "toolchain file; several build one after the other, each into build/<target>",
     commands=_TARGETED, unless=("profile", "compiler_prefix", "cflags"), from_config=_targets_of,
+    option=CommandLine(
+        multiple=True, complete="targets", aliases=("--target",),
+        help="A target name (see `uros targets`) or your own CMake toolchain file; repeat it to build "
+        "several targets in one run (default: uros.yaml's target or targets).",
+    ),
 )  # fmt: skip
 PROFILE: Setting[Path | None] = Setting(
     "profile", "--profile", None, None, None, "none",
-    "your own target profile (.yaml) instead of a target name",
+    "your own target profile (.yaml; `uros targets show NAME` prints one to start from)",
+    option=CommandLine(type="path"),
 )  # fmt: skip
-COMPILER_PREFIX: Setting[str | None] = Setting(
-    "compiler_prefix", "--compiler-prefix", None, None, None, "the profile's",
-    "derive a target with this compiler prefix",
+WORKSPACE: Setting[Path | None] = Setting(
+    "workspace", "-w/--workspace", None, None, None, defaults.WORKSPACE_HELP,
+    "the firmware workspace (a folder with mcu_ws/, or a colcon workspace)",
+    commands=("build", "clean", "doctor", "info", "size", "probe", "create-firmware", "update",
+              "add-package"),
+    option=CommandLine(type="path", aliases=("--dir",), show_default=True, help="The firmware workspace."),
 )  # fmt: skip
-CFLAGS: Setting[tuple[str, ...]] = Setting(
-    "cflags", "--cflags", None, None, (), "none", "derive a target with these compiler flags (repeatable)"
-)
+METAS: Setting[tuple[Path, ...]] = Setting(
+    "metas", "--meta", None, None, (), "the workspace's colcon.meta",
+    "colcon.meta files merged on top: the workspace's colcon.meta first, then each --meta",
+    commands=("build", "meta write"),
+    option=CommandLine(type="path", multiple=True, help="A colcon.meta merged on top (repeatable)."),
+)  # fmt: skip
+SETS: Setting[tuple[str, ...]] = Setting(
+    "sets", "--set", "set", None, (), "none",
+    "PKG.OPTION=VALUE, CMake options of packages: uros.yaml's first, then --set's (adds up)",
+    commands=("build", "meta write"), adds=True,
+    option=CommandLine(
+        multiple=True, metavar="PKG.OPTION=VALUE", complete="sets", help="Set a CMake option of a package."
+    ),
+)  # fmt: skip
+PRESET: Setting[str] = Setting(
+    "preset", "--preset", None, None, defaults.PRESET, defaults.PRESET,
+    "the colcon.meta starting point (meta/presets/; the distro's own when it has one)",
+    commands=("build", "meta write"),
+    option=CommandLine(show_default=True, help="colcon.meta starting point (meta/presets/)."),
+)  # fmt: skip
+TRANSPORT: Setting[str | None] = Setting(
+    "transport", "--transport", "transport", None, None, "the target's",
+    "the XRCE-DDS transport: custom, udp or serial",
+    option=CommandLine(help="XRCE-DDS transport: custom, udp or serial (default: the target's)."),
+)  # fmt: skip
 OUTPUT: Setting[Path | None] = Setting(
-    "output", "-o/--output", None, None, None, "<workspace>/build/<target>", "the output folder"
-)
+    "output", "-o/--output", None, None, None, "<workspace>/build/<target>", "the output folder",
+    option=CommandLine(type="path", help="Output folder (default: <workspace>/build/<target>)."),
+)  # fmt: skip
 DISTRO: Setting[str | None] = Setting(
     "distro", "--distro", "distro", None, None,
     f"none: uros's own preset (create-firmware: {defaults.DISTRO})",
@@ -160,137 +234,188 @@ DISTRO: Setting[str | None] = Setting(
     "a build takes its colcon.meta preset",
     commands=("build", "update"), from_config=_distro_of,
 )  # fmt: skip
-TRANSPORT: Setting[str | None] = Setting(
-    "transport", "--transport", "transport", None, None, "the target's",
-    "the XRCE-DDS transport: custom, udp or serial",
-)  # fmt: skip
-PRESET: Setting[str] = Setting(
-    "preset", "--preset", None, None, defaults.PRESET, defaults.PRESET,
-    "the colcon.meta starting point (meta/presets/; the distro's own when it has one)",
-    commands=("build", "meta write"),
-)  # fmt: skip
-METAS: Setting[tuple[Path, ...]] = Setting(
-    "metas", "--meta", None, None, (), "the workspace's colcon.meta",
-    "colcon.meta files merged on top: the workspace's colcon.meta first, then each --meta",
-    commands=("build", "meta write"),
-)  # fmt: skip
-SETS: Setting[tuple[str, ...]] = Setting(
-    "sets", "--set", "set", None, (), "none",
-    "PKG.OPTION=VALUE, CMake options of packages: uros.yaml's first, then --set's (adds up)",
-    commands=("build", "meta write"), adds=True,
-)  # fmt: skip
 PACKAGES: Setting[tuple[str, ...]] = Setting(
     "packages", "--packages", "packages", None, (), "every package",
     "what the firmware wants (the core and the extra packages are added); not read from uros.yaml "
     "with --for-firmware",
     unless=("for_firmware",),
+    option=CommandLine(
+        multiple=True, metavar="PKG", complete="packages",
+        help="The packages the firmware wants (repeatable); the core and the extra packages are added, "
+        "and only their closure is built (default: uros.yaml's packages:, else every package).",
+    ),
 )  # fmt: skip
 FOR_FIRMWARE: Setting[Path | None] = Setting(
     "for_firmware", "--for-firmware", None, None, None, "none",
     "build what the firmware's C/C++ sources in this folder use",
+    option=CommandLine(
+        type="path", metavar="DIR",
+        help="Build what the firmware in DIR uses: the interface packages its C/C++ sources include "
+        "(<pkg/msg/...>) or take type support of, plus the core and the extra packages.",
+    ),
 )  # fmt: skip
 PACKAGES_UP_TO: Setting[tuple[str, ...]] = Setting(
     "packages_up_to", "--packages-up-to", None, None, (), "none",
-    "exactly these packages and their dependencies (colcon's)",
+    "build exactly these packages and their dependencies (colcon's)",
+    option=CommandLine(multiple=True, complete="packages"),
 )  # fmt: skip
 JOBS: Setting[int | None] = Setting(
-    "jobs", "-j/--jobs", None, None, None, "colcon's", "packages built in parallel"
-)
+    "jobs", "-j/--jobs", None, None, None, "colcon's",
+    "packages built in parallel (colcon --parallel-workers)",
+    option=CommandLine(type="int"),
+)  # fmt: skip
+COMPILER_PREFIX: Setting[str | None] = Setting(
+    "compiler_prefix", "--compiler-prefix", None, None, None, "the profile's",
+    "derive a target: this compiler prefix (e.g. arm-none-eabi-) instead of the profile's",
+    option=CommandLine(),
+)  # fmt: skip
+CFLAGS: Setting[tuple[str, ...]] = Setting(
+    "cflags", "--cflags", None, None, (), "none",
+    "derive a target: one more compiler flag (repeatable; one flag each, never split)",
+    option=CommandLine(multiple=True, metavar="FLAG"),
+)  # fmt: skip
 IDF_BUILD: Setting[Path | None] = Setting(
     "idf_build", "--idf-build", "idf_build", None, None, "none",
     "an ESP-IDF project's build folder to compile against (uros.yaml's: for an ESP-IDF target only, "
     "relative to the workspace)",
     from_config=_idf_build_of,
+    option=CommandLine(
+        type="path", metavar="DIR",
+        help="An ESP-IDF project's build folder (after idf.py reconfigure): compile micro-ROS against "
+        "its components, sdkconfig.h and C flags (default: uros.yaml's idf_build).",
+    ),
 )  # fmt: skip
 RTOS: Setting[str | None] = Setting(
     "rtos", "--rtos", "rtos", None, None, "none (bare metal)",
     "the RTOS micro-ROS is compiled against: freertos (needs rtos_dir and rtos_config; docs/rtos.md)",
+    option=CommandLine(
+        choices=("freertos",),
+        help="Compile micro-ROS against an RTOS: freertos, with --rtos-dir and --rtos-config "
+        "(default: uros.yaml's rtos:; docs/rtos.md).",
+    ),
 )  # fmt: skip
 RTOS_DIR: Setting[Path | None] = Setting(
     "rtos_dir", "--rtos-dir", "rtos_dir", None, None, "none",
     "the RTOS kernel's folder (FreeRTOS-Kernel: holds include/FreeRTOS.h and portable/; uros.yaml's: "
     "relative to the workspace)",
     from_config=_rtos_folder("rtos_dir"),
+    option=CommandLine(
+        type="path", metavar="KERNEL",
+        help="The FreeRTOS-Kernel folder (holds include/FreeRTOS.h and portable/).",
+    ),
 )  # fmt: skip
 RTOS_CONFIG: Setting[Path | None] = Setting(
     "rtos_config", "--rtos-config", "rtos_config", None, None, "none",
     "the folder holding your FreeRTOSConfig.h (uros.yaml's: relative to the workspace)",
     from_config=_rtos_folder("rtos_config"),
+    option=CommandLine(type="path", metavar="DIR", help="The folder holding your FreeRTOSConfig.h."),
 )  # fmt: skip
 RTOS_PORT: Setting[str | None] = Setting(
     "rtos_port", "--rtos-port", "rtos_port", None, None, "the core's (meta/rtos/freertos.yaml)",
-    "the kernel's port folder under portable/ (GCC/ARM_CM4F), or an absolute folder",
+    "the kernel's port folder under portable/ (e.g. GCC/ARM_CM4F), or an absolute folder "
+    "(default: the core's, meta/rtos/freertos.yaml)",
+    option=CommandLine(metavar="PORT"),
 )  # fmt: skip
 IP_STACK: Setting[str | None] = Setting(
     "ip_stack", "--ip-stack", "ip_stack", None, None, "none",
     "the IP stack the udp transport is compiled against: lwip or freertos-tcp (needs an RTOS, "
     "ip_stack_dir and ip_stack_config; docs/network.md)",
+    option=CommandLine(
+        choices=("lwip", "freertos-tcp"),
+        help="Compile the udp transport against an IP stack: lwip or freertos-tcp, with --ip-stack-dir and "
+        "--ip-stack-config (needs --rtos; default: uros.yaml's ip_stack:; docs/network.md).",
+    ),
 )  # fmt: skip
 IP_STACK_DIR: Setting[Path | None] = Setting(
     "ip_stack_dir", "--ip-stack-dir", "ip_stack_dir", None, None, "none",
     "the IP stack's folder (lwIP: holds src/include/lwip/ and contrib/; FreeRTOS+TCP: source/; "
     "uros.yaml's: relative to the workspace)",
     from_config=_rtos_folder("ip_stack_dir"),
+    option=CommandLine(
+        type="path", metavar="DIR",
+        help="The stack's folder (lwIP: src/include/lwip/, contrib/; FreeRTOS+TCP: source/).",
+    ),
 )  # fmt: skip
 IP_STACK_CONFIG: Setting[Path | None] = Setting(
     "ip_stack_config", "--ip-stack-config", "ip_stack_config", None, None, "none",
     "the folder holding your lwipopts.h and arch/cc.h, or FreeRTOSIPConfig.h (uros.yaml's: relative to "
     "the workspace)",
     from_config=_rtos_folder("ip_stack_config"),
+    option=CommandLine(
+        type="path", metavar="DIR", help="The folder of your lwipopts.h and arch/cc.h, or FreeRTOSIPConfig.h."
+    ),
 )  # fmt: skip
 CACHE: Setting[str | None] = Setting(
     "cache", "--cache", "cache", None, None, "none",
     "the team cache of outputs: file:///DIR or http(s)://...; none: no cache for this build",
+    option=CommandLine(
+        metavar="URL",
+        help="A team cache of outputs: file:///DIR or http(s)://HOST/PATH (GET/PUT: nginx WebDAV, "
+        "bazel-remote, Artifactory...). An output built elsewhere with the same build key is taken "
+        "from it, checked, instead of building (default: uros.yaml's cache:; none: no cache).",
+    ),
 )  # fmt: skip
 CACHE_TIMEOUT: Setting[float] = Setting(
-    "cache_timeout", None, None, "UROS_CACHE_TIMEOUT", TIMEOUT_SECONDS, f"{TIMEOUT_SECONDS:g} seconds",
+    "cache_timeout", None, None, ENV, TIMEOUT_SECONDS, f"{TIMEOUT_SECONDS:g} seconds",
     "how long an HTTP team cache may stay silent (seconds; more than 0, less than a day)",
     from_env=_seconds,
 )  # fmt: skip
 CACHE_UPLOAD: Setting[bool] = Setting(
-    "cache_upload", "--cache-upload", None, None, False, "off", "upload this build's output to the team cache"
-)
+    "cache_upload", "--cache-upload", None, None, False, "off",
+    "upload this build's output to the team cache",
+    option=CommandLine(
+        kind="flag",
+        help="Upload this build's output to the cache (CI); without it the cache is only read. "
+        "Credentials: $UROS_CACHE_TOKEN or ~/.netrc, never in the URL.",
+    ),
+)  # fmt: skip
 CCACHE: Setting[bool | None] = Setting(
-    "ccache", "--ccache/--no-ccache", None, None, None, "when installed", "compile through ccache"
-)
+    "ccache", "--ccache/--no-ccache", None, None, None, "when installed",
+    "compile through ccache (default: when it is installed); the library is the same either way",
+    option=CommandLine(kind="switch"),
+)  # fmt: skip
 FORCE: Setting[bool] = Setting(
-    "force", "--force", None, None, False, "off", "write into an --output folder holding other files"
-)
+    "force", "--force", None, None, False, "off", "write into an --output folder holding other files (kept)",
+    option=CommandLine(kind="flag"),
+)  # fmt: skip
 REBUILD: Setting[bool] = Setting(
-    "rebuild", "--rebuild", None, None, False, "off", "run every step even when no input changed"
-)
+    "rebuild", "--rebuild", None, None, False, "off",
+    "run every step even when no input changed (the cache is not read)",
+    option=CommandLine(kind="flag"),
+)  # fmt: skip
 VERBOSE: Setting[bool] = Setting(
     "verbose", "-v/--verbose", None, None, False, "off",
-    "stream the tools' output; print these settings and where each came from",
+    "print every setting in force and who chose it (docs/settings.md), and stream the tools' output",
+    option=CommandLine(kind="flag"),
 )  # fmt: skip
 HOST_STAGE: Setting[bool] = Setting(
-    "host_stage", None, None, "UROS_HOST_STAGE", True, "on",
+    "host_stage", None, None, ENV, True, "on",
     "off (or 0, false, no): configure and install every package for each target (no host stage; "
     "docs/cache.md)",
     from_env=_switch,
 )  # fmt: skip
 COMPILER_SEED: Setting[bool] = Setting(
-    "compiler_seed", None, None, "UROS_COMPILER_SEED", True, "on",
+    "compiler_seed", None, None, ENV, True, "on",
     "off (or 0, false, no): every package's configure finds the compilers itself",
     from_env=_switch,
 )  # fmt: skip
 GEN_CACHE: Setting[bool] = Setting(
-    "gen_cache", None, None, "UROS_GEN_CACHE", True, "on",
+    "gen_cache", None, None, ENV, True, "on",
     "off (or 0, false, no): every generator run and configure call runs as CMake asks (no generation cache)",
     from_env=_switch,
 )  # fmt: skip
 GEN_CACHE_DIR: Setting[Path] = Setting(
-    "gen_cache_dir", None, None, "UROS_GEN_CACHE_DIR", Path("~/.cache/uros/gen"),
+    "gen_cache_dir", None, None, ENV, Path("~/.cache/uros/gen"),
     "$XDG_CACHE_HOME/uros/gen (~/.cache/uros/gen)",
     "the user's generation and configure-call cache, shared by every workspace",
     from_env=_path, default_from_env=_user_cache,
 )  # fmt: skip
 AGENT: Setting[str | None] = Setting(
-    "agent", "--agent", None, "UROS_AGENT", None, "none", "the MicroXRCEAgent program `uros probe` runs",
+    "agent", "--agent", None, ENV, None, "none", "the MicroXRCEAgent program `uros probe` runs",
     commands=("probe", "doctor"),
 )  # fmt: skip
 ROS2_VENV: Setting[Path] = Setting(
-    "ros2_venv", None, None, "UROS_ROS2_VENV", Path("~/.cache/uros/ros2"),
+    "ros2_venv", None, None, ENV, Path("~/.cache/uros/ros2"),
     "$XDG_CACHE_HOME/uros/ros2 (~/.cache/uros/ros2)",
     "where `uros probe --peer` keeps its ROS 2 environment (a venv of PyPI's ros-* wheels, one per set "
     "of pinned versions) and the host builds of the workspace's interface packages",
@@ -298,33 +423,30 @@ ROS2_VENV: Setting[Path] = Setting(
 )  # fmt: skip
 
 FREERTOS: Setting[str | None] = Setting(
-    "freertos", "--freertos", None, "UROS_FREERTOS", None, "none",
+    "freertos", "--freertos", None, ENV, None, "none",
     "a FreeRTOS-Kernel checkout: `uros probe --freertos DIR` runs the probe firmware on FreeRTOS; "
     "$UROS_FREERTOS names the kernel only when a FreeRTOS library's own is gone",
     commands=("probe",),
 )  # fmt: skip
 LWIP: Setting[str | None] = Setting(
-    "lwip", None, None, "UROS_LWIP", None, "none",
+    "lwip", None, None, ENV, None, "none",
     "an lwIP tree: `uros probe` of a library built with --ip-stack lwip compiles it when the library's "
     "own lwIP folder is gone",
     commands=("probe",),
 )  # fmt: skip
 FREERTOS_TCP: Setting[str | None] = Setting(
-    "freertos_tcp", None, None, "UROS_FREERTOS_TCP", None, "none",
+    "freertos_tcp", None, None, ENV, None, "none",
     "a FreeRTOS+TCP tree: `uros probe` of a library built with --ip-stack freertos-tcp compiles it when "
     "the library's own folder is gone",
     commands=("probe",),
 )  # fmt: skip
 
-# The table, in the order `uros build -v` prints it and docs/settings.md lists it.
-SETTINGS: tuple[Setting[Any], ...] = (
-    WORKSPACE, TARGETS, PROFILE, COMPILER_PREFIX, CFLAGS, OUTPUT, DISTRO, TRANSPORT, PRESET, METAS, SETS,
-    PACKAGES, FOR_FIRMWARE, PACKAGES_UP_TO, JOBS, IDF_BUILD, RTOS, RTOS_DIR, RTOS_CONFIG, RTOS_PORT,
-    IP_STACK, IP_STACK_DIR, IP_STACK_CONFIG, CACHE, CACHE_TIMEOUT, CACHE_UPLOAD,
-    CCACHE, FORCE, REBUILD, VERBOSE, HOST_STAGE, COMPILER_SEED, GEN_CACHE, GEN_CACHE_DIR, AGENT,
-    ROS2_VENV,
-    FREERTOS, LWIP, FREERTOS_TCP,
-)  # fmt: skip
+# The table: every row above, in the order they are written, which is the order `uros build --help`
+# lists its options, `uros build -v` prints the settings and docs/settings.md lists them. A row
+# written here is in it: there is no second list to forget it in.
+SETTINGS: tuple[Setting[Any], ...] = tuple(v for v in dict(globals()).values() if isinstance(v, Setting))
+if len({s.name for s in SETTINGS}) != len(SETTINGS):
+    raise TypeError(f"two settings of one name: {sorted(s.name for s in SETTINGS)}")
 
 
 # ---------------------------------------------------------------------------------------------
