@@ -104,9 +104,8 @@ def test_the_library_s_interface_packages_the_venv_lacks_in_build_order() -> Non
 
 
 def test_the_host_build_argv_and_environment() -> None:
-    argv = peerenv.cmake_configure_argv(
-        "cmake", Path("/ws/eic"), Path("/b"), Path("/pre"), Path("/venv"), [Path("/dep")]
-    )
+    prefixes = peerenv.HostPrefixes(Path("/pre"), Path("/venv"), (Path("/dep"),))
+    argv = peerenv.cmake_configure_argv("cmake", Path("/ws/eic"), Path("/b"), prefixes)
     assert "-DCMAKE_PREFIX_PATH=/dep;/venv" in argv
     assert "-DCMAKE_INSTALL_PREFIX=/pre" in argv
     assert "-DPython3_EXECUTABLE=/venv/bin/python3" in argv

@@ -22,8 +22,7 @@ def prepare_peer(ctx: ProbeContext) -> PeerRun | None:
     source = ws.source_dir if ws is not None else None
     own = None
     if ws is not None and ws.extra_dir.is_dir():
-        own = [p.name for p in discover(ws.extra_dir)]
+        own = tuple(p.name for p in discover(ws.extra_dir))
     root = resolve_outside(ROS2_VENV).value
-    return peerenv.prepare(
-        ctx.runner, script.resolve(), root, source, own, info.packages, ctx.work / "peer.log"
-    )
+    interfaces = peerenv.PeerInterfaces(tuple(info.packages), source, own)
+    return peerenv.prepare(ctx.runner, script.resolve(), root, interfaces, ctx.work / "peer.log")

@@ -472,7 +472,8 @@ def _build_graph(runner: Runner, b: Build, work: Path, jobs: int) -> None:
     msgs = discover(src / MSGS)
     if len(msgs) != 1:
         raise StepFailed(f"{src / MSGS}: expected one package (micro_ros_msgs), found {len(msgs)}")
-    configure = peerenv.cmake_configure_argv(b.cmake, msgs[0].path, trees / MSGS, b.prefix, b.venv)
+    prefixes = peerenv.HostPrefixes(b.prefix, b.venv)
+    configure = peerenv.cmake_configure_argv(b.cmake, msgs[0].path, trees / MSGS, prefixes)
     _cmake(runner, b, [*configure, *b.generator], trees / MSGS, jobs, "micro_ros_msgs", env)
     unused = work / "unused-packages"
     for name in UNUSED_PACKAGES:

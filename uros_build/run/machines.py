@@ -169,9 +169,7 @@ def parse_machines(data: Any, source: str) -> dict[str, Machine]:
         item = loader.mapping(entry, where, {"board", "startup", "note", "other_boards"}, required=("board",))
         others = loader.mapping(item.get("other_boards"), f"{where}: other_boards")
         alternatives = tuple(
-            _machine(
-                str(target), str(name), other, boards, f"{where}: other_boards.{name}", {"startup", "note"}
-            )
+            _other_board(str(target), str(name), other, boards, f"{where}: other_boards.{name}")
             for name, other in others.items()
         )
         out[str(target)] = _machine(str(target), loader.string(item, "board", where), item, boards, where)
@@ -179,16 +177,16 @@ def parse_machines(data: Any, source: str) -> dict[str, Machine]:
     return out
 
 
+def _other_board(target: str, board: str, item: Any, boards: Mapping[str, Board], where: str) -> Machine:
+    """One of a target's other boards (`--board NAME`): its startup and note only."""
+    return replace(
+        _machine(target, board, loader.mapping(item, where, {"startup", "note"}), boards, where), chosen=True
+    )
+
+
 def _machine(
-    target: str,
-    board: str,
-    item: Mapping[str, Any],
-    boards: Mapping[str, Board],
-    where: str,
-    known: set[str] | None = None,
+    target: str, board: str, item: Mapping[str, Any], boards: Mapping[str, Board], where: str
 ) -> Machine:
-    if known is not None:
-        loader.mapping(item, where, known)
     if board not in boards:
         raise ConfigError(f"{where}: board: {board!r} is not one of the boards ({', '.join(sorted(boards))})")
     startup = loader.string_list(item, "startup", where)
@@ -198,7 +196,7 @@ def _machine(
     note = item.get("note", "")
     if not isinstance(note, str):
         raise ConfigError(f"{where}: note: must be a string, got {note!r}")
-    return Machine(target, boards[board].machine, boards[board], startup, note, chosen=known is not None)
+    return Machine(target, boards[board].machine, boards[board], startup, note)
 
 
 def load_machines() -> dict[str, Machine]:

@@ -232,13 +232,22 @@ def interfaces_key(venv_name: str, files: Mapping[str, bytes], deps: Iterable[st
     return digest(*parts)[:16]
 
 
-def cmake_configure_argv(
-    cmake: str, package: Path, build: Path, prefix: Path, venv: Path, deps: Sequence[Path] = ()
-) -> list[str]:
+@dataclass(frozen=True)
+class HostPrefixes:
+    """Where one interface package's host build installs, and what it is built against: the venv
+    (an ament prefix) and the prefixes of the interface packages it depends on."""
+
+    prefix: Path
+    venv: Path
+    deps: tuple[Path, ...] = ()
+
+
+def cmake_configure_argv(cmake: str, package: Path, build: Path, prefixes: HostPrefixes) -> list[str]:
     """The package's own CMakeLists.txt (ament_cmake + rosidl_generate_interfaces), unchanged,
-    installed into its own prefix, against the venv (an ament prefix) and the prefixes of the
-    interface packages it depends on (pure)."""
-    search = ";".join(str(p) for p in (*deps, venv))
+    installed into its own prefix, against the venv and the prefixes of the interface packages it
+    depends on (pure)."""
+    prefix, venv = prefixes.prefix, prefixes.venv
+    search = ";".join(str(p) for p in (*prefixes.deps, venv))
     return [
         cmake, "-S", str(package), "-B", str(build), "-DCMAKE_BUILD_TYPE=Release",
         f"-DCMAKE_PREFIX_PATH={search}", f"-DCMAKE_INSTALL_PREFIX={prefix}",
@@ -268,14 +277,13 @@ def build_interfaces(
         deps = sorted(package.build_deps & prefixes.keys())
         keys[package.name] = interfaces_key(venv.name, package_files(package.path), (keys[d] for d in deps))
         prefix = root / "interfaces" / f"{package.name}-{venv.name}-{keys[package.name]}"
-        _build_interface(runner, venv, package, prefix, [prefixes[d] for d in deps], jobs)
+        _build_interface(runner, package, HostPrefixes(prefix, venv, tuple(prefixes[d] for d in deps)), jobs)
         prefixes[package.name] = prefix
     return list(prefixes.values())
 
 
-def _build_interface(
-    runner: Runner, venv: Path, package: PackageInfo, prefix: Path, deps: list[Path], jobs: int
-) -> None:
+def _build_interface(runner: Runner, package: PackageInfo, prefixes: HostPrefixes, jobs: int) -> None:
+    prefix, venv, deps = prefixes.prefix, prefixes.venv, prefixes.deps
     if (prefix / READY).is_file():
         console.info(f"{package.name} for the host: {prefix} (built before)")
         return
@@ -287,7 +295,7 @@ def _build_interface(
         cmake = runner.which("cmake")
         env = build_env(os.environ, venv, deps)
         build = prefix / "build"
-        runner.run(cmake_configure_argv(cmake, package.path, build, prefix, venv, deps), env=env,
+        runner.run(cmake_configure_argv(cmake, package.path, build, prefixes), env=env,
                    step=f"configure {package.name} for the host")  # fmt: skip
         runner.run(
             [cmake, "--build", str(build), "-j", str(jobs)],
@@ -396,18 +404,21 @@ def check_env(
         ) from None
 
 
-def prepare(
-    runner: Runner,
-    script: Path,
-    root: Path,
-    source_dir: Path | None,
-    own: Iterable[str] | None,
-    library: Iterable[str],
-    log: Path,
-) -> PeerRun:
-    """The peer's run: the venv (made or as before), the interface packages of the library that it
-    lacks built for the host (from ``source_dir``, the workspace's sources; None: an output outside
-    a workspace, the wheels' packages only), the argv and the environment."""
+@dataclass(frozen=True)
+class PeerInterfaces:
+    """Which interface packages the peer gets built for the host: those of the library (its
+    packages) that the wheels lack, from the workspace's sources (None: an output outside a
+    workspace, the wheels' packages only); ``own``: the workspace's own packages, else every one."""
+
+    library: tuple[str, ...]
+    source_dir: Path | None = None
+    own: tuple[str, ...] | None = None
+
+
+def prepare(runner: Runner, script: Path, root: Path, interfaces: PeerInterfaces, log: Path) -> PeerRun:
+    """The peer's run: the venv (made or as before), the interface packages it lacks built for the
+    host (``interfaces``), the argv and the environment."""
+    source_dir, own, library = interfaces.source_dir, interfaces.own, interfaces.library
     root = cache_root(root)
     wanted: list[PackageInfo] = []
     try:
