@@ -15,7 +15,7 @@ import pytest
 from fixture_ws import add_message_package, add_plain_package
 from uros_helpers import need, run_uros
 
-pytestmark = pytest.mark.integration
+pytestmark = [pytest.mark.integration, pytest.mark.colcon]  # it builds its own fixture library
 
 # rmw_microxrcedds' pools in their shape (rmw_microxrcedds_c/src/types.c: an array of
 # RMW_UXRCE_MAX_<KIND> slots each), with the fixture's slot sizes, and the configured header its

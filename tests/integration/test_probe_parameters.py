@@ -22,6 +22,7 @@ HUMBLE_WS = os.environ.get("UROS_HUMBLE_WS")
 PACKAGES = ("rclc_parameter", "std_msgs", "example_interfaces")
 pytestmark = [
     pytest.mark.integration,
+    pytest.mark.colcon,  # each test builds a real Humble library
     pytest.mark.skipif(
         not (
             HUMBLE_WS
