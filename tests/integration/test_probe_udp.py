@@ -133,3 +133,17 @@ def test_seed_001_s_app_finds_the_agent_at_the_library_s_default_address(udp_lib
     )  # fmt: skip
     report = json.loads(proc.stdout)
     assert proc.returncode == 0 and report["passed"], proc.stderr
+
+
+@_RUNS
+def test_no_agent_on_the_port_fails_as_no_agent_answered(udp_library: Path) -> None:
+    """A negative control: nothing answers on the agent's port (the agent program exits at once), so
+    the firmware's pings over UDP go unanswered and the session stage fails by name."""
+    true = shutil.which("true")
+    assert true
+    proc = run_uros("probe", str(udp_library), "--json", "--agent", true, "--timeout", "240", check=False)
+    report = json.loads(proc.stdout)
+    assert proc.returncode == 5 and not report["passed"]
+    assert report["stages"]["session"]["result"] == "fail", report["stages"]
+    assert "no agent answered" in report["stages"]["session"]["detail"]
+    assert "stage session failed: no agent answered" in proc.stderr
