@@ -141,7 +141,7 @@ def test_no_agent_on_the_port_fails_as_no_agent_answered(udp_library: Path) -> N
     the firmware's pings over UDP go unanswered and the session stage fails by name."""
     true = shutil.which("true")
     assert true
-    proc = run_uros("probe", str(udp_library), "--json", "--agent", true, "--timeout", "240", check=False)
+    proc = run_uros("probe", str(udp_library), "--json", "--agent", true, "--timeout", "600", check=False)
     report = json.loads(proc.stdout)
     assert proc.returncode == 5 and not report["passed"]
     assert report["stages"]["session"]["result"] == "fail", report["stages"]
