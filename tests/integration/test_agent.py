@@ -194,3 +194,35 @@ def test_the_board_is_in_the_ros_graph_with_micro_ros_agent_and_not_with_the_pla
     assert proc.returncode == 5, proc.stderr
     line = _one_error(proc)
     assert "stage graph failed: node /uros_probe not in the ROS graph: the agent is MicroXRCEAgent" in line
+
+
+# ---------------------------------------------------------------------------------------------
+# a link that drops (issue 40 item 4): the same needs as the graph stage but root
+
+
+def test_a_link_plan_that_is_no_plan_is_one_line() -> None:
+    proc = run_uros("probe", "--link", "loss=110%", check=False)
+    assert proc.returncode == 2 and "--link: loss=110%: a rate is 0-100% or 0-1" in _one_error(proc)
+
+
+@pytest.mark.skipif(
+    not (HUMBLE_WS and shutil.which("qemu-system-arm") and (ROS2_VENV or os.environ.get("UROS_AGENT"))),
+    reason="set UROS_HUMBLE_WS (a built humble workspace with cortex-m7) and an agent (UROS_AGENT, or "
+    "UROS_ROS2_VENV with one `uros agent build` made); install qemu-system-arm",
+)
+def test_reliable_samples_arrive_whole_over_a_link_that_loses_one_frame_in_ten() -> None:
+    assert HUMBLE_WS
+    out = Path(HUMBLE_WS) / "build" / "cortex-m7"
+    env = {k: v for k, v in os.environ.items()}
+    proc = run_uros(
+        "probe", str(out), "--link", "loss=10%,delay=50-150,seed=7", "--json", env=env, check=False
+    )
+    report = json.loads(proc.stdout)
+    link = report["link"]
+    assert link["plan"] == "loss 10%, corrupt 0%, duplicate 0%, reorder 0%, delay 50-150 ms each way, seed 7"
+    for way in ("board_to_agent", "agent_to_board"):
+        assert link[way]["frames"] > 50 and 0 < link[way]["lost"] < link[way]["frames"] / 4, link
+    stages = report["stages"]
+    for name in ("session", "samples", "fragmentation"):  # reliable streams retransmit what was lost
+        assert stages[name]["result"] == "pass", (name, stages[name])
+    assert "came back" in stages["samples"]["detail"]

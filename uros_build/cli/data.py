@@ -186,6 +186,11 @@ def export_arduino(output: Path, sources: tuple[Path, ...]) -> None:
 )  # fmt: skip
 @click.option("--board", help="Another QEMU board of the target (meta/probe/machines.yaml), e.g. microbit.")
 @click.option(
+    "--link", metavar="FAULTS",
+    help="A serial link that drops: a seeded relay between QEMU and the agent, e.g. "
+    "loss=10%,delay=50-150,seed=7 (also corrupt=, duplicate=, reorder=).",
+)  # fmt: skip
+@click.option(
     "--graph", is_flag=True,
     help="Add the graph stage: an rclpy peer sees the board's node and topics (micro_ros_agent; root).",
 )  # fmt: skip
@@ -204,6 +209,7 @@ def probe(
     freertos: str | None,
     board: str | None,
     graph: bool,
+    link: str | None,
     verbose: bool,
 ) -> None:
     """Run a built library: boot a probe firmware (or your --app) in QEMU against a real XRCE-DDS Agent."""
@@ -211,7 +217,7 @@ def probe(
         probe_cmd.ProbeRequest(
             output=output, workspace=workspace, toolchain=toolchain, agent=agent, timeout=timeout,
             as_json=as_json, verbose=verbose, peer=peer, freertos=freertos, board=board,
-            app=probe_cmd.app_request(app, defines, duration), graph=graph,
+            app=probe_cmd.app_request(app, defines, duration), graph=graph, link=link,
         )
     )  # fmt: skip
 

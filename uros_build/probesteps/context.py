@@ -15,6 +15,7 @@ from uros_build.run.app import AppPlan
 from uros_build.run.freertos import FreeRtos
 from uros_build.run.machines import Machine
 from uros_build.run.network import Network
+from uros_build.run.relay import FaultPlan
 
 
 @dataclass(frozen=True)
@@ -42,6 +43,7 @@ class ProbeRequest:
     board: str | None = None
     app: AppRequest | None = None
     graph: bool = False  # --graph: the graph stage, with uros's own peer (run/graph.py)
+    link: str | None = None  # --link FAULTS: a relay that drops between QEMU and the agent (run/relay.py)
 
 
 @dataclass(frozen=True)
@@ -55,6 +57,7 @@ class ProbePlan:
     base: Path  # the folder of the probe's locks and work folders (run/report.py probe_base)
     app: AppPlan | None  # --app: the app; None: the probe firmware
     peer: Path | None = None  # the peer's script: --peer's, or --graph's own
+    link: FaultPlan | None = None  # --link, parsed
 
 
 @dataclass(frozen=True)

@@ -20,6 +20,7 @@ from uros_build.run import freertos as freertos_mod
 from uros_build.run import graph as graph_mod
 from uros_build.run import machines as probe_mod
 from uros_build.run import netns, peerenv
+from uros_build.run import relay as relay_mod
 from uros_build.run import stages as stages_mod
 from uros_build.run.report import probe_base
 from uros_build.sources.workspace import workspace_of_output
@@ -32,6 +33,7 @@ MIN_TIMEOUT = 1.0
 def plan_probe(request: ProbeRequest) -> ProbePlan:
     """The request checked, and the output, the board and the kernel it names found."""
     check_timeout(request.timeout)
+    faults = relay_mod.parse_plan(request.link) if request.link is not None else None  # --link
     app, peer = request.app, request.peer
     if request.graph:  # the graph stage's peer is uros's own (run/graph.py)
         peer = check_graph(peer, app is not None, os.geteuid())
@@ -58,7 +60,7 @@ def plan_probe(request: ProbeRequest) -> ProbePlan:
         stages_mod.check_packages(info.packages, out, info.target, ws.root if ws is not None else None)
     machine = probe_mod.machine_for(info.target, probe_mod.load_machines(), request.board)
     rtos = _freertos(info, request.freertos)
-    return ProbePlan(out, info, machine, rtos, probe_base(out, info.target), plan, peer)
+    return ProbePlan(out, info, machine, rtos, probe_base(out, info.target), plan, peer, faults)
 
 
 def app_request(folder: Path | None, defines: tuple[str, ...], duration: float | None) -> AppRequest | None:

@@ -41,6 +41,8 @@ class ProbeReport:
     passed: bool = False
     peer_log: str | None = None
     pcap: str | None = None  # over UDP: the board's frames (QEMU's filter-dump); None: the serial link
+    # --link: the plan and the relay's counts each way (frames, lost, corrupted, duplicated, reordered)
+    link: dict[str, object] | None = None
 
 
 @dataclass(frozen=True)
@@ -92,6 +94,7 @@ def probe_report(ctx: ProbeContext, tools: Tools, firmware: Firmware, ran: Sessi
         peer_log=str(ran.peer_log) if ran.peer_log else None,
         passed=ok,
         pcap=str(pcap) if pcap is not None else None,
+        link={"plan": plan.link.describe(), **ran.link} if plan.link is not None and ran.link else None,
     )
     # its bytes' sha256, not build-info's
     write_report(ctx.work, asdict(report), plan.out / plan.info.library.file)

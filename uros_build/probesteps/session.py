@@ -4,6 +4,7 @@ firmware ends or the timeout (run/session.py)."""
 from __future__ import annotations
 
 from uros_build import console
+from uros_build.errors import ConfigError
 from uros_build.probesteps.context import Firmware, ProbeContext, Tools
 from uros_build.run import app as app_mod
 from uros_build.run import network as network_mod
@@ -20,10 +21,17 @@ def run(ctx: ProbeContext, tools: Tools, peer: PeerRun | None, firmware: Firmwar
     pcap = ctx.work / network_mod.PCAP if network is not None else None
     udp_port = firmware.port if network is not None else None
     timeout = ctx.request.timeout
+    link = plan.link
+    if link is not None:
+        if network is not None:
+            raise ConfigError(
+                "--link: the relay is the serial link's; this library runs over UDP", "drop --link"
+            )
+        console.info(f"the link: a relay between QEMU and the agent ({link.describe()})")
     if plan.app is None:
         if middleware == "ced":
             console.info(f"not root: the agent runs its CED middleware (no network namespace); {CED}")
-        spec = SessionSpec(middleware=middleware, restart_agent=True, udp_port=udp_port, pcap=pcap)
+        spec = SessionSpec(middleware=middleware, restart_agent=True, udp_port=udp_port, pcap=pcap, link=link)
     else:
         timeout = app_mod.session_timeout(timeout, plan.app.duration_ms)
         # without root (no namespace to run DDS in) the agent's CED middleware, as for the built-in
@@ -32,7 +40,7 @@ def run(ctx: ProbeContext, tools: Tools, peer: PeerRun | None, firmware: Firmwar
         note = network_mod.default_address_note(options or {}, firmware.port) if network is not None else None
         if note:
             console.info(note)
-        spec = SessionSpec(middleware=middleware, udp_port=udp_port, pcap=pcap)
+        spec = SessionSpec(middleware=middleware, udp_port=udp_port, pcap=pcap, link=link)
         if middleware == "ced":
             console.info(f"not root: the agent runs its CED middleware (no network namespace): {NO_SERVICES}")
     what = SessionRun(tools.qemu, tools.agent, plan.machine, firmware.elf, ctx.work, timeout)

@@ -15,6 +15,7 @@ from uros_build.run import app as app_mod
 from uros_build.run import freertos as freertos_mod
 from uros_build.run import machines as probe_mod
 from uros_build.run import network as network_mod
+from uros_build.run import relay as relay_mod
 from uros_build.run import stages as stages_mod
 
 
@@ -44,6 +45,8 @@ def say_probe(ctx: ProbeContext, run: ProbeRun) -> ProbeReport:
         console.info(network_mod.describe_run(ran.console, ctx.work / network_mod.PCAP))
     if run.limits:
         console.info(probe_mod.describe_limits(run.limits))
+    if ran.link is not None:
+        console.info(f"the link: {relay_mod.describe_counts(ran.link)}")
     return report
 
 

@@ -24,6 +24,7 @@ from uros_build import console
 from uros_build.errors import StepFailed
 from uros_build.proc import Background, Runner, stop_leftovers, stop_processes
 from uros_build.run import machines, netns
+from uros_build.run.relay import FaultPlan, Relay
 from uros_build.run.stages import ConsoleLine
 
 # How long the agent outlives the firmware while a peer runs: the firmware's last samples (sent
@@ -45,6 +46,7 @@ class SessionSpec:
     # the board's NIC (in the run's namespace when there is one) and its frames recorded in pcap
     udp_port: int | None = None
     pcap: Path | None = None
+    link: FaultPlan | None = None  # serial: a relay between QEMU's pty and the agent (run/relay.py)
 
 
 # rmw_microxrcedds (humble) keeps the agent's port in char agent_port[MAX_PORT_LEN], MAX_PORT_LEN 5
@@ -148,6 +150,7 @@ class Session:
     peer_log: Path | None = None  # None: no peer ran
     lines: tuple[ConsoleLine, ...] = ()  # the console as it appeared
     restarts: tuple[tuple[float, float], ...] = ()  # host times: the agent stopped, started again
+    link: dict[str, dict[str, int]] | None = None  # the relay's counts per direction (spec.link)
 
 
 class _Console:
@@ -249,6 +252,7 @@ def run_session(
             holder.stop()
         raise
     agents: list[Background] = []
+    relay: Relay | None = None
     peer_proc = None
     peer_status = None
     lines: list[ConsoleLine] = []
@@ -263,6 +267,10 @@ def run_session(
                     f"QEMU {machine.machine} did not open the firmware's link (no pseudo-terminal)",
                     f"its output is in {qemu_log}",
                 )
+            if spec.link is not None:  # the agent on the relay's pty, the relay on QEMU's
+                relay = Relay(pty, spec.link).start()
+                runner.log(f"the link: a relay {pty} <-> {relay.agent_pty} ({spec.link.describe()})")
+                pty = relay.agent_pty
             agent_argv = machines.agent_argv(agent_program, pty, middleware)
         if holder is not None:  # Fast DDS in the namespace: the peer's participants find the agent's
             agent_argv = netns.enter_argv(holder.proc.pid, agent_argv)
@@ -305,6 +313,8 @@ def run_session(
         for proc in (peer_proc, *agents, holder):
             if proc is not None:
                 proc.stop()
+        if relay is not None:
+            relay.stop()
         _stop_the_rest(runner, namespace)
     seconds = time.monotonic() - started
     if machine.board.console_stdout and qemu_log.is_file():  # console.log as on every machine
@@ -319,5 +329,5 @@ def run_session(
     return Session(
         status, seconds, text, console_log, agent_log, qemu_log,
         peer_status=peer_status, peer_log=peer.log if peer is not None else None,
-        lines=tuple(lines), restarts=tuple(restarts),
+        lines=tuple(lines), restarts=tuple(restarts), link=relay.summary() if relay is not None else None,
     )  # fmt: skip
