@@ -20,7 +20,8 @@ def pytest_configure(config: pytest.Config) -> None:
 
 
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
-    """The tests marked serial first (their modules first, for --dist loadfile), in their order."""
+    """The modules with tests marked serial first, in their order (pytest-xdist keeps this order of
+    the modules with --no-loadscope-reorder: their serial tests run while the other modules wait)."""
     serial = {item.module.__name__ for item in items if item.get_closest_marker("serial") and item.module}
     items.sort(key=lambda item: item.module is None or item.module.__name__ not in serial)
 

@@ -21,13 +21,12 @@ from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from pathlib import Path
 
 import pytest
-from uros_helpers import need, run_uros
+from fixture_ws import fixture_build_args
+from uros_helpers import build_fixture, need, run_uros
 
 from uros_build.output import team_cache as cache
 
 pytestmark = pytest.mark.integration
-
-M7 = ["build", "--toolchain", "cortex-m7"]
 
 
 def _fresh_copy(seed: Path, where: Path) -> Path:
@@ -35,10 +34,6 @@ def _fresh_copy(seed: Path, where: Path) -> Path:
     shutil.copytree(seed / "mcu_ws", where / "mcu_ws")
     shutil.copy(seed / "fixture.meta", where / "fixture.meta")
     return where
-
-
-def _build(ws: Path, *more: str, env: dict[str, str] | None = None) -> subprocess.CompletedProcess[str]:
-    return run_uros(*M7, "--workspace", str(ws), "--meta", str(ws / "fixture.meta"), *more, env=env)
 
 
 def _key(ws: Path) -> str:
@@ -58,7 +53,7 @@ def seed(m7_build: Path) -> Path:
 
 def _upload_from(seed: Path, url: str, env: dict[str, str] | None = None) -> str:
     """The seed workspace, already built and up to date, uploaded to ``url``."""
-    done = _build(seed, "--cache", url, "--cache-upload", env=env)
+    done = build_fixture(seed, "--cache", url, "--cache-upload", env=env)
     assert "up to date" in done.stderr, done.stderr
     return done.stderr
 
@@ -73,7 +68,7 @@ def test_a_fresh_workspace_takes_the_library_from_a_file_cache(seed: Path, tmp_p
     assert f"already has entry {key[:16]}" in again
 
     ws = _fresh_copy(seed, tmp_path / "another checkout")
-    took = _build(ws, "--cache", store.as_uri())
+    took = build_fixture(ws, "--cache", store.as_uri())
     assert f"from the cache {store.as_uri()} (entry {key[:16]})" in took.stderr, took.stderr
     assert not (ws / ".uros" / "targets" / "cortex-m7" / "build").exists()  # colcon never ran
     assert _library(ws) == _library(seed)  # the bytes, not the message
@@ -83,12 +78,12 @@ def test_a_fresh_workspace_takes_the_library_from_a_file_cache(seed: Path, tmp_p
         f"from the cache  {store.as_uri()} (not built here)"
         in run_uros("info", str(ws / "build" / "cortex-m7")).stdout
     )
-    assert "up to date" in _build(ws, "--cache", store.as_uri()).stderr
+    assert "up to date" in build_fixture(ws, "--cache", store.as_uri()).stderr
     # taken from the cache, not built here: never uploaded back from this workspace
-    assert "uploaded" not in _build(ws, "--cache", store.as_uri(), "--cache-upload").stderr
+    assert "uploaded" not in build_fixture(ws, "--cache", store.as_uri(), "--cache-upload").stderr
 
     # another meta: another key, a miss, a real build (and its own entry once uploaded)
-    other = _build(
+    other = build_fixture(
         ws, "--cache", store.as_uri(), "--cache-upload", "--set", "rmw_microxrcedds.RMW_UXRCE_MAX_NODES=2"
     )
     assert "no entry" in other.stderr and "uploaded entry" in other.stderr
@@ -131,7 +126,7 @@ def test_an_unusable_entry_is_never_used(seed: Path, tmp_path: Path) -> None:
         (store / f"{key}.tar.gz").write_bytes(tarball)
         (store / f"{key}.json").write_bytes(manifest)
         shutil.rmtree(ws / "build", ignore_errors=True)  # no output: the build asks the cache again
-        return _build(ws, "--cache", store.as_uri()).stderr
+        return build_fixture(ws, "--cache", store.as_uri()).stderr
 
     said = attempt(good[: len(good) // 2], manifest)  # cut short in transit
     assert "cut short or replaced" in said and "building instead" in said
@@ -240,12 +235,12 @@ def test_a_team_cache_on_nginx_webdav(seed: Path, tmp_path: Path, nginx: tuple[s
     assert (served / f"{key}.tar.gz").is_file() and (served / f"{key}.json").is_file()
 
     ws = _fresh_copy(seed, tmp_path / "teammate")
-    took = _build(ws, "--cache", url, env=with_netrc)
+    took = build_fixture(ws, "--cache", url, env=with_netrc)
     assert f"from the cache {url} (entry {key[:16]})" in took.stderr, took.stderr
     assert _library(ws) == _library(seed)
     # the password is in no output and no log, the token neither
     token_env = {**os.environ, "UROS_CACHE_TOKEN": "tok-123-secret"}
-    _build(ws, "--cache", url, "--cache-upload", env=token_env)
+    build_fixture(ws, "--cache", url, "--cache-upload", env=token_env)
     logs = "".join(
         p.read_text(errors="replace")
         for top in (ws, seed)
@@ -338,7 +333,7 @@ def test_an_upload_packs_only_what_uros_wrote_and_a_take_keeps_the_users_files(
     (out / "notes.txt").write_text("the uploader's notes\n")
     (out / "private" / "cred.txt").write_text("password=uploader\n")
     store = tmp_path / "store"
-    _build(seed)  # up to date: the user's files beside the output are not part of it
+    build_fixture(seed)  # up to date: the user's files beside the output are not part of it
     said = _upload_from(seed, store.as_uri())
     key = _key(seed)
     assert f"uploaded entry {key[:16]}" in said, said
@@ -349,7 +344,7 @@ def test_an_upload_packs_only_what_uros_wrote_and_a_take_keeps_the_users_files(
 
     # a teammate's output with their own notes.txt beside it, not up to date (its library edited)
     ws = _fresh_copy(seed, tmp_path / "teammate")
-    assert "from the cache" in _build(ws, "--cache", store.as_uri()).stderr
+    assert "from the cache" in build_fixture(ws, "--cache", store.as_uri()).stderr
     mine = ws / "build" / "cortex-m7"
     (mine / "notes.txt").write_text("the teammate's notes\n")
     with (mine / "libmicroros.a").open("ab") as f:
@@ -359,7 +354,7 @@ def test_an_upload_packs_only_what_uros_wrote_and_a_take_keeps_the_users_files(
                                  "private/cred.txt": b"password=uploader\n"})  # fmt: skip
     (store / f"{key}.tar.gz").write_bytes(data)
     (store / f"{key}.json").write_bytes(_manifest_json(key, data, files))
-    took = _build(ws, "--cache", store.as_uri())
+    took = build_fixture(ws, "--cache", store.as_uri())
     assert "building instead" in took.stderr and "==> built " in took.stderr, took.stderr
     assert (mine / "notes.txt").read_text() == "the teammate's notes\n"
     assert not (mine / "private").exists()
@@ -470,7 +465,7 @@ def test_credentials_never_follow_a_redirect_to_another_host_and_a_token_is_neve
     token = "tok-123-secret"
     for env in ({**os.environ, "NETRC": str(netrc)}, {**os.environ, "UROS_CACHE_TOKEN": token + "\n"}):
         ws = _fresh_copy(seed, tmp_path / f"ws{len(elsewhere.seen)}")
-        took = _build(ws, "--cache", f"{cache_server.url}/uros/", env=env)
+        took = build_fixture(ws, "--cache", f"{cache_server.url}/uros/", env=env)
         assert "from the cache" in took.stderr, took.stderr  # the redirect was followed...
         assert elsewhere.seen and all(auth is None for _, _, auth in elsewhere.seen)  # ...without credentials
         assert _library(ws) == _library(seed)
@@ -478,14 +473,14 @@ def test_credentials_never_follow_a_redirect_to_another_host_and_a_token_is_neve
             assert secret not in took.stdout + took.stderr + _all_logs(ws)
     # to the cache's own scheme, host and port, the (stripped) token still goes
     ws = _fresh_copy(seed, tmp_path / "same")
-    took = _build(
+    took = build_fixture(
         ws, "--cache", f"{cache_server.url}/same/", env={**os.environ, "UROS_CACHE_TOKEN": token + "\n"}
     )
     assert "from the cache" in took.stderr, took.stderr
     assert ("GET", f"/files/{_key(seed)}.json", f"Bearer {token}") in cache_server.seen
     # a token no header can carry: one warning that does not print it, and a local build
     ws = _fresh_copy(seed, tmp_path / "bad")
-    bad = _build(
+    bad = build_fixture(
         ws,
         "--cache",
         f"{cache_server.url}/same/",
@@ -498,16 +493,7 @@ def test_credentials_never_follow_a_redirect_to_another_host_and_a_token_is_neve
 def _build_within(ws: Path, seconds: float, *more: str, env: dict[str, str] | None = None) -> str:
     """A build that must end within ``seconds`` (a FIFO or a trickling server hung it), with exit
     0 and no internal error; its stderr."""
-    argv = [
-        sys.executable,
-        "-m",
-        "uros_build",
-        *M7,
-        "--workspace",
-        str(ws),
-        "--meta",
-        str(ws / "fixture.meta"),
-    ]
+    argv = [sys.executable, "-m", "uros_build", *fixture_build_args(ws)]
     try:
         done = subprocess.run([*argv, *more], capture_output=True, text=True, timeout=seconds, env=env)
     except subprocess.TimeoutExpired:
@@ -649,5 +635,5 @@ def test_a_corrupt_entry_is_replaced_by_the_next_upload(seed: Path, tmp_path: Pa
     assert "fails its checks" in said and f"uploaded entry {key[:16]}" in said, said
     assert "already has entry" in _upload_from(seed, store.as_uri())
     ws = _fresh_copy(seed, tmp_path / "teammate")
-    assert "from the cache" in _build(ws, "--cache", store.as_uri()).stderr
+    assert "from the cache" in build_fixture(ws, "--cache", store.as_uri()).stderr
     assert _library(ws) == _library(seed)

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import pytest
 from fixture_ws import make_fixture_workspace
-from uros_helpers import REPO, env_without, need, run_uros
+from uros_helpers import REPO, build_fixture, env_without, need, run_uros
 
 pytestmark = pytest.mark.integration
 
@@ -90,8 +90,7 @@ def test_another_checkout_hits_every_compile_and_the_library_keeps_its_bytes(tmp
 
 
 def _build(ws: Path, env: dict[str, str], *more: str, check: bool = True) -> subprocess.CompletedProcess[str]:
-    args = ["build", "--toolchain", "cortex-m7", "-w", str(ws), "--meta", str(ws / "fixture.meta"), *more]
-    return run_uros(*args, env=env, check=check)
+    return build_fixture(ws, *more, env=env, check=check)
 
 
 MARK_PACKAGE_XML = PACKAGE_XML.replace("fx_where", "fx_mark")

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 from fixture_ws import add_vendor_package, make_fixture_workspace
-from uros_helpers import need, run_uros
+from uros_helpers import build_fixture, need, run_uros
 
 pytestmark = pytest.mark.integration
 
@@ -82,8 +82,7 @@ def _workspace(root: Path) -> Path:
 
 
 def _build(ws: Path, target: str, *more: str, **env: str) -> str:
-    args = ("build", "--toolchain", target, "--meta", str(ws / "fixture.meta"), "--workspace", str(ws), *more)
-    proc = run_uros(*args, env={**os.environ, **env})
+    proc = build_fixture(ws, *more, toolchain=target, env={**os.environ, **env})
     return proc.stdout + proc.stderr
 
 
