@@ -7,6 +7,8 @@ When stderr is not a terminal (CI, pipes), rich prints plain lines without colou
 
 from __future__ import annotations
 
+import json
+import sys
 import threading
 import time
 from dataclasses import dataclass
@@ -23,6 +25,13 @@ _err = Console(stderr=True, highlight=False, soft_wrap=True)
 # colcon-core's add_file_handler puts its own logger's lines in its per-run log.
 _record: Path | None = None
 _record_lock = threading.Lock()
+
+
+def print_json(data: object) -> None:
+    """``data`` as JSON on standard output, what every ``--json`` prints: indented, keys sorted
+    (generated JSON is deterministic), one newline at the end."""
+    sys.stdout.write(json.dumps(data, indent=2, sort_keys=True) + "\n")
+    sys.stdout.flush()
 
 
 def record_to(path: Path | None) -> None:

@@ -5,7 +5,6 @@ options are made from the table, config/settings.py), the options spelled alike 
 
 from __future__ import annotations
 
-import json
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -13,7 +12,7 @@ from typing import Any
 import click
 from click.shell_completion import CompletionItem
 
-from uros_build import defaults
+from uros_build import console, defaults
 from uros_build.commands import listings
 from uros_build.config import settings as rows
 from uros_build.config.settings import Setting
@@ -168,7 +167,7 @@ def table(rows: list[dict[str, Any]], as_json: bool, columns: tuple[tuple[str, s
     """Rows as JSON (sorted keys, every field) or as aligned text columns under a header;
     ``columns``: (key, title) of what the text shows."""
     if as_json:
-        click.echo(json.dumps(rows, indent=2, sort_keys=True))
+        console.print_json(rows)
         return
     lines = [[title for _key, title in columns], *([str(r[key]) for key, _title in columns] for r in rows)]
     widths = [max(len(line[i]) for line in lines) for i in range(len(columns) - 1)]

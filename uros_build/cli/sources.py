@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import click
 
@@ -63,45 +64,9 @@ def _git_jobs(what: str) -> Decorator:
 @toolchain_option("Check this target's compiler, C library and C++ headers before cloning.")
 @_git_jobs("clones")
 @VERBOSE
-def create_firmware(
-    platform: str,
-    distro: str,
-    workspace: Path | None,
-    mirrors: tuple[str, ...],
-    overrides: tuple[str, ...],
-    config: Path | None,
-    stand_ins: bool,
-    locked: bool,
-    lock_file: Path | None,
-    extra_packages: tuple[Path, ...],
-    force: bool,
-    keep_partial: bool,
-    no_dev_build: bool,
-    toolchain: str | None,
-    jobs: int,
-    verbose: bool,
-) -> None:
+def create_firmware(workspace: Path | None, no_dev_build: bool, **values: Any) -> None:
     """Create a micro-ROS firmware workspace (PLATFORM: generate_lib, a library for any MCU)."""
-    create_cmd.create_firmware(
-        CreateArgs(
-            workspace,
-            distro,
-            platform,
-            mirrors,
-            overrides,
-            config,
-            stand_ins,
-            locked,
-            lock_file,
-            extra_packages,
-            force,
-            keep_partial,
-            not no_dev_build,
-            toolchain,
-            jobs,
-            verbose,
-        )
-    )
+    create_cmd.create_firmware(CreateArgs(directory=workspace, build_dev=not no_dev_build, **values))
 
 
 @click.command("update")

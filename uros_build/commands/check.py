@@ -3,8 +3,6 @@ define (``--whole-archive``: a failure) and the symbols the firmware must provid
 
 from __future__ import annotations
 
-import json
-import sys
 from pathlib import Path
 
 from uros_build import console
@@ -64,7 +62,7 @@ def check_library(
             )
         if as_json:  # the verdict on stdout for scripts; the message and exit 5 as always
             failed = {"library": str(library), "target": profile.name, "result": "fail", "error": exc.message}
-            sys.stdout.write(json.dumps(failed, indent=2, sort_keys=True) + "\n")
+            console.print_json(failed)
         raise
     undefined = symbols.undefined_globals(found)
     known = symbols.firmware_symbols()
@@ -86,7 +84,7 @@ def check_library(
             report["messages"] = {name: {"warning": warn, "says": line} for name, warn, line in streams}
         if fitted is not None:
             report["entities"] = fit.report(fitted)
-        sys.stdout.write(json.dumps(report, indent=2, sort_keys=True) + "\n")
+        console.print_json(report)
     else:
         console.step(f"{library}: {abi.describe(summary)}")
     for warning in summary.get("warnings", ()):

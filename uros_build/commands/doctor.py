@@ -10,7 +10,6 @@ change the exit code.
 from __future__ import annotations
 
 import importlib.metadata
-import json
 import os
 import shutil
 import sys
@@ -19,6 +18,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
+from uros_build import console
 from uros_build.colcon import command as colcon
 from uros_build.colcon import fingerprint as fp
 from uros_build.colcon import hosttools
@@ -492,7 +492,7 @@ def doctor(workspace: Path | None, toolchain: str | None, as_json: bool) -> list
         checks.append(Check("workspace", SKIP, f"no workspace at {root}", "pass -w DIR, or run inside one"))
     if as_json:
         data = {"ok": not failed(checks), "checks": [asdict(c) for c in checks]}
-        sys.stdout.write(json.dumps(data, indent=2, sort_keys=True) + "\n")
+        console.print_json(data)
     else:
         sys.stdout.write(render(checks))
     bad = failed(checks)

@@ -6,7 +6,6 @@ hand-kept available_ros2_types file; this is the same, derived from what was bui
 from __future__ import annotations
 
 import dataclasses
-import json
 import sys
 from pathlib import Path
 from typing import Any
@@ -145,4 +144,7 @@ def show_info(output: Path | None, workspace: Path | None, toolchain: str | None
             f"{out / data['library']['file']}: not the library build-info.json describes "
             "(its bytes' sha256 differs): its sizes and objects are the build's, not this file's"
         )
-    sys.stdout.write(json.dumps(data, indent=2, sort_keys=True) + "\n" if as_json else render(data))
+    if as_json:
+        console.print_json(data)
+    else:
+        sys.stdout.write(render(data))

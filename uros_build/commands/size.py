@@ -6,7 +6,6 @@ does not fit: a CI gate)."""
 
 from __future__ import annotations
 
-import json
 import sys
 from pathlib import Path
 from typing import Any
@@ -252,7 +251,7 @@ def show_size(
             own,
         )
     if as_json:
-        sys.stdout.write(json.dumps(data, indent=2, sort_keys=True) + "\n")
+        console.print_json(data)
     else:
         # the verdict is the last line: on standard output when it fits, as the error when not
         sys.stdout.write(render(data) + (render_budget(data["budget"]) if "budget" in data else ""))

@@ -38,8 +38,11 @@ from uros_build.target.profiles import (
 # uros create-firmware
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class CreateArgs:
+    """What `uros create-firmware`'s command line said, unvalidated: by keyword only (16 fields in
+    a row are too easy to hand over in the wrong order)."""
+
     directory: Path | None = None  # None: resolve_workspace's default
     distro: str = defaults.DISTRO
     platform: str = defaults.PLATFORM

@@ -3,8 +3,6 @@ command's error (exit 5), or what passed, with the logs named."""
 
 from __future__ import annotations
 
-import json
-import sys
 from dataclasses import asdict
 
 from uros_build import console
@@ -86,4 +84,4 @@ def say_app(ctx: ProbeContext, report: app_mod.AppReport) -> app_mod.AppReport:
 
 def _json(ctx: ProbeContext, report: ProbeReport | app_mod.AppReport) -> None:
     if ctx.request.as_json:
-        sys.stdout.write(json.dumps(asdict(report), indent=2, sort_keys=True) + "\n")
+        console.print_json(asdict(report))
