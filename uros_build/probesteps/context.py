@@ -86,7 +86,6 @@ class Tools:
 
     qemu: str
     agent: str
-    agent_name: str = ""  # --graph: which agent it is (run/agentbuild.py program_name)
 
 
 @dataclass(frozen=True)

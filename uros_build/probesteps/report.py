@@ -8,6 +8,8 @@ from collections.abc import Mapping
 from dataclasses import asdict, dataclass, replace
 
 from uros_build.probesteps.context import Firmware, ProbeContext, Tools
+from uros_build.probesteps.tools import agent_root
+from uros_build.run import agentbuild
 from uros_build.run import app as app_mod
 from uros_build.run import graph as graph_mod
 from uros_build.run import machines as probe_mod
@@ -67,7 +69,8 @@ def probe_report(ctx: ProbeContext, tools: Tools, firmware: Firmware, ran: Sessi
     # --graph: what uros's own peer saw is a stage, not a verdict
     if ctx.request.graph and ran.peer_log is not None:
         seen = ran.peer_log.read_text(encoding="utf-8", errors="replace")
-        stages = [*stages, graph_mod.stage(seen, tools.agent_name)]
+        name = agentbuild.program_name(tools.agent, agentbuild.current_agent(agent_root()))
+        stages = [*stages, graph_mod.stage(seen, name)]
         with_peer = False
     failed = stages_mod.failed(stages)
     ok = stages_mod.passed(ran.status, stages)

@@ -4,7 +4,6 @@ the one `uros agent build` made)."""
 from __future__ import annotations
 
 import os
-from dataclasses import replace
 from pathlib import Path
 
 from uros_build import console
@@ -25,19 +24,15 @@ _AGENT_HINT = (
 
 
 def find_tools(ctx: ProbeContext) -> Tools:
-    """QEMU for the board, then the agent (with --graph, which agent it is)."""
+    """QEMU for the board, then the agent."""
     qemu = ctx.plan.machine.board.qemu
-    tools = Tools(ctx.runner.which(qemu, qemu_hint(qemu)), _agent(ctx))
-    if not ctx.request.graph:
-        return tools
-    name = agentbuild.program_name(tools.agent, agentbuild.current_agent(_agent_root()))
-    return replace(tools, agent_name=name)
+    return Tools(ctx.runner.which(qemu, qemu_hint(qemu)), _agent(ctx))
 
 
 def _agent(ctx: ProbeContext) -> str:
     wanted = resolve_outside(AGENT, ctx.request.agent or None).value  # --agent, else $UROS_AGENT
     if not wanted:  # else the agent `uros agent build` made
-        built = agentbuild.current_agent(_agent_root())
+        built = agentbuild.current_agent(agent_root())
         if built is None:
             raise MissingToolError("uros probe: no Micro XRCE-DDS Agent was given or built", _AGENT_HINT)
         console.info(f"agent: {built.describe()} (uros agent build)")
@@ -47,5 +42,6 @@ def _agent(ctx: ProbeContext) -> str:
     return ctx.runner.which(wanted, _AGENT_HINT)
 
 
-def _agent_root() -> Path:
+def agent_root() -> Path:
+    """Where `uros agent build` keeps its agents (the ROS 2 environment's cache)."""
     return resolve_outside(ROS2_VENV).value.expanduser()

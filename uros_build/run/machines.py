@@ -1,6 +1,6 @@
 """`uros probe`'s data and pure pieces: which QEMU machine runs a target's probe firmware
 (meta/probe/machines.yaml), the QEMU and agent command lines, QEMU's pty announcement, and what
-the firmware's exit status means. The command (commands/probe.py) runs them.
+the firmware's exit status means. The probe's steps (uros_build/probesteps/) run them.
 
 The firmware (templates/probe/: portable main.c and transport.c, plus per machine an architecture's
 start-up and linker sections, a UART driver and the machine's numbers) ends through semihosting (Arm,
