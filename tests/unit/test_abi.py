@@ -227,3 +227,22 @@ def test_many_objects_are_shortened_in_the_warning() -> None:
     objects = [replace(obj, member=f"o{i}.o") for i in range(5)]
     warning = abi.verify(objects, find_profile("esp32"), "l.a")["warnings"][0]
     assert "(o0.o, o1.o, o2.o and 2 more)" in warning
+
+
+def test_xtensa_code_tells_espressif_core_code_from_the_lx106_stand_in() -> None:
+    # objdump -dr of abi.XTENSA_CODE_PROBE compiled -O2 -mlongcalls with the ESP32-S3 core plugin by
+    # Debian 13's gcc-xtensa-lx106 13.3 (reads XTENSA_GNU_CONFIG) and by Debian 12's 12.2 (-mabi=windowed)
+    real = (DATA / "objdump-esp32s3-debian13.txt").read_text(encoding="utf-8")
+    assert abi.xtensa_code(real) == (
+        "makes Espressif-core code: windowed ABI, FPU (madd.s), DIV32 (quos), S32C1I (s32c1i) inline"
+    )
+    stand_in = (DATA / "objdump-esp32s3-lx106-gcc12.txt").read_text(encoding="utf-8")
+    assert abi.xtensa_code(stand_in).startswith(
+        "makes lx106-class code (windowed ABI): float, divide and atomics are calls "
+        "(__mulsf3, __divsi3, __atomic_exchange_4), a stand-in"
+    )
+    # an ESP32-S2-like core: no FPU, the rest inline
+    no_fpu = real.replace("madd.s", "nop").replace("wfr", "nop") + "\n\tR_XTENSA_32\t__mulsf3\n"
+    assert abi.xtensa_code(no_fpu) == (
+        "makes code with DIV32 (quos), S32C1I (s32c1i) (windowed ABI), calls __mulsf3 (a core without them)"
+    )

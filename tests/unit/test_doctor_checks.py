@@ -47,6 +47,11 @@ def test_target_checks_name_what_is_missing() -> None:
     # rv32imc's compiler has no C++ headers: the build hands micro-ROS uros's wrappers (issue 32)
     rv = d.eval_target(find_profile("rv32imc"), "/usr/bin/riscv64-unknown-elf-gcc", None)
     assert [c.status for c in rv] == [d.OK] * 3 and "uros hands micro-ROS its wrappers" in rv[2].detail
+    # an ESP32's compiler: doctor names what it makes for the core (issue 42)
+    s3 = d.eval_target(
+        find_profile("esp32s3"), "/x/xtensa-esp32s3-elf-gcc", None, "makes Espressif-core code"
+    )
+    assert s3[0].detail == "/x/xtensa-esp32s3-elf-gcc: makes Espressif-core code"
 
 
 def test_workspace_state() -> None:

@@ -35,7 +35,7 @@ from uros_build.run import agentbuild, machines
 from uros_build.sources.workspace import Workspace, check_extra_package
 from uros_build.sources.wsfiles import CONFIG, Lock, load_config, read_lock
 from uros_build.steps import inputs as inputs_step
-from uros_build.target import compilers
+from uros_build.target import abi, compilers
 from uros_build.target.profiles import TargetProfile
 from uros_build.target.rtos import CONFIG_HEADER, recorded_digest
 
@@ -181,13 +181,16 @@ def eval_disk(free: int, where: Path) -> Check:
     return Check("disk", OK, detail)
 
 
-def eval_target(profile: TargetProfile, compiler: str | None, problem: str | None) -> list[Check]:
-    """The compiler check and, with it found, libc and C++ headers (``problem``: which is missing)."""
+def eval_target(
+    profile: TargetProfile, compiler: str | None, problem: str | None, code: str | None = None
+) -> list[Check]:
+    """The compiler check and, with it found, libc and C++ headers (``problem``: which is missing);
+    ``code``: what the compiler makes for the core, where uros asked it (abi.xtensa_code)."""
     hint = profile.install_hint or f"install {profile.tool('gcc')}"
     name = f"{profile.name} compiler"
     if compiler is None:
         return [Check(name, FAIL, problem or f"{profile.tool('gcc')} not found", hint)]
-    checks = [Check(name, OK, compiler)]
+    checks = [Check(name, OK, f"{compiler}: {code}" if code else compiler)]
     libc_missing = problem is not None and "libc" in problem
     checks.append(
         Check(f"{profile.name} C library", FAIL, problem or "", hint)
@@ -396,7 +399,22 @@ def probe_target(runner: Runner, profile: TargetProfile) -> list[Check]:
             compilers.check_target_prerequisites(runner, profile, tools, Path(scratch))
         except (MissingToolError, StepFailed) as exc:
             problem = exc.message
-    return eval_target(profile, tools["gcc"], problem)
+        windowed = profile.elf.xtensa_abi == "0"
+        code = _xtensa_code(runner, profile, tools["gcc"], Path(scratch)) if windowed else None
+    return eval_target(profile, tools["gcc"], problem, code)
+
+
+def _xtensa_code(runner: Runner, profile: TargetProfile, gcc: str, scratch: Path) -> str | None:
+    """An ESP32's compiler: real Espressif-core code or the lx106 stand-in's (docs/esp32.md)."""
+    source, obj = scratch / "uros_xtensa_probe.c", scratch / "uros_xtensa_probe.o"
+    source.write_text(abi.XTENSA_CODE_PROBE, encoding="utf-8")
+    try:
+        argv = [gcc, *profile.cpu_flags, "-O2", "-c", str(source), "-o", str(obj)]
+        runner.query(argv, step="compile a probe")
+        objdump = gcc[: -len("gcc")] + "objdump"
+        return abi.xtensa_code(runner.query([objdump, "-dr", str(obj)], step="disassemble the probe"))
+    except (MissingToolError, StepFailed):
+        return None
 
 
 def _head(runner: Runner, clone: Path) -> str | None:

@@ -286,6 +286,41 @@ def verify(
     return summary
 
 
+# What a windowed-ABI Xtensa compiler makes of plain C tells an Espressif core's code from lx106's: the
+# ESP32/ESP32-S3 have an FPU (madd.s, wfr), DIV32 (quos) and S32C1I; Debian 12's lx106 cc1 (the stand-in
+# of tests/esp32s3-compat-env.sh) calls library routines for all three. `uros doctor` compiles this.
+XTENSA_CODE_PROBE = """float uros_fma(float a, float b, float c) { return a * b + c; }
+int uros_div(int a, int b) { return a / b; }
+unsigned uros_word;
+unsigned uros_swap(unsigned v) { return __atomic_exchange_n(&uros_word, v, __ATOMIC_SEQ_CST); }
+"""
+# objdump -d's instruction lines: "   1b:\td22230        \tquos\ta2, a2, a3" (literals have no mnemonic)
+XTENSA_MNEMONIC = re.compile(r"^[ \t]*[0-9a-f]+:[ \t]+[0-9a-f]+[ \t]+([a-z][a-z0-9.]*)", re.M)
+# core option -> (an instruction that uses it, the routine called without it)
+XTENSA_OPTIONS = (
+    ("FPU", "madd.s", "__mulsf3"),
+    ("DIV32", "quos", "__divsi3"),
+    ("S32C1I", "s32c1i", "__atomic_exchange_4"),
+)
+
+
+def xtensa_code(disassembly: str) -> str:
+    """What ``objdump -dr`` of XTENSA_CODE_PROBE's object shows, in words (pure)."""
+    mnemonics = set(XTENSA_MNEMONIC.findall(disassembly))
+    has = [f"{option} ({insn})" for option, insn, _ in XTENSA_OPTIONS if insn in mnemonics]
+    calls = [r for _, insn, r in XTENSA_OPTIONS if insn not in mnemonics and r in disassembly]
+    windowed = "entry" in mnemonics
+    abi = "windowed ABI" if windowed else "call0 ABI"
+    if has and not calls:
+        return f"makes Espressif-core code: {abi}, {', '.join(has)} inline"
+    if not has:
+        return (
+            f"makes lx106-class code ({abi}): float, divide and atomics are calls ({', '.join(calls)}), "
+            "a stand-in, not Espressif's code generation (docs/esp32.md)"
+        )
+    return f"makes code with {', '.join(has)} ({abi}), calls {', '.join(calls)} (a core without them)"
+
+
 def check_library(runner: Runner, library: Path, profile: TargetProfile) -> dict[str, Any]:
     """Read every object of ``library`` in one readelf run and verify it against ``profile``."""
     argv = readelf_argv(library, profile.elf, symbols=reads_symbols(profile))
