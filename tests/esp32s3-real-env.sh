@@ -18,6 +18,7 @@
 #   then: PATH=/tmp/esp-real/bin:$PATH UROS_ESP32S3_REAL=1 pytest tests/integration/test_esp32s3_real.py
 set -euo pipefail
 M=${UROS_MIRROR:?set UROS_MIRROR to the folder of upstream clones}
+HERE=$(dirname "$(realpath "$0")")
 E=$(realpath -m "${1:?usage: esp32s3-real-env.sh SCRATCH_DIR}")
 SUITE=${UROS_DEBIAN13_SUITE:-trixie}
 mkdir -p "$E/bin"
@@ -56,16 +57,9 @@ else
 fi
 [ "$(major "$BIN/xtensa-lx106-elf-gcc")" -ge 13 ] || { echo "error: $BIN/xtensa-lx106-elf-gcc is not GCC >= 13" >&2; exit 1; }
 
-# 2. the core plugin: xtensa-dynconfig's Makefile over the overlay's generated ISA tables
-if [ ! -f xtensa-dynconfig/xtensa_esp32s3.so ]; then
-  rm -rf xtensa-dynconfig xtensa-overlays
-  git clone -q "$M/espressif+xtensa-dynconfig/repo" xtensa-dynconfig
-  git clone -q "$M/espressif+xtensa-overlays/repo" xtensa-overlays
-  mkdir -p xtensa-dynconfig/config
-  cp -r xtensa-overlays/xtensa_esp32s3 xtensa-dynconfig/config/
-  (cd xtensa-dynconfig/config && sh ../scripts/fix-known-overlay-issues.sh)
-  make -s -C xtensa-dynconfig CONF_DIR=config xtensa_esp32s3.so
-fi
+# 2. the core plugin (tests/esp32s3-plugin.sh)
+. "$HERE/esp32s3-plugin.sh"
+build_esp32s3_plugin "$M"
 
 # 3. the wrappers: the S3 core for cc1, gas and ld alike; the binutils beside the compiler first
 SO=$E/xtensa-dynconfig/xtensa_esp32s3.so
