@@ -13,7 +13,7 @@ PACKAGE = Path(__file__).resolve().parent.parent / "uros_build"
 # Bottom to top: the folder names (a module at the top of the package is "base"). A module may import
 # modules of its own folder or of a folder below, never above. A new folder must be placed here.
 LAYERS: tuple[tuple[str, str], ...] = (
-    ("base", "the top-level modules: errors, console, loader, templating, proc, files, defaults"),
+    ("base", "the top-level modules: errors, console, loader, templating, proc, tooltext, files, defaults"),
     ("shim", "what runs inside a target's build: the Python shim and its two caches"),
     ("target", "what a target is: profiles, toolchain text, compilers, ESP-IDF, ABI"),
     ("sources", "what is built: the workspace, its files, distros, clones, packages, interfaces, meta"),

@@ -55,7 +55,7 @@ class StepFailed(UrosError):
         super().__init__(message, hint)
         self.output = output  # what the command printed, for a caller that can explain it better
         self.code = code  # the command's exit status (None: it did not start)
-        self.cause = cause  # the command's own error line (proc.first_error), for a caller to quote
+        self.cause = cause  # the command's own error line (tooltext.first_error), for a caller to quote
 
 
 class VerifyError(UrosError):

@@ -12,11 +12,11 @@ from uros_build.colcon import command as colcon
 from uros_build.config.plan import set_origins, unknown_packages
 from uros_build.errors import ConfigError
 from uros_build.output.buildinfo import parse_build_info
-from uros_build.proc import first_error
 from uros_build.sources import interfaces, packages
 from uros_build.sources.meta import Meta, parse_meta
 from uros_build.sources.workspace import check_file_target, check_folder_target
 from uros_build.sources.wsfiles import WorkspaceConfig, parse_config
+from uros_build.tooltext import first_error
 
 
 def test_a_cmake_error_carries_its_message() -> None:

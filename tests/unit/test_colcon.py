@@ -105,7 +105,7 @@ def test_env_git_insteadof() -> None:
 
 
 def test_first_error_prefers_compiler_and_rosidl_messages() -> None:
-    from uros_build.proc import first_error
+    from uros_build.tooltext import first_error
 
     assert first_error(
         ["-- Up-to-date: /x/test_failed/lib.a", "/w/a.c:3:9: error: expected ';'", "FAILED: x"]

@@ -29,8 +29,9 @@ from uros_build.errors import interrupted as interrupted_error
 from uros_build.output import folders as outputs
 from uros_build.output import swap
 from uros_build.output.swap import Journal, Move, recovery_actions
-from uros_build.proc import Runner, disk_full_line, disk_full_path, environ_has
+from uros_build.proc import Runner, environ_has
 from uros_build.sources.workspace import Workspace, target_key
+from uros_build.tooltext import disk_full_line, disk_full_path
 
 DEAD = 2**22 + 1000  # above the largest pid_max Linux allows: never a live process
 

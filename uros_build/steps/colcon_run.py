@@ -24,12 +24,13 @@ from uros_build.errors import (
     VerifyError,
 )
 from uros_build.files import write_if_changed
-from uros_build.proc import Runner, disk_full_line, disk_full_path, first_error
+from uros_build.proc import Runner
 from uros_build.shim import pyshim
 from uros_build.steps.colcon_setup import CCACHE_STATS, ColconSetup
 from uros_build.steps.context import Context
 from uros_build.steps.inputs import Inputs, flags_fingerprint
 from uros_build.steps.prepare import DISK_FULL_MARK
+from uros_build.tooltext import disk_full_line, disk_full_path, first_error
 
 
 def _record_outside_headers(plan: BuildPlan, runner: Runner, setup: ColconSetup) -> str:
