@@ -115,7 +115,9 @@ def spanish_env(tmp_path_factory: pytest.TempPathFactory) -> dict[str, str]:
 
 
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
-    """A test that asks for a built fixture runs a real colcon build (its worker's first): marked colcon."""
+    """A test that asks for a built fixture runs a real colcon build (its worker's first), and so does
+    one of real sources: marked colcon (the others that build say so themselves)."""
     for item in items:
-        if {"built", "m7_build", "fixture_builds"} & set(getattr(item, "fixturenames", ())):
+        built = {"built", "m7_build", "fixture_builds"} & set(getattr(item, "fixturenames", ()))
+        if built or item.get_closest_marker("realsources"):
             item.add_marker(pytest.mark.colcon)

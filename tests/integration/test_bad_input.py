@@ -385,6 +385,7 @@ def test_toolchain_render_into_a_folder_writes_nothing_beside_it(tmp_path: Path)
 # -- the first error of a failed build -------------------------------------------------------
 
 
+@pytest.mark.colcon
 def test_cmake_error_shows_the_package_and_the_message(tmp_path: Path) -> None:
     need("arm-none-eabi-gcc", "cmake")
     ws = _ws(tmp_path)
@@ -417,6 +418,7 @@ def test_compile_error_names_the_package_among_parallel_ones(m7_build: Path) -> 
     assert line.startswith("error: colcon build failed in package fx_dup: ") and "b/common.c:1:" in line, line
 
 
+@pytest.mark.colcon
 def test_duplicate_package_names_name_both_folders(tmp_path: Path) -> None:
     need("arm-none-eabi-gcc", "cmake")
     ws = _ws(tmp_path)
@@ -428,6 +430,7 @@ def test_duplicate_package_names_name_both_folders(tmp_path: Path) -> None:
     assert "mcu_ws/src/fx_dup " in line + " " and "mcu_ws/src/fx_dup_copy" in line
 
 
+@pytest.mark.colcon
 def test_set_and_meta_naming_no_package_warn_with_the_closest_names(tmp_path: Path) -> None:
     need("arm-none-eabi-gcc", "cmake")
     ws = _ws(tmp_path)

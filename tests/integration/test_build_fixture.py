@@ -260,6 +260,7 @@ def test_the_install_tree_holds_no_scripts_for_shells_nobody_sources(m7_build: P
     assert not [n for n in names if n.endswith((".bash", ".zsh", ".ps1"))]
 
 
+@pytest.mark.colcon
 def test_an_edit_right_after_a_build_reaches_the_library(tmp_path: Path) -> None:
     """CMake's install leaves a file whose time is within a second of the installed copy's: an edit
     built right after the last build (a scripted loop) must still reach libmicroros.a."""

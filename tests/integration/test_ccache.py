@@ -18,7 +18,7 @@ import pytest
 from fixture_ws import make_fixture_workspace
 from uros_helpers import REPO, build_fixture, env_without, need, run_uros
 
-pytestmark = pytest.mark.integration
+pytestmark = [pytest.mark.integration, pytest.mark.colcon]
 
 WHERE_CMAKE = """\
 cmake_minimum_required(VERSION 3.16)

@@ -18,7 +18,7 @@ import pytest
 from fixture_ws import fixture_build_args, make_fixture_workspace
 from uros_helpers import need, run_uros
 
-pytestmark = pytest.mark.integration
+pytestmark = [pytest.mark.integration, pytest.mark.colcon]
 
 LOOPBACK = "127.0.0.1"  # the only address the server listens on, and the only one the test talks to
 

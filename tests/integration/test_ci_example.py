@@ -58,6 +58,7 @@ def _step_script(name: str) -> str:
     return str(script)
 
 
+@pytest.mark.colcon
 def test_the_ci_example_builds_and_the_next_runner_takes_it_from_the_team_cache(tmp_path: Path) -> None:
     """The example's own Build and Check steps, run by bash as the runner would, on the fixture
     workspace in `firmware/` (a uros.yaml and a colcon.meta, as create-firmware leaves them): the

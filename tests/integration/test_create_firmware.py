@@ -212,6 +212,7 @@ def test_target_prerequisites_are_checked_before_cloning(upstream: Path, tmp_pat
     assert (fw / "uros.lock").is_file()
 
 
+@pytest.mark.colcon
 def test_firmware_workspace_builds_end_to_end(upstream: Path, tmp_path: Path) -> None:
     """create-firmware + uros build through the firmware-workspace path (dev_ws, workspace meta,
     extra packages) with the real colcon and arm-none-eabi-gcc; the upstreams hold fixture packages."""

@@ -12,7 +12,7 @@ import pytest
 from fixture_ws import make_fixture_workspace
 from uros_helpers import need, run_uros
 
-pytestmark = pytest.mark.integration
+pytestmark = [pytest.mark.integration, pytest.mark.colcon]
 
 
 def _members(lib: Path) -> list[str]:

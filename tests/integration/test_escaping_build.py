@@ -16,7 +16,7 @@ import yaml
 from fixture_ws import add_board_package, add_plain_package, fixture_build_args, make_fixture_workspace
 from uros_helpers import REPO, need, run_uros
 
-pytestmark = pytest.mark.integration
+pytestmark = [pytest.mark.integration, pytest.mark.colcon]
 
 # Every way a '$' was lost before: ninja/make variables ($5, $x, ${HOME}), a shell command
 # substitution, and the characters make and the shell treat specially.

@@ -25,7 +25,7 @@ import pytest
 from fake_idf import make_idf_build, xrce_client_stand_in
 from uros_helpers import need, run_uros
 
-pytestmark = pytest.mark.integration
+pytestmark = [pytest.mark.integration, pytest.mark.colcon]
 
 GCC = "riscv64-unknown-elf-gcc"
 # chip -> (-march of the multilib the app links with, -mabi, float ABI in e_flags, ISA letters)

@@ -16,7 +16,7 @@ import pytest
 from fixture_ws import add_vendor_package, make_fixture_workspace
 from uros_helpers import build_fixture, need, run_uros
 
-pytestmark = pytest.mark.integration
+pytestmark = [pytest.mark.integration, pytest.mark.colcon]
 
 _XML = """<?xml version="1.0"?>
 <package format="3"><name>{name}</name><version>0.1.0</version><description>fixture</description>

@@ -22,7 +22,7 @@ import pytest
 from fake_idf import make_idf_build, xrce_client_stand_in
 from uros_helpers import REPO, need, run_uros
 
-pytestmark = pytest.mark.integration
+pytestmark = [pytest.mark.integration, pytest.mark.colcon]
 
 
 def _write(path: Path, text: str) -> None:

@@ -25,7 +25,7 @@ from fixture_rtos import make_standin_kernel, write_config
 from fixture_ws import add_plain_package
 from uros_helpers import need, run_uros, run_uros_here
 
-pytestmark = pytest.mark.integration
+pytestmark = [pytest.mark.integration, pytest.mark.colcon]
 
 FX_NET_C = """\
 #include <sys/socket.h>

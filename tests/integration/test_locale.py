@@ -10,7 +10,7 @@ import pytest
 from fixture_ws import make_fixture_workspace
 from uros_helpers import run_uros
 
-pytestmark = pytest.mark.integration
+pytestmark = [pytest.mark.integration, pytest.mark.colcon]
 
 
 def _error_line(stderr: str) -> str:

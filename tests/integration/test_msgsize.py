@@ -13,7 +13,7 @@ import pytest
 from fixture_ws import add_message_package
 from uros_helpers import need, run_uros
 
-pytestmark = pytest.mark.integration
+pytestmark = [pytest.mark.integration, pytest.mark.colcon]
 
 
 def test_check_for_firmware_weighs_each_message_against_mtu_and_history(tmp_path: Path) -> None:

@@ -18,7 +18,7 @@ from uros_helpers import humble_mirror_args, run_uros
 
 from uros_build.run import machines
 
-pytestmark = pytest.mark.integration
+pytestmark = [pytest.mark.integration, pytest.mark.colcon]
 
 MIRROR = os.environ.get("UROS_MIRROR")
 AGENT = os.environ.get("UROS_AGENT")

@@ -21,7 +21,7 @@ from uros_helpers import humble_copy, run_uros, run_uros_here
 
 from uros_build.run import freertos
 
-pytestmark = pytest.mark.integration
+pytestmark = [pytest.mark.integration, pytest.mark.colcon]
 
 MIRROR = os.environ.get("UROS_MIRROR")
 AGENT = os.environ.get("UROS_AGENT")

@@ -18,7 +18,7 @@ from uros_helpers import need, run_uros
 
 from uros_build.shim import pyshim
 
-pytestmark = pytest.mark.integration
+pytestmark = [pytest.mark.integration, pytest.mark.colcon]
 
 PROBE = pyshim.FINDPYTHON_FOLDERS  # CMake 3.25's probe, as FindPython/Support.cmake runs it
 ENV = "import os, sys; print(os.environ.get('SETUPTOOLS_USE_DISTUTILS', '-')); sys.exit(3)"

@@ -27,7 +27,7 @@ from fixture_rtos import FREERTOS_CONFIG_H, make_standin_kernel, write_config
 from fixture_ws import add_plain_package
 from uros_helpers import need, run_uros, run_uros_here
 
-pytestmark = pytest.mark.integration
+pytestmark = [pytest.mark.integration, pytest.mark.colcon]
 
 PORT = "GCC/ARM_CM7/r0p1"  # the table's port for cortex-m7 (meta/rtos/freertos.yaml)
 

@@ -17,7 +17,7 @@ from uros_helpers import need, run_uros
 
 from uros_build.run.report import REPORT, probe_base, probe_work
 
-pytestmark = pytest.mark.integration
+pytestmark = [pytest.mark.integration, pytest.mark.colcon]
 
 # rmw_microxrcedds' static pools in their shape (rmw_microxrcedds_c/src/types.c): arrays of
 # RMW_UXRCE_MAX_HISTORY input buffers (MTU x history + 64 bytes of bookkeeping: 2,112 B each at

@@ -229,6 +229,7 @@ def test_set_values_out_of_range_are_refused_before_building(tmp_path: Path, ite
 FX_RTOS_C = '#include "FreeRTOS.h"\nint fx_rtos_tick(void) { return configTICK_RATE_HZ; }\n'
 
 
+@pytest.mark.colcon
 def test_doctor_sees_a_changed_freertos_config(tmp_path: Path) -> None:
     """round 5, item 6: `uros doctor` said "built and up to date" after FreeRTOSConfig.h changed,
     while the next build rebuilt it (the headers are given on the command line here: doctor reads

@@ -14,7 +14,7 @@ import pytest
 from fixture_ws import add_twin_packages
 from uros_helpers import need, run_uros
 
-pytestmark = pytest.mark.integration
+pytestmark = [pytest.mark.integration, pytest.mark.colcon]
 
 TWINS = "fx_twin_type_support (libfx_twin_a__fx_twin_a.c.obj, libfx_twin_b__fx_twin_b.c.obj)"
 

@@ -18,7 +18,7 @@ import pytest
 from fixture_ws import FIXTURE_MEMBERS, add_board_package, make_fixture_workspace
 from uros_helpers import REPO, need, run_uros
 
-pytestmark = pytest.mark.integration
+pytestmark = [pytest.mark.integration, pytest.mark.colcon]
 
 COMPILERS = {"arm": "arm-none-eabi-gcc", "riscv": "riscv64-unknown-elf-gcc", "xtensa": "xtensa-lx106-elf-gcc"}
 

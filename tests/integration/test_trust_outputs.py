@@ -268,6 +268,7 @@ def test_an_output_belongs_to_one_target(m7_build: Path) -> None:
     assert json.loads((m7 / "build-info.json").read_text())["target"] == "cortex-m4"
 
 
+@pytest.mark.colcon
 def test_two_targets_building_into_one_output_never_both_win(tmp_path: Path) -> None:
     need("arm-none-eabi-gcc", "cmake")
     ws = make_fixture_workspace(tmp_path / "ws")
