@@ -61,7 +61,10 @@ def check(
 ) -> None:
     """Check that every object in LIBRARY has the ELF facts of a target (exit 5 if not); list the
     global symbols two members define and the symbols the firmware must provide."""
-    check_cmd.check_library(library, toolchain, profile, verbose, as_json, whole_archive, for_firmware)
+    check_cmd.check_library(
+        library, target=toolchain, profile_path=profile, verbose=verbose, as_json=as_json,
+        whole_archive=whole_archive, for_firmware=for_firmware,
+    )  # fmt: skip
 
 
 @click.command()
@@ -75,7 +78,7 @@ def check(
 def clean(toolchain: str | None, profile: Path | None, everything: bool, workspace: Path | None) -> None:
     """Remove uros's per-target trees (.uros/targets/<target>) and outputs (build/<target>), never
     anything uros did not write, and say how much that freed."""
-    clean_cmd.clean(workspace, toolchain, everything, profile)
+    clean_cmd.clean(workspace=workspace, toolchain=toolchain, everything=everything, profile=profile)
 
 
 @click.command()
@@ -85,7 +88,7 @@ def clean(toolchain: str | None, profile: Path | None, everything: bool, workspa
 def doctor(toolchain: str | None, workspace: Path | None, as_json: bool) -> None:
     """Check that this host can build (tools, target compiler, disk) and the workspace's state;
     one line per check with its fix, exit 5 when a build would fail."""
-    doctor_cmd.doctor(workspace, toolchain, as_json)
+    doctor_cmd.doctor(workspace=workspace, toolchain=toolchain, as_json=as_json)
 
 
 @click.command()
@@ -96,7 +99,7 @@ def doctor(toolchain: str | None, workspace: Path | None, as_json: bool) -> None
 def info(output: Path | None, toolchain: str | None, workspace: Path | None, as_json: bool) -> None:
     """What a built library contains: ROS 2 types, packages and their commits, options in force,
     flags, sizes (OUTPUT: a `uros build` output folder)."""
-    info_cmd.show_info(output, workspace, toolchain, as_json)
+    info_cmd.show_info(output=output, workspace=workspace, toolchain=toolchain, as_json=as_json)
 
 
 @click.command()
@@ -128,4 +131,7 @@ def size(
     """text/data/bss of libmicroros.a per package (LIBRARY: the .a or its output folder), with the
     firmware's map file what each package costs once linked (after --gc-sections), and with --ram/--flash
     (or the chip the target's profile names) whether it fits."""
-    size_cmd.show_size(library, workspace, toolchain, elf, map_file, objects, as_json, ram, flash)
+    size_cmd.show_size(
+        library, workspace=workspace, toolchain=toolchain, elf=elf, map_file=map_file, objects=objects,
+        as_json=as_json, ram=ram, flash=flash,
+    )  # fmt: skip
