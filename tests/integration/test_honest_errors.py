@@ -14,7 +14,7 @@ import time
 from pathlib import Path
 
 import pytest
-from uros_helpers import default_sigint, run_uros, run_uros_here, upstream_mirror
+from uros_helpers import default_sigint, need, run_uros, run_uros_here, upstream_mirror
 
 pytestmark = pytest.mark.integration
 
@@ -54,11 +54,12 @@ def test_export_never_suggests_a_force_it_lacks(m7_build: Path, tmp_path: Path) 
 
 
 def test_a_lock_that_is_a_folder(tmp_path: Path) -> None:
+    need("arm-none-eabi-gcc", "cmake")
     from fixture_ws import make_fixture_workspace
 
     ws = make_fixture_workspace(tmp_path / "ws")
     (ws / ".uros/targets/cortex-m7/.lock").mkdir(parents=True)
-    proc = run_uros_here("build", "--toolchain", "cortex-m7", "-w", str(ws), check=False)
+    proc = run_uros("build", "--toolchain", "cortex-m7", "-w", str(ws), check=False)
     assert proc.returncode == 2
     assert ".uros/targets/cortex-m7/.lock: is a folder" in _error_line(proc.stderr)
     assert (ws / ".uros/targets/cortex-m7/.lock").is_dir()
