@@ -258,7 +258,7 @@ CASES: dict[str, tuple[Setup, int, str]] = {
     "--set a negative count": (
         lambda tmp: _build(tmp, "--set", "rmw_microxrcedds.RMW_UXRCE_MAX_NODES=-1"),
         2,
-        "--set rmw_microxrcedds.RMW_UXRCE_MAX_NODES=-1: RMW_UXRCE_MAX_NODES must be 0 or more, got -1",
+        "--set rmw_microxrcedds.RMW_UXRCE_MAX_NODES=-1: RMW_UXRCE_MAX_NODES must be 1 or more, got -1",
     ),
     "--set an option name with a space": (
         lambda tmp: _build(tmp, "--set", "fx_core.FOO BAR=1"),

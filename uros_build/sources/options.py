@@ -58,8 +58,14 @@ class KnownOption:
         if self.type == "int":
             if not _WHOLE.fullmatch(value):
                 return f"must be a whole number ({self.minimum} or more), got {value!r}"
-            if len(value.lstrip("-0")) > len(str(self.maximum)):
-                return f"must be {self.maximum} or less, got a number of {len(value.lstrip('-0')):,} digits"
+            digits = len(value.lstrip("-").lstrip("0"))
+            if digits > len(
+                str(self.maximum)
+            ):  # out of range whatever it is: never int() thousands of digits
+                shown = value if len(value) <= 20 else f"a number of {digits:,} digits"
+                if value.startswith("-"):
+                    return f"must be {self.minimum} or more, got {shown}{self._why}"
+                return f"must be {self.maximum} or less, got {shown}{self._why}"
             number = int(value)
             if number < self.minimum:
                 return f"must be {self.minimum} or more, got {number}{self._why}"
