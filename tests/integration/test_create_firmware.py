@@ -367,6 +367,7 @@ def test_distros_and_interface_checks_through_the_cli(tmp_path: Path) -> None:
     assert not (tmp_path / "my_msgs").exists()
 
 
+@pytest.mark.colcon
 def test_clone_error_is_in_english_in_a_spanish_locale(
     upstream: Path, tmp_path: Path, spanish_env: dict[str, str]
 ) -> None:
