@@ -7,6 +7,7 @@ from pathlib import Path
 from uros_build.colcon.fingerprint import FileRecord
 from uros_build.commands import doctor as d
 from uros_build.sources.wsfiles import Lock, LockedRepo
+from uros_build.steps import inputs
 from uros_build.target.profiles import find_profile
 
 
@@ -109,13 +110,13 @@ def test_doctor_sees_extra_packages_as_the_next_build_copies_them() -> None:
         "extra_packages/fx_extra_two/x.c": rec("x"),
     }
     own = {"extra.c": rec("new"), ".git/HEAD": rec("h"), "sub/.gitignore": rec("i"), "package.xml": rec("p")}
-    assert d.as_synced(sources, {"extra_packages/fx_extra": own}) == {
+    assert inputs.as_synced(sources, {"extra_packages/fx_extra": own}) == {
         "src/fx_core/core.c": rec("a"),
         "extra_packages/fx_extra/extra.c": rec("new"),
         "extra_packages/fx_extra/package.xml": rec("p"),
         "extra_packages/fx_extra_two/x.c": rec("x"),
     }
-    assert d.as_synced(sources, {}) == sources
+    assert inputs.as_synced(sources, {}) == sources
 
 
 def test_a_ccache_that_cannot_be_used_is_a_warning() -> None:

@@ -1,5 +1,6 @@
 """What a build is made of: every input as a digest (the fingerprint), the last good build's state,
-up to date or what changed, and the portable build key.
+up to date or what changed, and the portable build key; and what the next build would see changed,
+asked without building (`uros doctor`: the workspace's inputs, the RTOS headers a library records).
 """
 
 from __future__ import annotations
@@ -18,15 +19,16 @@ from uros_build.colcon import command as colcon
 from uros_build.colcon import fingerprint as fp
 from uros_build.colcon.hosttools import HostFacts
 from uros_build.config.buildplan import BuildPlan
-from uros_build.errors import ConfigError
+from uros_build.errors import ConfigError, UrosError
 from uros_build.output.buildinfo import read_build_info
 from uros_build.output.folders import owned_entries
 from uros_build.sources import packages as packages_mod
-from uros_build.sources.workspace import Workspace
-from uros_build.sources.wsfiles import CONFIG
+from uros_build.sources.workspace import Workspace, check_extra_package
+from uros_build.sources.wsfiles import CONFIG, load_config
 from uros_build.steps.colcon_setup import ColconSetup, meta_text
 from uros_build.steps.context import Context
 from uros_build.steps.prepare import compiler_identity
+from uros_build.target.rtos import CONFIG_HEADER, recorded_digest
 
 
 def build_key(ctx: Context, toolchain_file: Path, parts: Mapping[str, str]) -> str:
@@ -275,3 +277,87 @@ def up_to_date(ctx: Context, inputs: Inputs, repaired: bool) -> bool:
         return True
     console.info(f"changed since the last build: {', '.join(changed)}")
     return False
+
+
+# ---------------------------------------------------------------------------------------------
+# what the next build would see changed, asked without building (uros doctor)
+
+
+def output_changes(ws: Workspace, key: str) -> list[str] | None:
+    """What changed since the target's last good build among the inputs that are the workspace's
+    alone, judged as `uros build` judges them (steps.inputs.changes), by content, with the extra
+    packages as the build's sync will copy them in. Reads the build's stat cache to hash only what
+    changed; writes nothing and touches no mtime."""
+    state = fp.read_state(ws.target_dir(key) / fp.STATE)
+    if state is None:
+        return None
+    sources, _ = scan_sources(ws, ws.target_dir(key), Path(state.output))
+    extras = _extra_packages(ws)
+    synced = as_synced(sources, {prefix: files for prefix, (_, files) in extras.items()})
+    parts = workspace_parts(ws, fp.tree_digest(synced))
+    changed = changes(state, parts, complete=False)
+    moved = [f"extra package {prefix.rsplit('/', 1)[-1]} ({src})" for prefix, (src, _) in extras.items()
+             if _under(sources, prefix) != _under(synced, prefix)]  # fmt: skip
+    if moved and "sources" in changed:
+        changed[changed.index("sources")] = f"sources ({', '.join(moved)} changed)"
+    return changed
+
+
+def rtos_change(out: Path) -> str | None:
+    """The RTOS headers a library was compiled against (build-info.json's ``rtos``: the kernel's,
+    the port's and FreeRTOSConfig.h), when their content now differs from its ``headers_sha256``:
+    what the next build sees as a changed input (the headers' folders may come from uros.yaml or
+    from the command line, which doctor does not know, so the record's folders are read)."""
+    try:
+        info = read_build_info(out, "OUTPUT")
+    except UrosError:
+        return None
+    rtos = info.rtos
+    if rtos is None:
+        return None
+    try:
+        now = recorded_digest(rtos.kernel, rtos.port, rtos.config)
+    except OSError:
+        now = ""
+    if now == rtos.headers_sha256:
+        return None
+    return f"the FreeRTOS headers ({CONFIG_HEADER} in {rtos.config}, the kernel's or the port's)"
+
+
+def _under(records: Mapping[str, fp.FileRecord], prefix: str) -> dict[str, str]:
+    return {rel: r.sha256 for rel, r in records.items() if rel.startswith(prefix + "/")}
+
+
+def as_synced(
+    sources: Mapping[str, fp.FileRecord], extras: Mapping[str, Mapping[str, fp.FileRecord]]
+) -> dict[str, fp.FileRecord]:
+    """The sources as the next build sees them (pure): the copy of each extra package (``extras``:
+    its folder in the sources -> the files of the package's own folder) replaced by what the
+    build's sync copies in (workspace.sync_tree: everything but names starting with .git)."""
+    out = {rel: r for rel, r in sources.items() if not any(rel.startswith(p + "/") for p in extras)}
+    for prefix, files in extras.items():
+        for rel, record in files.items():
+            if not any(part.startswith(".git") for part in rel.split("/")):
+                out[f"{prefix}/{rel}"] = record
+    return out
+
+
+def _extra_packages(ws: Workspace) -> dict[str, tuple[Path, dict[str, fp.FileRecord]]]:
+    """uros.yaml's extra packages that the next build copies in: their copy's folder in the
+    sources -> (their own folder, its files). One gone, or not a package, is left as the build
+    leaves it (it keeps the copy, or stops with its own message)."""
+    try:
+        cfg = load_config(ws.root)
+    except UrosError:
+        return {}
+    found: dict[str, tuple[Path, dict[str, fp.FileRecord]]] = {}
+    for entry in cfg.extra_packages if cfg else ():
+        src = Path(entry)
+        try:
+            name = check_extra_package(src, "extra_packages")
+        except UrosError:
+            continue
+        copy = ws.extra_dir / name
+        if copy.is_relative_to(ws.source_dir):
+            found[copy.relative_to(ws.source_dir).as_posix()] = (src, fp.scan_tree(src, {}))
+    return found
