@@ -69,7 +69,16 @@ H
 fi
 
 # 3. the wrappers: windowed ABI, the S3 core for gas/ld, newlib instead of picolibc
-G=/usr/lib/gcc/xtensa-lx106-elf/12.2.0
+# UROS_XTENSA_BIN: another xtensa-lx106-elf toolchain's bin folder, e.g. tests/esp32s3-real-env.sh's
+# DIR/root/usr/bin (Debian 13's GCC 13.3, which reads the plugin: real ESP32-S3 code with these headers)
+BIN=${UROS_XTENSA_BIN:-/usr/bin}
+G=$(dirname "$("$BIN/xtensa-lx106-elf-gcc" -print-libgcc-file-name)")
+# the libc.a of the system's lx106 C library, for uros's prerequisite check (the proof compiles only; a
+# GCC unpacked elsewhere does not look in /usr): -B adds its folder to where -print-file-name looks
+LIBC_B=""
+if [ "$BIN" != /usr/bin ] && L=$(xtensa-lx106-elf-gcc -print-file-name=libc.a 2>/dev/null) && [ -f "$L" ]; then
+  LIBC_B="-B$(dirname "$(realpath "$L")")/"
+fi
 CXX=/usr/lib/arm-none-eabi/include/c++/12.2.1
 SO=$E/xtensa-dynconfig/xtensa_esp32s3.so
 for t in gcc g++; do
@@ -77,13 +86,13 @@ for t in gcc g++; do
   [ $t = g++ ] && extra="-isystem $CXX -isystem $CXX/arm-none-eabi -isystem $CXX/backward"
   cat > "bin/xtensa-esp32s3-elf-$t" <<W
 #!/bin/sh
-XTENSA_GNU_CONFIG=$SO exec xtensa-lx106-elf-$t -mabi=windowed -nostdinc $extra -isystem $G/include -isystem $G/include-fixed -isystem $E/newlib/include "\$@"
+XTENSA_GNU_CONFIG=$SO exec $BIN/xtensa-lx106-elf-$t -mabi=windowed $LIBC_B -nostdinc $extra -isystem $G/include -isystem $G/include-fixed -isystem $E/newlib/include "\$@"
 W
   chmod +x "bin/xtensa-esp32s3-elf-$t"
 done
 ln -sf xtensa-esp32s3-elf-gcc bin/xtensa-esp32s3-elf-cc
 for t in ar ranlib nm objcopy objdump size ld as readelf strip addr2line; do
-  printf '#!/bin/sh\nXTENSA_GNU_CONFIG=%s exec xtensa-lx106-elf-%s "$@"\n' "$SO" $t > "bin/xtensa-esp32s3-elf-$t"
+  printf '#!/bin/sh\nXTENSA_GNU_CONFIG=%s exec %s/xtensa-lx106-elf-%s "$@"\n' "$SO" "$BIN" $t > "bin/xtensa-esp32s3-elf-$t"
   chmod +x "bin/xtensa-esp32s3-elf-$t"
 done
 
