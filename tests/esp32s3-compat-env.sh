@@ -86,7 +86,7 @@ for t in gcc g++; do
   [ $t = g++ ] && extra="-isystem $CXX -isystem $CXX/arm-none-eabi -isystem $CXX/backward"
   cat > "bin/xtensa-esp32s3-elf-$t" <<W
 #!/bin/sh
-XTENSA_GNU_CONFIG=$SO exec $BIN/xtensa-lx106-elf-$t -mabi=windowed $LIBC_B -nostdinc $extra -isystem $G/include -isystem $G/include-fixed -isystem $E/newlib/include "\$@"
+XTENSA_GNU_CONFIG=$SO exec $BIN/xtensa-lx106-elf-$t -mabi=windowed $LIBC_B -nostdinc $extra -isystem $E/newlib/include -isystem $G/include -isystem $G/include-fixed "\$@"
 W
   chmod +x "bin/xtensa-esp32s3-elf-$t"
 done
