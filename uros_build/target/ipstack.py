@@ -26,7 +26,7 @@ from typing import Any
 
 from uros_build import loader, resources
 from uros_build.errors import ConfigError
-from uros_build.target.rtos import RtosHeaders, headers_digest, placeholders
+from uros_build.target.rtos import RtosHeaders, flag_named, headers_digest, placeholders
 
 NAMES = ("lwip", "freertos-tcp")  # the IP stacks uros knows (--ip-stack): meta/ipstack/<name>.yaml
 # The XRCE-DDS transports that run over an IP stack.
@@ -102,10 +102,6 @@ class IpStackHeaders:
         }
 
 
-def _flag(where: Mapping[str, str], name: str) -> str:
-    return where.get(name, f"--{name.replace('_', '-')}")
-
-
 def read_ip_stack(
     name: str,
     folder: Path | None,
@@ -123,7 +119,7 @@ def read_ip_stack(
     errors."""
     names = where or {}
     facts = facts or stack_facts(name)
-    stack_flag = f"{_flag(names, 'ip_stack')} {name}"
+    stack_flag = f"{flag_named(names, 'ip_stack')} {name}"
     if transport not in IP_TRANSPORTS:
         raise ConfigError(
             f"{stack_flag} with transport {transport or 'custom'}: an IP stack carries only "
@@ -139,7 +135,7 @@ def read_ip_stack(
     port = facts.rtos.get(rtos.name)
     if port is None:
         raise ConfigError(f"{stack_flag}: uros knows no {name} port for {rtos.name}")
-    dir_flag, config_flag = _flag(names, "ip_stack_dir"), _flag(names, "ip_stack_config")
+    dir_flag, config_flag = flag_named(names, "ip_stack_dir"), flag_named(names, "ip_stack_config")
     if folder is None:
         raise ConfigError(
             f"{stack_flag} without the stack's folder",

@@ -214,7 +214,9 @@ def recorded_digest(kernel: str, port: str, config: str) -> str:
     return freertos_digest(base, ports, Path(config))
 
 
-def _flag(chosen_where: Mapping[str, str], name: str) -> str:
+def flag_named(chosen_where: Mapping[str, str], name: str) -> str:
+    """How messages name setting ``name``: where it was chosen (settings' ``Chosen.where``, e.g.
+    ``uros.yaml: rtos_dir``), else its flag. The RTOS's and the IP stack's checks share it."""
     return chosen_where.get(name, f"--{name.replace('_', '-')}")
 
 
@@ -230,8 +232,10 @@ def read_freertos(
     for the core) portmacro.h. ``where``: setting name -> how the user gave it (a flag, a uros.yaml
     key), for the one-line errors."""
     names = where or {}
-    dir_flag, config_flag, port_flag = (_flag(names, n) for n in ("rtos_dir", "rtos_config", "rtos_port"))
-    rtos_flag = f"{_flag(names, 'rtos')} {FREERTOS}"
+    dir_flag, config_flag, port_flag = (
+        flag_named(names, n) for n in ("rtos_dir", "rtos_config", "rtos_port")
+    )
+    rtos_flag = f"{flag_named(names, 'rtos')} {FREERTOS}"
     if kernel is None:
         raise ConfigError(
             f"{rtos_flag} without the kernel's folder",
