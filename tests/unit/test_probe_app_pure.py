@@ -1,5 +1,5 @@
-"""`uros probe --app`'s pure pieces (run/app.py): the app folder scanned for appMain and for the
-interface packages its #includes name, the one-line message for packages the library lacks, the
+"""`uros probe --app`'s pure pieces (run/app.py, run/appverdict.py): the app folder scanned for
+appMain and for the interface packages its #includes name, the one-line message for packages the library lacks, the
 defines and --duration checked, the firmware's CMakeLists escaped, the verdicts, the size line."""
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ import pytest
 from uros_build.errors import ConfigError, StepFailed
 from uros_build.output.symbols import NmSymbol
 from uros_build.probesteps import plan as probe_plan
-from uros_build.run import app
+from uros_build.run import app, appverdict
 from uros_build.run.stages import ConsoleLine
 from uros_build.target.toolsearch import bintools_beside
 
@@ -205,8 +205,8 @@ def test_a_symlink_loop_is_one_line(tmp_path: Path) -> None:
         app.scan_app(tmp_path / "a")
 
 
-def _end(kind: str, status: int, seen: float = 10.0) -> app.RunEnd:
-    return app.RunEnd(kind, status, 100, 200, seen)
+def _end(kind: str, status: int, seen: float = 10.0) -> appverdict.RunEnd:
+    return appverdict.RunEnd(kind, status, 100, 200, seen)
 
 
 def test_the_end_line_is_the_runners_with_this_runs_nonce() -> None:
@@ -216,11 +216,11 @@ def test_the_end_line_is_the_runners_with_this_runs_nonce() -> None:
         ConsoleLine(2.1, "uros-probe-ffffffffffffffffffffffffffffffff: end exit 0 heap 1 B stack 1 B"),
         ConsoleLine(3.0, f"uros-probe-{NONCE}: end exit 256 heap 1932 B stack 1872 B"),
     ]
-    assert app.run_end(lines, NONCE) == app.RunEnd("exit", 256, 1932, 1872, 3.0)
-    assert app.app_started(lines, NONCE) == 1.0
-    assert app.run_end(lines[:3], NONCE) is None
+    assert appverdict.run_end(lines, NONCE) == appverdict.RunEnd("exit", 256, 1932, 1872, 3.0)
+    assert appverdict.app_started(lines, NONCE) == 1.0
+    assert appverdict.run_end(lines[:3], NONCE) is None
     twice = [*lines, ConsoleLine(4.0, f"uros-probe-{NONCE}: end exit 0 heap 1 B stack 1 B")]
-    assert app.run_end(twice, NONCE) is None
+    assert appverdict.run_end(twice, NONCE) is None
 
 
 @pytest.mark.parametrize(
@@ -228,53 +228,65 @@ def test_the_end_line_is_the_runners_with_this_runs_nonce() -> None:
     [
         (_end("exit", 0), 0),
         (_end("exit", 63), 63),
-        (_end("exit", 64), app.OUT_OF_RANGE),
-        (_end("exit", 256), app.OUT_OF_RANGE),
-        (_end("exit", -256), app.OUT_OF_RANGE),
-        (_end("exit", 83), app.OUT_OF_RANGE),
-        (_end("fault", 70), app.CRASHED),
+        (_end("exit", 64), appverdict.OUT_OF_RANGE),
+        (_end("exit", 256), appverdict.OUT_OF_RANGE),
+        (_end("exit", -256), appverdict.OUT_OF_RANGE),
+        (_end("exit", 83), appverdict.OUT_OF_RANGE),
+        (_end("fault", 70), appverdict.CRASHED),
         (_end("board", 71), 71),
-        (_end("board", 84), app.NO_HEAP),
+        (_end("board", 84), appverdict.NO_HEAP),
         (_end("board", 3), 127),
-        (_end("no-agent", 81), app.NO_AGENT),
-        (_end("returned", 82), app.RETURNED),
-        (_end("duration", 83), app.DURATION_OVER),
+        (_end("no-agent", 81), appverdict.NO_AGENT),
+        (_end("returned", 82), appverdict.RETURNED),
+        (_end("duration", 83), appverdict.DURATION_OVER),
     ],
 )
-def test_the_status_qemu_must_give_for_each_end(end: app.RunEnd, code: int) -> None:
-    assert app.expected_code(end) == code
+def test_the_status_qemu_must_give_for_each_end(end: appverdict.RunEnd, code: int) -> None:
+    assert appverdict.expected_code(end) == code
 
 
 def test_verdicts() -> None:
-    assert app.verdict(0, _end("exit", 0), 0) == (True, "exit(0)")
-    assert app.verdict(3, _end("exit", 3), 0) == (False, "the app exited with 3")
+    assert appverdict.verdict(0, _end("exit", 0), 0) == (True, "exit(0)")
+    assert appverdict.verdict(3, _end("exit", 3), 0) == (False, "the app exited with 3")
     for status in (256, 512, -256, 326, 337, 83):
-        assert app.verdict(app.OUT_OF_RANGE, _end("exit", status), 0) == (
+        assert appverdict.verdict(appverdict.OUT_OF_RANGE, _end("exit", status), 0) == (
             False,
             f"the app exited with {status}",
         )
-        assert app.verdict(status % 256, _end("exit", status), 0)[0] is False  # QEMU's mod 256 disagrees
+        assert (
+            appverdict.verdict(status % 256, _end("exit", status), 0)[0] is False
+        )  # QEMU's mod 256 disagrees
     # QEMU's status alone passes nothing: no end line, or one that does not match it
-    assert "without the runner's end line" in app.verdict(0, None, 0)[1]
-    assert app.verdict(0, None, 0)[0] is False
-    assert app.verdict(0, _end("exit", 3), 0)[0] is False
-    assert app.verdict(app.DURATION_OVER, _end("exit", 0), 5000)[0] is False
-    passed, said = app.verdict(app.DURATION_OVER, _end("duration", 83, seen=16.0), 5000, started=10.0)
+    assert "without the runner's end line" in appverdict.verdict(0, None, 0)[1]
+    assert appverdict.verdict(0, None, 0)[0] is False
+    assert appverdict.verdict(0, _end("exit", 3), 0)[0] is False
+    assert appverdict.verdict(appverdict.DURATION_OVER, _end("exit", 0), 5000)[0] is False
+    passed, said = appverdict.verdict(
+        appverdict.DURATION_OVER, _end("duration", 83, seen=16.0), 5000, started=10.0
+    )
     assert passed and "ran for the whole --duration (5 s)" in said and "not that it did its job" in said
     # the board's clock said 5 s, uros's saw 1 s: not a pass
-    passed, said = app.verdict(app.DURATION_OVER, _end("duration", 83, seen=11.0), 5000, started=10.0)
+    passed, said = appverdict.verdict(
+        appverdict.DURATION_OVER, _end("duration", 83, seen=11.0), 5000, started=10.0
+    )
     assert not passed and "uros's clock saw 1.0 s" in said
-    assert app.verdict(app.DURATION_OVER, _end("duration", 83), 5000, started=None)[0] is False
-    assert app.verdict(app.DURATION_OVER, _end("duration", 83, seen=99.0), 0, started=1.0)[0] is False
-    assert "appMain returned without exit(status)" in app.verdict(app.RETURNED, _end("returned", 82), 0)[1]
-    assert "crashed" in app.verdict(app.CRASHED, _end("fault", 70), 0)[1]
-    assert "no agent answered" in app.verdict(app.NO_AGENT, _end("no-agent", 81), 0)[1]
-    assert "unaligned" in app.verdict(71, _end("board", 71), 0)[1]
-    assert app.verdict(None, None, 0) == (
+    assert appverdict.verdict(appverdict.DURATION_OVER, _end("duration", 83), 5000, started=None)[0] is False
+    assert (
+        appverdict.verdict(appverdict.DURATION_OVER, _end("duration", 83, seen=99.0), 0, started=1.0)[0]
+        is False
+    )
+    assert (
+        "appMain returned without exit(status)"
+        in appverdict.verdict(appverdict.RETURNED, _end("returned", 82), 0)[1]
+    )
+    assert "crashed" in appverdict.verdict(appverdict.CRASHED, _end("fault", 70), 0)[1]
+    assert "no agent answered" in appverdict.verdict(appverdict.NO_AGENT, _end("no-agent", 81), 0)[1]
+    assert "unaligned" in appverdict.verdict(71, _end("board", 71), 0)[1]
+    assert appverdict.verdict(None, None, 0) == (
         False,
         "timeout: the app neither exited nor crashed within --timeout",
     )
-    assert app.verdict(None, _end("exit", 0), 5000)[0] is False
+    assert appverdict.verdict(None, _end("exit", 0), 5000)[0] is False
 
 
 def _nm(*symbols: str) -> tuple[NmSymbol, ...]:
@@ -309,13 +321,13 @@ def test_the_linkers_own_reason() -> None:
 def test_the_runner_statuses_match_the_firmware() -> None:
     text = (REPO / "templates" / "probe" / "app_main.c").read_text()
     for name, status in (
-        ("OUT_OF_RANGE", app.OUT_OF_RANGE),
-        ("CRASHED", app.CRASHED),
-        ("NO_AGENT", app.NO_AGENT),
-        ("RETURNED", app.RETURNED),
-        ("DURATION_OVER", app.DURATION_OVER),
-        ("NO_HEAP", app.NO_HEAP),
-        ("ENDED_TWICE", app.ENDED_TWICE),
+        ("OUT_OF_RANGE", appverdict.OUT_OF_RANGE),
+        ("CRASHED", appverdict.CRASHED),
+        ("NO_AGENT", appverdict.NO_AGENT),
+        ("RETURNED", appverdict.RETURNED),
+        ("DURATION_OVER", appverdict.DURATION_OVER),
+        ("NO_HEAP", appverdict.NO_HEAP),
+        ("ENDED_TWICE", appverdict.ENDED_TWICE),
     ):
         assert f"#define PROBE_APP_{name} {status}" in text
     assert "code = status >= 0 && status <= 63 ? status : PROBE_APP_OUT_OF_RANGE;" in text
@@ -328,8 +340,8 @@ def test_the_runner_statuses_match_the_firmware() -> None:
         source = (REPO / "templates" / "probe" / board / "board.c").read_text()
         assert "void _exit(int status) {\n  status = probe_exit_status(status);" in source
     arm = (REPO / "templates" / "probe" / "arm" / "board.c").read_text()
-    assert f"_exit({app.CRASHED})" in arm and "probe_tick_hook();" in arm
-    assert 71 in app.RUNNER_STATUSES and "unaligned" in app.RUNNER_STATUSES[71]
+    assert f"_exit({appverdict.CRASHED})" in arm and "probe_tick_hook();" in arm
+    assert 71 in appverdict.RUNNER_STATUSES and "unaligned" in appverdict.RUNNER_STATUSES[71]
 
 
 def test_the_size_line_and_the_size_tool() -> None:

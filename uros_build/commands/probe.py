@@ -15,7 +15,7 @@ from uros_build.probesteps import firmware, peer, plan, report, session, start, 
 from uros_build.probesteps.context import ProbeRequest
 from uros_build.probesteps.plan import app_request
 from uros_build.probesteps.report import ProbeReport
-from uros_build.run.app import AppReport
+from uros_build.run.appverdict import AppReport
 
 __all__ = ["ProbeRequest", "app_request", "probe"]  # what cli/data.py hands the command
 

@@ -1,5 +1,5 @@
 """What the run says: the firmware's console judged stage by stage (run/stages.py), or an app's end
-line and QEMU's status (run/app.py), with the peer's exit status; the probe's report.json kept for
+line and QEMU's status (run/appverdict.py), with the peer's exit status; the probe's report.json kept for
 `uros size`."""
 
 from __future__ import annotations
@@ -9,8 +9,7 @@ from dataclasses import asdict, dataclass, replace
 
 from uros_build.probesteps.context import Firmware, ProbeContext, Tools
 from uros_build.probesteps.tools import agent_root
-from uros_build.run import agentbuild
-from uros_build.run import app as app_mod
+from uros_build.run import agentbuild, appverdict
 from uros_build.run import graph as graph_mod
 from uros_build.run import machines as probe_mod
 from uros_build.run import network as network_mod
@@ -104,16 +103,16 @@ def probe_report(ctx: ProbeContext, tools: Tools, firmware: Firmware, ran: Sessi
     return ProbeRun(report, tuple(stages), limits, ran, with_peer)
 
 
-def app_report(ctx: ProbeContext, firmware: Firmware, ran: Session) -> app_mod.AppReport:
-    """An app's run judged: the runner's nonce-marked end line and QEMU's status (run/app.py
+def app_report(ctx: ProbeContext, firmware: Firmware, ran: Session) -> appverdict.AppReport:
+    """An app's run judged: the runner's nonce-marked end line and QEMU's status (run/appverdict.py
     verdict), with --peer the peer's exit status too."""
     plan = ctx.plan.app
     assert plan is not None and firmware.sizes is not None
-    end = app_mod.run_end(ran.lines, firmware.nonce)
-    started = app_mod.app_started(ran.lines, firmware.nonce)
+    end = appverdict.run_end(ran.lines, firmware.nonce)
+    started = appverdict.app_started(ran.lines, firmware.nonce)
     app, duration_ms, sizes = plan.app, plan.duration_ms, firmware.sizes
-    passed, said = app_mod.verdict(ran.status, end, duration_ms, started)
-    report = app_mod.AppReport(
+    passed, said = appverdict.verdict(ran.status, end, duration_ms, started)
+    report = appverdict.AppReport(
         target=ctx.plan.info.target,
         machine=ctx.plan.machine.machine,
         app=str(app.folder),

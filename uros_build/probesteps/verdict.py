@@ -9,7 +9,7 @@ from uros_build import console
 from uros_build.errors import VerifyError
 from uros_build.probesteps.context import ProbeContext
 from uros_build.probesteps.report import ProbeReport, ProbeRun
-from uros_build.run import app as app_mod
+from uros_build.run import appverdict
 from uros_build.run import freertos as freertos_mod
 from uros_build.run import machines as probe_mod
 from uros_build.run import network as network_mod
@@ -65,10 +65,10 @@ def _say_peer(ctx: ProbeContext, report: ProbeReport) -> ProbeReport:
     return report
 
 
-def say_app(ctx: ProbeContext, report: app_mod.AppReport) -> app_mod.AppReport:
+def say_app(ctx: ProbeContext, report: appverdict.AppReport) -> appverdict.AppReport:
     """An app's verdict line; with a peer, both logs are named in it (the two halves of the verdict)."""
     _json(ctx, report)
-    line = app_mod.describe(report)
+    line = appverdict.describe(report)
     logs = f"its console: {report.console_log}; the agent's log: {report.agent_log}"
     if report.peer_log:
         logs += f"; the peer's log: {report.peer_log}"
@@ -82,6 +82,6 @@ def say_app(ctx: ProbeContext, report: app_mod.AppReport) -> app_mod.AppReport:
     return report
 
 
-def _json(ctx: ProbeContext, report: ProbeReport | app_mod.AppReport) -> None:
+def _json(ctx: ProbeContext, report: ProbeReport | appverdict.AppReport) -> None:
     if ctx.request.as_json:
         console.print_json(asdict(report))

@@ -6,7 +6,7 @@ crashed afterwards, or of a stage only the host judges (the time stage's offset 
 clock: a firmware that exits 0 can fail it).
 
 The firmware's half is what the run without a peer would say (the built-in probe: its exit status
-and every stage judged, run/stages.verdict; an app: run/app.verdict), never its exit status alone:
+and every stage judged, run/stages.verdict; an app: run/appverdict.verdict), never its exit status alone:
 `--peer` adds a condition, it never removes one."""
 
 from __future__ import annotations
