@@ -1,5 +1,6 @@
 from __future__ import annotations
 
+from dataclasses import fields
 from pathlib import Path
 
 import click
@@ -7,6 +8,7 @@ import pytest
 from click.testing import CliRunner
 
 from uros_build.cli import cli
+from uros_build.probesteps.context import ProbeRequest
 
 
 def _commands(group: click.Group, prefix: tuple[str, ...] = ()) -> list[tuple[str, ...]]:
@@ -107,3 +109,11 @@ def test_targets_show_prints_a_profile_to_copy(tmp_path: Path) -> None:
     assert result.output.startswith("#")  # the file as shipped, comments and all
     typo = runner.invoke(cli, ["targets", "show", "cortex-m77"])
     assert "did you mean cortex-m7" in str(typo.exception)
+
+
+def test_every_probe_option_is_a_field_of_the_probe_request() -> None:
+    """cli/data.py:probe hands its options to ProbeRequest by name: --app, -D and --duration become
+    its one ``app`` field, every other option the field of its own name."""
+    probe = cli.commands["probe"]
+    options = {p.name for p in probe.params}
+    assert options - {"app", "defines", "duration"} == {f.name for f in fields(ProbeRequest)} - {"app"}

@@ -4,6 +4,7 @@ options, export, probe, interface new."""
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import click
 
@@ -195,31 +196,10 @@ def export_arduino(output: Path, sources: tuple[Path, ...]) -> None:
     help="Add the graph stage: an rclpy peer sees the board's node and topics (micro_ros_agent; root).",
 )  # fmt: skip
 @VERBOSE
-def probe(
-    output: Path | None,
-    workspace: Path | None,
-    toolchain: str | None,
-    agent: str | None,
-    timeout: float,
-    app: Path | None,
-    defines: tuple[str, ...],
-    duration: float | None,
-    as_json: bool,
-    peer: Path | None,
-    freertos: str | None,
-    board: str | None,
-    graph: bool,
-    link: str | None,
-    verbose: bool,
-) -> None:
+def probe(app: Path | None, defines: tuple[str, ...], duration: float | None, **request: Any) -> None:
     """Run a built library: boot a probe firmware (or your --app) in QEMU against a real XRCE-DDS Agent."""
-    probe_cmd.probe(
-        probe_cmd.ProbeRequest(
-            output=output, workspace=workspace, toolchain=toolchain, agent=agent, timeout=timeout,
-            as_json=as_json, verbose=verbose, peer=peer, freertos=freertos, board=board,
-            app=probe_cmd.app_request(app, defines, duration), graph=graph, link=link,
-        )
-    )  # fmt: skip
+    # every other option is a field of ProbeRequest by its own name (tests/unit/test_cli_pure.py)
+    probe_cmd.probe(probe_cmd.ProbeRequest(app=probe_cmd.app_request(app, defines, duration), **request))
 
 
 @click.group(cls=Group)
