@@ -6,6 +6,7 @@
 #include <stdarg.h>
 #include <stdio.h>
 
+#include "fleet.h"
 #include "link.h"
 #include "probe.h"
 #include "stages.h"
@@ -28,7 +29,7 @@ int probe_session_open(probe_session_t *session) {
   session->allocator = rcl_get_default_allocator();
   EXPECT(probe_support_init(&session->support, &session->allocator), PROBE_NO_SESSION, "no session");
   session->node = rcl_get_zero_initialized_node();
-  EXPECT(rclc_node_init_default(&session->node, "uros_probe", "", &session->support), PROBE_NO_ENTITY, "node");
+  EXPECT(rclc_node_init_default(&session->node, "uros_probe", probe_namespace(), &session->support), PROBE_NO_ENTITY, "node");
   return 0;
 }
 

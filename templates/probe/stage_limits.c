@@ -6,6 +6,7 @@
 #include <rmw_microxrcedds_c/config.h>
 #include <stdio.h>
 
+#include "fleet.h"
 #include "stages.h"
 
 #define PROBE_MAX_EXTRA 16
@@ -24,7 +25,7 @@ static rcl_ret_t make_entity(enum probe_kind kind, int i, probe_session_t *sessi
   switch (kind) {
     case KIND_NODE:
       extra_nodes[i] = rcl_get_zero_initialized_node();
-      return rclc_node_init_default(&extra_nodes[i], name, "", &session->support);
+      return rclc_node_init_default(&extra_nodes[i], name, probe_namespace(), &session->support);
     case KIND_PUBLISHER:
       extra_publishers[i] = rcl_get_zero_initialized_publisher();
       return rclc_publisher_init_default(&extra_publishers[i], &session->node, type, name);

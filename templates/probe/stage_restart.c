@@ -10,6 +10,7 @@
 #include <rmw_microros/rmw_microros.h>
 #include <stdio.h>
 
+#include "fleet.h"
 #include "link.h"
 #include "probe.h"
 #include "stages.h"
@@ -21,10 +22,16 @@
 int stage_restart(probe_session_t *session, probe_loop_t *loop) {
   printf("uros-probe: restart the agent\n");
   uint32_t asked = probe_millis();
-  while (probe_ping(50, 1) == RMW_RET_OK) {
-    if (probe_millis() - asked > PROBE_RESTART_GONE_MS) {
-      probe_stage("restart", "fail", "the agent still answered %u ms after the firmware asked for a restart",
-                  PROBE_RESTART_GONE_MS);
+  /* one of many boards: a missed ping is not a stopped agent (fleet.h) */
+  for (int missed = 0; missed < probe_pings_lost();) {
+    if (probe_ping(50, 1) != RMW_RET_OK) {
+      missed++;
+      continue;
+    }
+    missed = 0;
+    if (probe_millis() - asked > probe_restart_gone_ms(PROBE_RESTART_GONE_MS)) {
+      probe_stage("restart", "fail", "the agent still answered %lu ms after the firmware asked for a restart",
+                  (unsigned long)probe_restart_gone_ms(PROBE_RESTART_GONE_MS));
       return PROBE_RESTART;
     }
     uint32_t pause = probe_millis();

@@ -4,6 +4,7 @@
 #include <stdbool.h>
 #include <uxr/client/transport.h>
 
+#include "fleet.h"
 #include "link.h"
 #include "probe.h"
 
@@ -53,6 +54,13 @@ int probe_transport_setup(void) {
 
 rmw_ret_t probe_ping(int timeout_ms, uint8_t attempts) { return rmw_uros_ping_agent(timeout_ms, attempts); }
 
+/* rclc_support_init's own steps, with the board's client key set in between (fleet.h) */
 rcl_ret_t probe_support_init(rclc_support_t *support, rcl_allocator_t *allocator) {
-  return rclc_support_init(support, 0, NULL, allocator);
+  rcl_init_options_t options = rcl_get_zero_initialized_init_options();
+  rcl_ret_t ret = rcl_init_options_init(&options, *allocator);
+  if (ret != RCL_RET_OK) return ret;
+  probe_set_client_key(rcl_init_options_get_rmw_init_options(&options));
+  ret = rclc_support_init_with_options(support, 0, NULL, &options, allocator);
+  (void)rcl_init_options_fini(&options);
+  return ret;
 }

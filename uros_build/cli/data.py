@@ -195,6 +195,15 @@ def export_arduino(output: Path, sources: tuple[Path, ...]) -> None:
     "--graph", is_flag=True,
     help="Add the graph stage: an rclpy peer sees the board's node and topics (micro_ros_agent; root).",
 )  # fmt: skip
+@click.option(
+    "--instances", type=int, default=1, show_default=True, metavar="N",
+    help="Boot N copies of the probe firmware against one agent (multiserial, or udp4); all must pass.",
+)  # fmt: skip
+@click.option(
+    "--client-keys", "client_keys", metavar="own|same|drawn",
+    help="With --instances: each board its own key (default), the same on all (must fail), "
+    "or the library's own draw.",
+)  # fmt: skip
 @VERBOSE
 def probe(app: Path | None, defines: tuple[str, ...], duration: float | None, **request: Any) -> None:
     """Run a built library: boot a probe firmware (or your --app) in QEMU against a real XRCE-DDS Agent."""

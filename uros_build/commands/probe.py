@@ -11,8 +11,9 @@ session (QEMU, the agent on its link) → the report (the stages judged, report.
 
 from __future__ import annotations
 
-from uros_build.probesteps import firmware, peer, plan, report, session, start, tools, verdict
+from uros_build.probesteps import firmware, fleet, peer, plan, report, session, start, tools, verdict
 from uros_build.probesteps.context import ProbeRequest
+from uros_build.probesteps.fleet import FleetReport
 from uros_build.probesteps.plan import app_request
 from uros_build.probesteps.report import ProbeReport
 from uros_build.run.appverdict import AppReport
@@ -20,7 +21,7 @@ from uros_build.run.appverdict import AppReport
 __all__ = ["ProbeRequest", "app_request", "probe"]  # what cli/data.py hands the command
 
 
-def probe(request: ProbeRequest) -> ProbeReport | AppReport:
+def probe(request: ProbeRequest) -> ProbeReport | AppReport | FleetReport:
     """One probe, every action in the order it is taken: each step takes the frozen context and
     what earlier steps returned."""
     planned = plan.plan_probe(request)
@@ -29,6 +30,8 @@ def probe(request: ProbeRequest) -> ProbeReport | AppReport:
         programs = tools.find_tools(ctx)
         peer_run = peer.prepare_peer(ctx)
         built = firmware.build(ctx, peer_run)
+        if request.instances > 1:  # N boards on one agent, each judged apart (run/fleet.py)
+            return fleet.run(ctx, programs, built)
         ran = session.run(ctx, programs, peer_run, built)
         if planned.app is not None:
             return verdict.say_app(ctx, report.app_report(ctx, built, ran))

@@ -44,6 +44,8 @@ class ProbeRequest:
     app: AppRequest | None = None
     graph: bool = False  # --graph: the graph stage, with uros's own peer (run/graph.py)
     link: str | None = None  # --link FAULTS: a relay that drops between QEMU and the agent (run/relay.py)
+    instances: int = 1  # --instances N: N boards of the one image on one agent (run/fleet.py)
+    client_keys: str | None = None  # --client-keys own|same|drawn (with --instances)
 
 
 @dataclass(frozen=True)

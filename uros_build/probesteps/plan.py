@@ -16,6 +16,7 @@ from uros_build.errors import ConfigError
 from uros_build.output.buildinfo import BuildInfo, read_build_info
 from uros_build.probesteps.context import AppRequest, ProbePlan, ProbeRequest
 from uros_build.run import app as app_mod
+from uros_build.run import fleet as fleet_mod
 from uros_build.run import freertos as freertos_mod
 from uros_build.run import graph as graph_mod
 from uros_build.run import machines as probe_mod
@@ -33,6 +34,7 @@ MIN_TIMEOUT = 1.0
 def plan_probe(request: ProbeRequest) -> ProbePlan:
     """The request checked, and the output, the board and the kernel it names found."""
     check_timeout(request.timeout)
+    check_instances(request)
     faults = relay_mod.parse_plan(request.link) if request.link is not None else None  # --link
     app, peer = request.app, request.peer
     if request.graph:  # the graph stage's peer is uros's own (run/graph.py)
@@ -59,6 +61,8 @@ def plan_probe(request: ProbeRequest) -> ProbePlan:
     else:  # the probe firmware's own packages (it would fail in the compiler without them)
         stages_mod.check_packages(info.packages, out, info.target, ws.root if ws is not None else None)
     machine = probe_mod.machine_for(info.target, probe_mod.load_machines(), request.board)
+    if request.instances > 1:  # many boards on one agent: the built-in probe's, on an Arm board
+        fleet_mod.check_board(machine.board.arch, machine.machine)
     rtos = _freertos(info, request.freertos)
     return ProbePlan(out, info, machine, rtos, probe_base(out, info.target), plan, peer, faults)
 
@@ -72,6 +76,20 @@ def app_request(folder: Path | None, defines: tuple[str, ...], duration: float |
             raise ConfigError(f"{flag}: only with --app DIR", "give --app DIR, or drop it")
         return None
     return AppRequest(folder, defines, duration)
+
+
+def check_instances(request: ProbeRequest) -> None:
+    """--instances N and --client-keys (run/fleet.py); many boards run the built-in probe alone (no
+    --app, --peer or --graph: one peer, one graph a run)."""
+    fleet_mod.check_instances(request.instances)
+    fleet_mod.check_keys(request.client_keys, request.instances)
+    flags = (("--app", request.app), ("--peer", request.peer), ("--graph", request.graph))
+    given = [flag for flag, on in flags if on]
+    if request.instances > 1 and given:
+        raise ConfigError(
+            f"--instances {request.instances} with {given[0]}: many boards run the built-in probe alone",
+            f"drop {given[0]} or --instances",
+        )
 
 
 def check_graph(peer: Path | None, app: bool, euid: int) -> Path:

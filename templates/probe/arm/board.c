@@ -25,6 +25,14 @@ static uint32_t semihost(uint32_t op, const void *arg) {
   return r0;
 }
 
+/* SYS_GET_CMDLINE (0x15): what QEMU passes with -semihosting-config arg=...; `uros probe --instances`
+ * tells each board its index and unique id there (fleet.h). The line's length, or -1. */
+int probe_command_line(char *buffer, size_t size) {
+  uint32_t block[2] = {(uint32_t)(uintptr_t)buffer, (uint32_t)size};
+  if (semihost(0x15u, block) != 0u) return -1;
+  return (int)block[1];
+}
+
 #ifdef PROBE_CONSOLE_SEMIHOSTING
 /* SYS_WRITE0 a line at a time: QEMU writes it to the console chardev (-semihosting-config chardev=) */
 static char line[81];
