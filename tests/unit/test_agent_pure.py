@@ -1,6 +1,6 @@
 """`uros agent`'s pure pieces: the pin data (meta/distros/<distro>/agent.repos) and its loader, the
 build's key, the CMake command lines, the wheels' mends, the wrapper script, the built agent's
-record, and `uros agent run`'s command lines and checks (run/agentbuild.py, commands/agent.py)."""
+record, and `uros agent run`'s command lines and checks (run/agentbuild.py, run/builtagent.py, commands/agent.py)."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ import pytest
 
 from uros_build.commands import agent as agent_cmd
 from uros_build.errors import ConfigError
-from uros_build.run import agentbuild, graph
+from uros_build.run import agentbuild, builtagent, graph
 from uros_build.sources.distros import Repo, parse_repos
 
 XRCE = Repo("xrce_agent", "https://github.com/eProsima/Micro-XRCE-DDS-Agent.git", "v3.0.1")
@@ -117,7 +117,7 @@ def test_the_wrapper_quotes_every_path_and_execs_the_agent() -> None:
 
 
 def test_the_current_agent_is_read_from_its_record(tmp_path: Path) -> None:
-    assert agentbuild.current_agent(tmp_path) is None
+    assert builtagent.current_agent(tmp_path) is None
     folder = tmp_path / "agent" / "humble-0123"
     (folder / "bin").mkdir(parents=True)
     (folder / "bin" / "uros-agent").write_text("#!/bin/sh\n", encoding="utf-8")
@@ -125,7 +125,7 @@ def test_the_current_agent_is_read_from_its_record(tmp_path: Path) -> None:
               "venv": "kilted-x", "seconds": 200.5}  # fmt: skip
     (folder / "uros-agent.json").write_text(json.dumps(record), encoding="utf-8")
     (tmp_path / "agent" / "current.json").write_text('{"folder": "humble-0123"}', encoding="utf-8")
-    built = agentbuild.current_agent(tmp_path)
+    built = builtagent.current_agent(tmp_path)
     assert (
         built is not None
         and built.program == "micro_ros_agent"
@@ -133,12 +133,12 @@ def test_the_current_agent_is_read_from_its_record(tmp_path: Path) -> None:
     )
     assert "xrce_agent c" in built.describe()
     (tmp_path / "agent" / "current.json").write_text('{"folder": "../elsewhere"}', encoding="utf-8")
-    assert agentbuild.current_agent(tmp_path) is None  # the pointer names only a folder beside it
+    assert builtagent.current_agent(tmp_path) is None  # the pointer names only a folder beside it
 
 
 def test_a_record_naming_another_program_is_refused(tmp_path: Path) -> None:
     with pytest.raises(ConfigError, match="program"):
-        agentbuild.parse_record(
+        builtagent.parse_record(
             {"program": "sh", "why": "", "distro": "h", "commits": {}, "venv": "v", "seconds": 1},
             "r",
             tmp_path,
@@ -225,10 +225,10 @@ def test_the_graph_stage_fails_on_another_node_or_a_missing_endpoint() -> None:
 
 
 def test_which_agent_a_program_is() -> None:
-    built = agentbuild.BuiltAgent(Path("/c/a"), "micro_ros_agent", "", "humble", {}, "v", 1.0)
-    assert agentbuild.program_name("/c/a/bin/uros-agent", built) == "micro_ros_agent"
-    assert agentbuild.program_name("/x/MicroXRCEAgent", built) == "MicroXRCEAgent"
-    assert agentbuild.program_name("/x/MicroXRCEAgent", None) == "MicroXRCEAgent"
-    assert agentbuild.program_path(Path("/c/a"), "micro_ros_agent") == Path(
+    built = builtagent.BuiltAgent(Path("/c/a"), "micro_ros_agent", "", "humble", {}, "v", 1.0)
+    assert builtagent.program_name("/c/a/bin/uros-agent", built) == "micro_ros_agent"
+    assert builtagent.program_name("/x/MicroXRCEAgent", built) == "MicroXRCEAgent"
+    assert builtagent.program_name("/x/MicroXRCEAgent", None) == "MicroXRCEAgent"
+    assert builtagent.program_path(Path("/c/a"), "micro_ros_agent") == Path(
         "/c/a/lib/micro_ros_agent/micro_ros_agent"
     )

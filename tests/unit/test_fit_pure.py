@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from uros_build.output import fit
+from uros_build.output import executors, fit
 from uros_build.output.buildinfo import parse_build_info
 from uros_build.sources.firmware_scan import Call, FirmwareUse, scan_calls, scan_defines, scan_folder
 from uros_build.sources.options import by_package, known_options
@@ -104,19 +104,19 @@ def test_a_value_that_is_no_number_is_not_judged() -> None:
 )
 def test_an_executor_s_size_as_c_evaluates_it(expr: str, value: int | None) -> None:
     defines = {"RCLC_EXECUTOR_PARAMETER_SERVER_HANDLES": "5", "EXTRA": "2", "NESTED": "(EXTRA + 5) * 2"}
-    assert fit.evaluate(expr, {**defines, "LOOP": "LOOP + 1"}) == value
+    assert executors.evaluate(expr, {**defines, "LOOP": "LOOP + 1"}) == value
 
 
 def test_an_executor_given_more_handles_than_it_was_initialised_for_names_the_call_that_fails() -> None:
-    (executor,) = fit.executors(_use(), parameter_handles=5)
+    (executor,) = executors.executors(_use(), parameter_handles=5)
     assert (executor.name, executor.handles, executor.given, executor.short) == ("executor", 7, 7, False)
-    assert fit.executor_line(executor) == (
+    assert executors.executor_line(executor) == (
         False,
         "main.c:8: executor is initialised for 7 handles and given 7",
     )
     short = _use(FIRMWARE.replace("#define EXTRA 2", "#define EXTRA 0"))
-    (executor,) = fit.executors(short, parameter_handles=5)
-    warn, line = fit.executor_line(executor)
+    (executor,) = executors.executors(short, parameter_handles=5)
+    warn, line = executors.executor_line(executor)
     assert warn and line == (
         "main.c:8: executor is initialised for 5 handles and given 7: rclc_executor_add_parameter_server at "
         "main.c:10 returns RCL_RET_ERROR (\"Buffer overflow of 'executor->handles'\"); initialise it for 7"
@@ -129,13 +129,13 @@ def test_executors_that_are_not_initialised_or_not_readable_are_said_not_judged(
         Call("rclc_executor_init", "a.c", 1, ("&ex", "&c", "count", "&a")),
         Call("rclc_executor_add_timer", "a.c", 2, ("&ex", "&t")),
     )
-    found = {e.name: e for e in fit.executors(FirmwareUse(calls=calls), 5)}
-    assert fit.executor_line(found["other"]) == (
+    found = {e.name: e for e in executors.executors(FirmwareUse(calls=calls), 5)}
+    assert executors.executor_line(found["other"]) == (
         False,
         "other: 1 rclc_executor_add_* calls (1 handles, first at a.c:3); its rclc_executor_init is not in "
         "the sources read",
     )
-    assert fit.executor_line(found["ex"]) == (
+    assert executors.executor_line(found["ex"]) == (
         False,
         "a.c:1: ex is initialised for count handles (not a number uros can read) and given 1",
     )
@@ -207,7 +207,7 @@ def test_the_parameter_server_example_is_counted_as_it_runs() -> None:
     use = scan_folder(Path(__file__).resolve().parents[2] / "examples" / "parameter-server")
     counted = {kind: sum(n for _, n, _ in uses) for kind, uses in fit.count(use.calls).items()}
     assert counted == {"nodes": 1, "publishers": 1, "services": 5, "clients": 1, "wait sets": 2}
-    found = {e.name: (e.handles, e.given) for e in fit.executors(use, parameter_handles=5)}
+    found = {e.name: (e.handles, e.given) for e in executors.executors(use, parameter_handles=5)}
     assert found == {"executor": (5, 5), "checker": (1, 1)}
 
 

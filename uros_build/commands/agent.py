@@ -24,8 +24,8 @@ from uros_build.config.resolver import resolve_outside, resolve_workspace
 from uros_build.config.settings import ROS2_VENV
 from uros_build.errors import ConfigError, Interrupted, MissingToolError
 from uros_build.proc import Runner, new_run_log, user_log_dir
-from uros_build.run import agentbuild
-from uros_build.run.agentbuild import BuiltAgent
+from uros_build.run import agentbuild, builtagent
+from uros_build.run.builtagent import BuiltAgent
 from uros_build.sources import distros as distros_mod
 from uros_build.sources.distros import Mirror
 from uros_build.sources.wsfiles import load_config
@@ -40,7 +40,7 @@ def agent_root() -> Path:
 
 def built_agent() -> BuiltAgent | None:
     """The agent `uros agent build` made current, or None."""
-    return agentbuild.current_agent(agent_root())
+    return builtagent.current_agent(agent_root())
 
 
 def build(
@@ -64,7 +64,7 @@ def build(
     where = agent_root()
     runner = Runner(new_run_log(where / "log", "agent-build"), verbose=verbose)
     console.step(
-        f"uros agent build: the agent of {name} ({pin.source}), under {where / agentbuild.AGENT_DIR}"
+        f"uros agent build: the agent of {name} ({pin.source}), under {where / builtagent.AGENT_DIR}"
     )
     console.info(f"log: {runner.log_path}")
     built, now = agentbuild.build_agent(runner, pin, mirror, where, jobs)

@@ -29,7 +29,7 @@ from uros_build.defaults import BUILD_INFO
 from uros_build.errors import ConfigError, MissingToolError, StepFailed, UrosError, VerifyError
 from uros_build.output import folders as outputs
 from uros_build.proc import Runner, new_run_log, user_log_dir
-from uros_build.run import agentbuild, machines
+from uros_build.run import builtagent, machines
 from uros_build.sources.workspace import Workspace
 from uros_build.sources.wsfiles import CONFIG, Lock, load_config, read_lock
 from uros_build.steps import inputs as inputs_step
@@ -404,7 +404,7 @@ def doctor(workspace: Path | None, toolchain: str | None, as_json: bool) -> list
     trouble = hosttools.ccache_unusable(runner, ccache, os.environ) if ccache else None
     checks.append(eval_ccache(ccache, _version(runner, "ccache"), trouble))
     agent = resolve_outside(AGENT).value
-    built = agentbuild.current_agent(resolve_outside(ROS2_VENV).value.expanduser())  # uros agent build's
+    built = builtagent.current_agent(resolve_outside(ROS2_VENV).value.expanduser())  # uros agent build's
     found = _which(runner, agent) if agent else f"{built.describe()}: uros agent build's" if built else None
     qemus = {program: _which(runner, program) for program in machines.QEMU_PROGRAMS}
     checks += eval_probe_tools(qemus, found, bool(agent), machines.load_machines())

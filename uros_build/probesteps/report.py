@@ -9,7 +9,7 @@ from dataclasses import asdict, dataclass, replace
 
 from uros_build.probesteps.context import Firmware, ProbeContext, Tools
 from uros_build.probesteps.tools import agent_root
-from uros_build.run import agentbuild, appverdict
+from uros_build.run import appverdict, builtagent
 from uros_build.run import graph as graph_mod
 from uros_build.run import machines as probe_mod
 from uros_build.run import network as network_mod
@@ -68,7 +68,7 @@ def probe_report(ctx: ProbeContext, tools: Tools, firmware: Firmware, ran: Sessi
     # --graph: what uros's own peer saw is a stage, not a verdict
     if ctx.request.graph and ran.peer_log is not None:
         seen = ran.peer_log.read_text(encoding="utf-8", errors="replace")
-        name = agentbuild.program_name(tools.agent, agentbuild.current_agent(agent_root()))
+        name = builtagent.program_name(tools.agent, builtagent.current_agent(agent_root()))
         stages = [*stages, graph_mod.stage(seen, name)]
         with_peer = False
     failed = stages_mod.failed(stages)

@@ -11,7 +11,7 @@ from uros_build.config.resolver import resolve_outside
 from uros_build.config.settings import AGENT, ROS2_VENV
 from uros_build.errors import MissingToolError
 from uros_build.probesteps.context import ProbeContext, Tools
-from uros_build.run import agentbuild
+from uros_build.run import builtagent
 from uros_build.run.machines import qemu_hint
 
 _AGENT_HINT = (
@@ -32,7 +32,7 @@ def find_tools(ctx: ProbeContext) -> Tools:
 def _agent(ctx: ProbeContext) -> str:
     wanted = resolve_outside(AGENT, ctx.request.agent or None).value  # --agent, else $UROS_AGENT
     if not wanted:  # else the agent `uros agent build` made
-        built = agentbuild.current_agent(agent_root())
+        built = builtagent.current_agent(agent_root())
         if built is None:
             raise MissingToolError("uros probe: no Micro XRCE-DDS Agent was given or built", _AGENT_HINT)
         console.info(f"agent: {built.describe()} (uros agent build)")

@@ -11,7 +11,8 @@ the agent is ``MicroXRCEAgent`` and the record says why.
 Cached like the peer's environment: the prefix's folder is named by a key of the sources' commits,
 the venv (the wheels' versions and the Python) and the build's options; a second build of the same
 key does nothing. It is built beside the agent in use, and ``current.json`` names the new one only
-once it is complete: a failed build leaves the previous agent in place.
+once it is complete: a failed build leaves the previous agent in place (run/builtagent.py: the record
+and the agent in use, as the commands that run it read them).
 
 Two defects of the wheels are worked around (docs/probe.md, "The agent"): Fast DDS's exported CMake
 links ``/usr/lib64/libtinyxml2.so`` (the wheel builder's path; the wheel carries its own
@@ -34,7 +35,6 @@ import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 from uros_build import console, loader, resources
 from uros_build.colcon.fingerprint import digest_json
@@ -42,22 +42,29 @@ from uros_build.errors import ConfigError, StepFailed
 from uros_build.files import locked, remove_tree, write_atomic, write_if_changed
 from uros_build.proc import Runner
 from uros_build.run import peerenv
+from uros_build.run.builtagent import (
+    AGENT_DIR,
+    CURRENT,
+    GRAPH,
+    MSGS,
+    PROGRAMS,
+    RECORD,
+    WRAPPER,
+    XRCE,
+    BuiltAgent,
+    parse_record,
+    program_path,
+)
 from uros_build.sources import clones, distros
 from uros_build.sources.distros import Mirror, Repo
 from uros_build.sources.packages import discover
 
 PIN_FILE = "agent.repos"  # in meta/distros/<distro>/
-AGENT_DIR = "agent"  # under the ROS 2 environment's root (UROS_ROS2_VENV)
-CURRENT = "current.json"  # in AGENT_DIR: the agent in use
-RECORD = "uros-agent.json"  # in an agent's folder, written last: the folder is complete
 PARTIAL = "uros-agent.partial"  # written first: the folder is uros's, and unfinished
-WRAPPER = "bin/uros-agent"  # what runs the agent: its libraries' paths set, then exec
 # the build recipe below: a change of it makes new agents
 BUILD_VERSION = 1
 
-XRCE, GRAPH, MSGS = "xrce_agent", "micro_ros_agent", "micro_ros_msgs"
 ROLES = (XRCE, GRAPH, MSGS)
-PROGRAMS = {XRCE: "MicroXRCEAgent", GRAPH: "micro_ros_agent"}
 
 # eProsima's agent against the wheels' Fast DDS and Fast CDR: no superbuild (it would clone and
 # build its own), no spdlog (the wheels have none: the agent logs nothing, and prints no
@@ -259,75 +266,6 @@ def wrapper_script(program: Path, libraries: Sequence[str], ament: Sequence[str]
         "export LD_LIBRARY_PATH AMENT_PREFIX_PATH FASTDDS_BUILTIN_TRANSPORTS\n"
         f'exec {shlex.quote(str(program))} "$@"\n'
     )
-
-
-# ---------------------------------------------------------------------------------------------
-# the built agent
-
-
-@dataclass(frozen=True)
-class BuiltAgent:
-    folder: Path
-    program: str  # micro_ros_agent or MicroXRCEAgent
-    why: str  # why this program (micro_ros_agent's build failure, or the pin naming none)
-    distro: str
-    commits: dict[str, str]  # role -> commit
-    venv: str
-    seconds: float
-
-    @property
-    def run(self) -> Path:
-        """The program to start (the wrapper, with its libraries' paths)."""
-        return self.folder / WRAPPER
-
-    def describe(self) -> str:
-        commits = ", ".join(f"{r} {c[:12]}" for r, c in sorted(self.commits.items()))
-        return f"{self.program} ({self.distro}: {commits}) in {self.folder}"
-
-
-def parse_record(data: Any, source: str, folder: Path) -> BuiltAgent:
-    top = loader.mapping(data, source, required=("program", "why", "distro", "commits", "venv", "seconds"))
-    commits = loader.mapping(top["commits"], f"{source}: commits")
-    program = loader.one_of(top, "program", source, tuple(PROGRAMS.values()), "MicroXRCEAgent")
-    seconds = top["seconds"]
-    if not isinstance(seconds, int | float):
-        raise ConfigError(f"{source}: seconds: expected a number, got {seconds!r}")
-    return BuiltAgent(
-        folder=folder,
-        program=program,
-        why=loader.string(top, "why", source),
-        distro=loader.string(top, "distro", source),
-        commits={str(k): str(v) for k, v in commits.items()},
-        venv=loader.string(top, "venv", source),
-        seconds=float(seconds),
-    )
-
-
-def current_agent(root: Path) -> BuiltAgent | None:
-    """The agent `uros agent build` last built under ``root`` (UROS_ROS2_VENV), or None: none built,
-    or its folder gone or unfinished."""
-    pointer = root / AGENT_DIR / CURRENT
-    try:
-        name = json.loads(pointer.read_text(encoding="utf-8"))["folder"]
-    except (OSError, ValueError, KeyError, TypeError):
-        return None
-    folder = root / AGENT_DIR / str(name)
-    record = folder / RECORD
-    if not isinstance(name, str) or "/" in name or not record.is_file() or not (folder / WRAPPER).is_file():
-        return None
-    return parse_record(loader.load_json(record), str(record), folder)
-
-
-def program_path(folder: Path, program: str) -> Path:
-    """Where the program is installed in an agent's folder (pure): micro_ros_agent as ament
-    installs it, MicroXRCEAgent in bin/."""
-    return folder / "lib" / GRAPH / GRAPH if program == PROGRAMS[GRAPH] else folder / "bin" / PROGRAMS[XRCE]
-
-
-def program_name(path: str, built: BuiltAgent | None) -> str:
-    """Which agent a program path is (pure): the built one's program when it is that agent's
-    wrapper, else the file's name (micro_ros_agent, MicroXRCEAgent, ...)."""
-    return built.program if built is not None and Path(path) == built.run else Path(path).name
 
 
 # ---------------------------------------------------------------------------------------------
