@@ -183,10 +183,11 @@ def test_esp32_family_objects_are_identical_in_every_elf_fact() -> None:
 def test_check_says_when_targets_cannot_be_told_apart() -> None:
     objects = _objects("readelf-esp-chips.txt")
     summary = abi.verify(objects, find_profile("esp32s3"), "chips.a")
-    assert summary["same_elf_facts_as"] == ["esp32", "esp32s2"]
+    # esp32s3-bare: the same core without ESP-IDF (the probe's bare-metal twin)
+    assert summary["same_elf_facts_as"] == ["esp32", "esp32s2", "esp32s3-bare"]
     assert abi.describe(summary) == (
         "all 3 objects show the ELF facts of esp32s3 (Tensilica Xtensa ELF32, .xtensa.info ABI=0 (windowed)); "
-        "the ELF facts of esp32, esp32s2 and esp32s3 are identical, so this does not tell which of them "
+        "the ELF facts of esp32, esp32s2, esp32s3 and esp32s3-bare are identical, so this does not tell which of them "
         "the objects were built for"
     )
     # a target with facts of its own still says "match"
@@ -199,7 +200,7 @@ def test_look_alikes_among_the_shipped_targets() -> None:
     from uros_build.target.profiles import shipped_profiles
 
     profiles = list(shipped_profiles().values())
-    assert abi.look_alikes(find_profile("esp32"), profiles) == ["esp32s2", "esp32s3"]
+    assert abi.look_alikes(find_profile("esp32"), profiles) == ["esp32s2", "esp32s3", "esp32s3-bare"]
     assert abi.look_alikes(find_profile("esp8266"), profiles) == []
     assert abi.look_alikes(find_profile("cortex-m7"), profiles) == []
 

@@ -44,6 +44,7 @@ def test_the_shipped_table() -> None:
         "rv32imac": "virt",
         "rv32imafc": "virt",
         "esp8266": "lx60-nommu",
+        "esp32s3-bare": "lx60-nommu",
     }
     microbit = machines.machine_for("cortex-m0plus", table, "microbit")
     assert microbit.chosen and microbit.board.ram == machines.Region(0x20000000, 16 << 10)
@@ -104,6 +105,8 @@ def _broken(path: tuple[str, ...], value: Any) -> dict[str, Any]:
         (("boards", "an505", "stack"), "4M", "do not fit the"),
         (("boards", "an505", "clock_hz"), 100, "less than 1 kHz"),
         (("boards", "an505", "qemu_args"), ["-bios", "none;rm"], "not a plain QEMU argument"),
+        (("boards", "an505", "qemu_env"), "PATH", "not an environment variable name like UROS_X_QEMU"),
+        (("boards", "an505", "qemu_env"), "UROS_Q; rm", "not an environment variable name"),
         (("boards", "an505", "colour"), "red", "colour: unknown key"),
         (("machines", "cortex-m33", "board"), "an521", "'an521' is not one of the boards"),
         (("machines", "cortex-m33", "startup"), ["turbo"], "'turbo' is not one of unaligned-trap"),
@@ -222,3 +225,48 @@ def test_doctor_says_which_qemu_runs_which_targets() -> None:
     checks = doctor.eval_probe_tools({}, "/a/MicroXRCEAgent", True, table)
     assert [c.status for c in checks] == [doctor.OK]
     assert doctor.eval_probe_tools({}, None, True, table)[0].status == doctor.WARN
+
+
+def test_the_esp32s3_board_names_its_qemu_by_an_environment_variable() -> None:
+    """No packaged QEMU has the S3 core: the board names the variable of the one built by
+    tests/esp32s3-qemu-env.sh, and doctor counts it apart from PATH's qemu-system-xtensa."""
+    table = machines.load_machines()
+    s3 = table["esp32s3-bare"]
+    board = s3.board
+    assert (board.machine, board.cpu, board.qemu_env, board.clock_hz) == (
+        "lx60-nommu",
+        "esp32s3",
+        "UROS_ESP32S3_QEMU",
+        240_000_000,
+    )
+    assert (board.arch, board.uart, board.link, board.reg_shift, board.console_stdout) == (
+        "xtensa",
+        "ns16550",
+        0x7D050020,
+        2,
+        True,
+    )
+    assert table["esp8266"].board.qemu_env == ""
+    argv = machines.qemu_argv(s3, Path("/w/fw.elf"), Path("/w/console.log"))
+    assert argv[:5] == ["qemu-system-xtensa", "-M", "lx60-nommu", "-cpu", "esp32s3"]
+    assert "UROS_ESP32S3_QEMU" in machines.qemu_hint(board.qemu, board)
+    assert "qemu-system-misc" in machines.qemu_hint(board.qemu)
+    assert "#define PROBE_CLOCK_HZ 240000000u" in machines.machine_header(s3)
+    # PATH's qemu-system-xtensa runs the lx106 only; the S3 board is its own line
+    xtensa = doctor.eval_probe_tools(
+        {"qemu-system-xtensa": "/usr/bin/qemu-system-xtensa"}, None, False, table
+    )[0]
+    assert xtensa.detail.endswith("(uros probe runs: esp8266)")
+    found = [
+        doctor.BoardQemu("", False, False),
+        doctor.BoardQemu("/q/qemu-system-xtensa", False, False),
+        doctor.BoardQemu("/q/qemu-system-xtensa", True, False),
+        doctor.BoardQemu("/q/qemu-system-xtensa", True, True),
+    ]
+    unset, missing, no_cpu, ok = (doctor.eval_board_qemu(s3, f) for f in found)
+    assert unset.status == doctor.SKIP and "UROS_ESP32S3_QEMU unset" in unset.detail
+    assert "tests/esp32s3-qemu-env.sh" in unset.fix
+    assert missing.status == doctor.WARN and "no such program" in missing.detail
+    assert no_cpu.status == doctor.WARN and "has no esp32s3 CPU" in no_cpu.detail
+    assert ok.status == doctor.OK and "uros probe runs: esp32s3-bare" in ok.detail
+    assert ok.name == "qemu-system-xtensa (esp32s3)"

@@ -157,6 +157,7 @@ SHIPPED = {
     "esp32": ("xtensa-esp32-elf-", "-mlongcalls", None, None),
     "esp32s2": ("xtensa-esp32s2-elf-", "-mlongcalls", None, None),
     "esp32s3": ("xtensa-esp32s3-elf-", "-mlongcalls", None, None),
+    "esp32s3-bare": ("xtensa-esp32s3-elf-", "-mlongcalls", None, None),
     "esp32c3": ("riscv32-esp-elf-", "-march=rv32imc_zicsr_zifencei", None, None),
     "esp32c6": ("riscv32-esp-elf-", "-march=rv32imac_zicsr_zifencei", None, None),
     "esp32h2": ("riscv32-esp-elf-", "-march=rv32imac_zicsr_zifencei", None, None),
@@ -172,7 +173,7 @@ def test_every_shipped_target_loads() -> None:
         assert p.compiler_prefix == prefix and flag in p.cpu_flags, name
         if tag is not None:
             assert dict(p.elf.attributes)[tag] == value, name
-        esp = name.startswith("esp32")
+        esp = name.startswith("esp32") and not name.endswith("-bare")  # esp32s3-bare: no ESP-IDF
         # bare metal: newlib/picolibc need the clock workaround, custom transport, rcutils' atomics;
         # ESP-IDF: its newlib declares the clock, UDP is the default, IDF defines __atomic_*_8
         assert p.micro_ros.declare_clock_gettime is not esp, name

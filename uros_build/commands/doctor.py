@@ -98,13 +98,16 @@ def eval_probe_tools(
     agent: str | None,
     agent_given: bool,
     machine_table: Mapping[str, machines.Machine],
+    board_qemus: Sequence[tuple[machines.Machine, BoardQemu]] = (),
 ) -> list[Check]:
     """What `uros probe` needs: each QEMU program (path or None) with the targets it lets the probe
-    boot (meta/probe/machines.yaml), and the agent; neither is needed to build, so a missing one is
-    a note, not a failure."""
+    boot (meta/probe/machines.yaml), the QEMU builds boards name through their qemu_env, and the
+    agent; none is needed to build, so a missing one is a note, not a failure."""
     checks = []
     for program, path in qemus.items():
-        targets = ", ".join(sorted(t for t, m in machine_table.items() if m.board.qemu == program))
+        targets = ", ".join(
+            sorted(t for t, m in machine_table.items() if m.board.qemu == program and not m.board.qemu_env)
+        )
         if not targets:  # rv32imc, esp8266: no library here to probe (docs/probe.md, Cores)
             what = "no target's probe runs on it yet (docs/probe.md, Cores)"
             checks.append(Check(program, OK if path else SKIP, f"{path or 'not found'}: {what}"))
@@ -113,6 +116,7 @@ def eval_probe_tools(
         else:
             why = f"not found: `uros probe` cannot run {targets}"
             checks.append(Check(program, SKIP, why, machines.qemu_hint(program)))
+    checks += [eval_board_qemu(m, found) for m, found in board_qemus]
     if agent:
         checks.append(Check("agent", OK, agent))
     elif agent_given:
@@ -280,6 +284,52 @@ def render(checks: Sequence[Check]) -> str:
 # -- the probes --------------------------------------------------------------------------------
 
 
+@dataclass(frozen=True)
+class BoardQemu:
+    """What doctor found for a board's qemu_env: the variable's value ("" unset), whether it names a
+    program, and whether that program's `-cpu help` lists the board's CPU."""
+
+    named: str
+    runs: bool
+    has_cpu: bool
+
+
+def eval_board_qemu(machine: machines.Machine, found: BoardQemu) -> Check:
+    board = machine.board
+    name = f"{board.qemu} ({board.cpu})"
+    fix = machines.qemu_hint(board.qemu, board)
+    if not found.named:
+        return Check(name, SKIP, f"{board.qemu_env} unset: `uros probe` cannot run {machine.target}", fix)
+    if not found.runs:
+        return Check(name, WARN, f"{board.qemu_env}={found.named}: no such program", fix)
+    if not found.has_cpu:
+        return Check(name, WARN, f"{found.named} ({board.qemu_env}) has no {board.cpu} CPU (-cpu help)", fix)
+    return Check(
+        name, OK, f"{found.named} ({board.qemu_env}, -cpu {board.cpu}; uros probe runs: {machine.target})"
+    )
+
+
+def _board_qemus(
+    runner: Runner, table: Mapping[str, machines.Machine]
+) -> list[tuple[machines.Machine, BoardQemu]]:
+    out = []
+    for machine in table.values():
+        board = machine.board
+        if not board.qemu_env:
+            continue
+        named = os.environ.get(board.qemu_env, "")
+        runs = bool(named) and Path(named).is_file() and os.access(named, os.X_OK)
+        has_cpu = False
+        if runs:
+            try:
+                listed = runner.query([named, "-cpu", "help"], step=f"{board.qemu} -cpu help")
+                has_cpu = board.cpu is not None and board.cpu in listed.split()
+            except StepFailed:
+                pass
+        out.append((machine, BoardQemu(named, runs, has_cpu)))
+    return out
+
+
 def _which(runner: Runner, program: str, path: str | None = None) -> str | None:
     try:
         return runner.which(program, path=path)
@@ -407,7 +457,8 @@ def doctor(workspace: Path | None, toolchain: str | None, as_json: bool) -> list
     built = builtagent.current_agent(resolve_outside(ROS2_VENV).value.expanduser())  # uros agent build's
     found = _which(runner, agent) if agent else f"{built.describe()}: uros agent build's" if built else None
     qemus = {program: _which(runner, program) for program in machines.QEMU_PROGRAMS}
-    checks += eval_probe_tools(qemus, found, bool(agent), machines.load_machines())
+    table = machines.load_machines()
+    checks += eval_probe_tools(qemus, found, bool(agent), table, _board_qemus(runner, table))
     where = ws.root if ws else Path.cwd()
     checks.append(eval_disk(shutil.disk_usage(where).free, where))
     try:

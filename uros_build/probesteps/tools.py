@@ -12,7 +12,7 @@ from uros_build.config.settings import AGENT, ROS2_VENV
 from uros_build.errors import MissingToolError
 from uros_build.probesteps.context import ProbeContext, Tools
 from uros_build.run import builtagent
-from uros_build.run.machines import qemu_hint
+from uros_build.run.machines import Board, qemu_hint
 
 _AGENT_HINT = (
     "run `uros agent build` once, or pass --agent PATH (or set UROS_AGENT) to a MicroXRCEAgent: eProsima "
@@ -24,9 +24,26 @@ _AGENT_HINT = (
 
 
 def find_tools(ctx: ProbeContext) -> Tools:
-    """QEMU for the board, then the agent."""
-    qemu = ctx.plan.machine.board.qemu
-    return Tools(ctx.runner.which(qemu, qemu_hint(qemu)), _agent(ctx))
+    """QEMU for the board (the program its qemu_env names, for a core no packaged QEMU has), then
+    the agent."""
+    board = ctx.plan.machine.board
+    return Tools(_qemu(ctx, board), _agent(ctx))
+
+
+def _qemu(ctx: ProbeContext, board: Board) -> str:
+    if not board.qemu_env:
+        return ctx.runner.which(board.qemu, qemu_hint(board.qemu))
+    named = os.environ.get(board.qemu_env, "")
+    if not named:
+        raise MissingToolError(
+            f"uros probe: board {board.name} needs a {board.qemu} with the {board.cpu} CPU, and "
+            f"{board.qemu_env} is not set",
+            qemu_hint(board.qemu, board),
+        )
+    if not (Path(named).is_file() and os.access(named, os.X_OK)):
+        raise MissingToolError(f"{board.qemu_env}={named}: no such program", qemu_hint(board.qemu, board))
+    console.info(f"qemu: {named} ({board.qemu_env})")
+    return str(Path(named).absolute())
 
 
 def _agent(ctx: ProbeContext) -> str:

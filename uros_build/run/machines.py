@@ -26,6 +26,7 @@ LIBC_FILES = {"riscv": "picolibc", "xtensa": "picolibc"}
 UARTS = ("cmsdk", "nrf51", "ns16550")  # templates/probe/uart/<name>.c
 STARTUPS = ("unaligned-trap",)  # what a machine's start-up may do more (templates/probe/<arch>/board.c)
 _NAME = re.compile(r"[a-z0-9][a-z0-9.-]*")
+_ENV = re.compile(r"UROS_[A-Z0-9_]+")
 _ARG = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.,=-]*|-[A-Za-z0-9-]+")
 _SIZE = re.compile(r"(\d+)([KM]?)")
 
@@ -67,6 +68,7 @@ class Board:
     ram: Region
     stack: int
     nic: Nic | None = None  # None: no NIC the probe drives (the serial link only)
+    qemu_env: str = ""  # the environment variable naming a QEMU build with the core ("" : PATH's qemu)
 
 
 @dataclass(frozen=True)
@@ -102,7 +104,7 @@ def _region(data: Mapping[str, Any], key: str, where: str) -> Region:
 
 _BOARD_KEYS = {
     "qemu", "machine", "cpu", "qemu_args", "arch", "uart", "console", "link", "reg_shift", "clock_hz",
-    "rom", "ram", "stack", "sources", "nic",
+    "rom", "ram", "stack", "sources", "nic", "qemu_env",
 }  # fmt: skip
 
 
@@ -136,7 +138,13 @@ def parse_board(name: str, entry: Any, where: str) -> Board:
     if item.get("nic") is not None:
         entry = loader.mapping(item.get("nic"), f"{where}: nic", {"model", "base"}, ("model", "base"))
         nic = Nic(loader.one_of(entry, "model", f"{where}: nic", NICS), _size(entry, "base", f"{where}: nic"))
+    qemu_env = item.get("qemu_env", "")
+    if not (isinstance(qemu_env, str) and (qemu_env == "" or _ENV.fullmatch(qemu_env))):
+        raise ConfigError(
+            f"{where}: qemu_env: {qemu_env!r} is not an environment variable name like UROS_X_QEMU"
+        )
     return Board(
+        qemu_env=qemu_env,
         nic=nic,
         name=name,
         qemu=loader.one_of(item, "qemu", where, QEMU_PROGRAMS),
@@ -328,8 +336,14 @@ def ram_overflow(link_output: str) -> int | None:
     return int(found.group(1)) if found else None
 
 
-def qemu_hint(program: str) -> str:
-    """How to install a QEMU program on Debian (riscv32 and xtensa come in qemu-system-misc)."""
+def qemu_hint(program: str, board: Board | None = None) -> str:
+    """How to install a QEMU program on Debian (riscv32 and xtensa come in qemu-system-misc), or
+    for a board whose core no packaged QEMU has, how to build one and name it."""
+    if board is not None and board.qemu_env:
+        return (
+            f"set {board.qemu_env} to a {program} with the {board.cpu} CPU "
+            f"(bash tests/esp32s3-qemu-env.sh DIR builds one: docs/esp32.md)"
+        )
     package = "qemu-system-arm" if program == "qemu-system-arm" else "qemu-system-misc"
     return f"install {program} (Debian: apt-get install {package})"
 
