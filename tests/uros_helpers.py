@@ -329,3 +329,27 @@ def humble_copy(fw: Path, built: str | None, mirror: str | None) -> Path:
         assert mirror
         run_uros("create-firmware", "--distro", "humble", "-w", str(fw), *humble_mirror_args(mirror))
     return fw
+
+
+def s3_compiler_skip(prefix: str, scratch: Path) -> str | None:
+    """Why a test of real ESP32-S3 code cannot run with `<prefix>gcc` (absent, or it makes lx106 code:
+    the stand-in of tests/esp32s3-compat-env.sh), or None when it makes Espressif-core code."""
+    from uros_build.target import abi
+
+    if not shutil.which(prefix + "gcc"):
+        return f"no {prefix}gcc on PATH (tests/esp32s3-real-env.sh makes one)"
+    env = {**os.environ, "LC_ALL": "C"}
+    (scratch / "probe.c").write_text(abi.XTENSA_CODE_PROBE, encoding="utf-8")
+    compile_probe = [
+        prefix + "gcc",
+        "-mlongcalls",
+        "-O2",
+        "-c",
+        str(scratch / "probe.c"),
+        "-o",
+        str(scratch / "probe.o"),
+    ]
+    subprocess.run(compile_probe, capture_output=True, text=True, check=True, env=env)
+    dump = [prefix + "objdump", "-dr", str(scratch / "probe.o")]
+    code = abi.xtensa_code(subprocess.run(dump, capture_output=True, text=True, check=True, env=env).stdout)
+    return None if code.startswith("makes Espressif-core code") else f"{prefix}gcc {code}"

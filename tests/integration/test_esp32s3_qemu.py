@@ -21,6 +21,7 @@ import subprocess
 from pathlib import Path
 
 import pytest
+from uros_helpers import s3_compiler_skip
 
 from uros_build.run import machines
 from uros_build.target import abi
@@ -87,14 +88,10 @@ def s3(tmp_path_factory: pytest.TempPathFactory) -> Path:
     listed = subprocess.run([QEMU, "-cpu", "help"], capture_output=True, text=True, check=False).stdout
     if "esp32s3" not in listed.split():
         pytest.skip(f"{QEMU} -cpu help lists no esp32s3")
-    if not shutil.which(PREFIX + "gcc"):
-        pytest.skip(f"no {PREFIX}gcc on PATH (tests/esp32s3-real-env.sh makes one)")
     tmp = tmp_path_factory.mktemp("s3qemu")
-    (tmp / "probe.c").write_text(abi.XTENSA_CODE_PROBE, encoding="utf-8")
-    _tool("gcc", "-mlongcalls", "-O2", "-c", str(tmp / "probe.c"), "-o", str(tmp / "probe.o"))
-    code = abi.xtensa_code(_tool("objdump", "-dr", str(tmp / "probe.o")))
-    if not code.startswith("makes Espressif-core code"):
-        pytest.skip(f"{PREFIX}gcc {code}")
+    why = s3_compiler_skip(PREFIX, tmp)
+    if why:
+        pytest.skip(why)
     if not Path(_tool("gcc", f"-print-file-name={SPECS.split('=')[1]}").strip()).is_absolute():
         pytest.skip("no windowed picolibc for the S3 compiler (tests/esp32s3-picolibc-env.sh)")
     return tmp

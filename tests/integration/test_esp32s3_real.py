@@ -15,12 +15,11 @@ from __future__ import annotations
 import json
 import os
 import re
-import shutil
 import subprocess
 from pathlib import Path
 
 import pytest
-from uros_helpers import REPO, humble_mirror_args, run_uros
+from uros_helpers import REPO, humble_mirror_args, run_uros, s3_compiler_skip
 
 from uros_build.target import abi
 
@@ -40,14 +39,10 @@ def _tool(name: str, *args: str) -> str:
 def real_s3(tmp_path_factory: pytest.TempPathFactory) -> Path:
     if not MIRROR:
         pytest.skip("set UROS_MIRROR (upstream clones)")
-    if not shutil.which(PREFIX + "gcc"):
-        pytest.skip(f"no {PREFIX}gcc on PATH (tests/esp32s3-real-env.sh makes one)")
     tmp = tmp_path_factory.mktemp("s3real")
-    (tmp / "probe.c").write_text(abi.XTENSA_CODE_PROBE, encoding="utf-8")
-    _tool("gcc", "-mlongcalls", "-O2", "-c", str(tmp / "probe.c"), "-o", str(tmp / "probe.o"))
-    code = abi.xtensa_code(_tool("objdump", "-dr", str(tmp / "probe.o")))
-    if not code.startswith("makes Espressif-core code"):
-        pytest.skip(f"{PREFIX}gcc {code}")
+    why = s3_compiler_skip(PREFIX, tmp)
+    if why:
+        pytest.skip(why)
     return tmp
 
 
