@@ -13,7 +13,7 @@ from uros_build.config.buildargs import BuildArgs
 from uros_build.config.colconmeta import meta_option, meta_transport
 from uros_build.config.plan import plan_build
 from uros_build.config.sourceplan import CreateArgs, plan_create, plan_sources
-from uros_build.config.targets import ProfileTarget, ToolchainFileTarget, resolve_target
+from uros_build.config.targets import ProfileTarget, ToolchainFileTarget, resolve_target, target_profile
 from uros_build.errors import ConfigError
 from uros_build.sources.distros import Distro, Mirror, MirrorRule, Override, Repo
 from uros_build.sources.meta import Meta
@@ -116,7 +116,7 @@ def test_plan_build_defaults(tmp_path: Path) -> None:
     plan = plan_build(BuildArgs(workspace=ws, toolchain="cortex-m7"))
     assert plan.output == ws.resolve() / "build" / "cortex-m7"
     assert plan.target_dir == ws.resolve() / ".uros" / "targets" / "cortex-m7"
-    assert plan.config is None and plan.distro is None and plan.profile is not None
+    assert plan.config is None and plan.distro is None and target_profile(plan.target) is not None
     assert meta_transport(plan.meta) == "custom"  # the target's transport
     assert "rcutils" in plan.meta.names  # no native 64-bit atomics on cortex-m7
 
@@ -196,7 +196,11 @@ def test_uros_yaml_transport_and_set_come_under_the_command_line(tmp_path: Path)
 def test_idf_build_on_the_command_line(tmp_path: Path) -> None:
     build, ws = make_idf_build(tmp_path / "idf"), _ws(tmp_path)
     plan = plan_build(BuildArgs(workspace=ws, toolchain="esp32s3", idf_build=build))
-    assert plan.idf is not None and plan.idf.target == "esp32s3" and plan.idf.version == (5, 3, 1)
+    assert (
+        plan.platform.idf is not None
+        and plan.platform.idf.target == "esp32s3"
+        and plan.platform.idf.version == (5, 3, 1)
+    )
     with pytest.raises(
         ConfigError, match=r"^--idf-build .*IDF_TARGET esp32s3, uros builds for esp32 \(esp32\)"
     ):
@@ -214,12 +218,16 @@ def test_idf_build_in_uros_yaml_is_for_the_esp_idf_target(tmp_path: Path) -> Non
     make_idf_build(ws / "idfproj")
     (ws / "uros.yaml").write_text("distro: humble\nidf_build: idfproj/proj/build\n", encoding="utf-8")
     plan = plan_build(BuildArgs(workspace=ws, toolchain="esp32s3"))
-    assert plan.idf is not None and plan.idf.build_dir == str((ws / "idfproj/proj/build").resolve())
+    assert plan.platform.idf is not None and plan.platform.idf.build_dir == str(
+        (ws / "idfproj/proj/build").resolve()
+    )
     # another target of the same workspace builds without it
-    assert plan_build(BuildArgs(workspace=ws, toolchain="cortex-m7")).idf is None
+    assert plan_build(BuildArgs(workspace=ws, toolchain="cortex-m7")).platform.idf is None
     # the command line wins
     other = make_idf_build(tmp_path / "other")
-    assert plan_build(BuildArgs(workspace=ws, toolchain="esp32s3", idf_build=other)).idf.build_dir == str(  # type: ignore[union-attr]
+    assert plan_build(
+        BuildArgs(workspace=ws, toolchain="esp32s3", idf_build=other)
+    ).platform.idf.build_dir == str(  # type: ignore[union-attr]
         other.resolve()
     )
     (ws / "uros.yaml").write_text("distro: humble\nidf_build: nowhere\n", encoding="utf-8")
@@ -237,10 +245,11 @@ def test_idf_before_5_3_gets_rcutils_own_64bit_atomics(
     plan = plan_build(BuildArgs(workspace=_ws(tmp_path), toolchain="esp32s3", idf_build=build))
     rcutils = plan.meta.names.get("rcutils", {}).get("cmake-args", ())
     assert ("-DRCUTILS_NO_64_ATOMIC=ON" in rcutils) is own_atomics
-    assert plan.profile is not None and plan.profile.native_64bit_atomics is not own_atomics
+    profile = target_profile(plan.target)
+    assert profile is not None and profile.native_64bit_atomics is not own_atomics
     # micro_ros_espidf_component: C17 from ESP-IDF 5 on, C11 before, for the XRCE-DDS client too
     standard = 11 if version < (5, 0, 0) else 17
-    assert plan.profile.c_standard == standard
+    assert profile.c_standard == standard
     assert f"-DUCLIENT_C_STANDARD={standard}" in plan.meta.names["microxrcedds_client"]["cmake-args"]
 
 

@@ -6,8 +6,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from uros_build.config.platform import Platform
 from uros_build.config.resolver import Resolved
-from uros_build.config.targets import Target, target_profile
+from uros_build.config.targets import Target
 from uros_build.output.team_cache import CacheSettings
 from uros_build.sources import firmware_scan
 from uros_build.sources import meta as meta_mod
@@ -15,12 +16,6 @@ from uros_build.sources.distros import Distro
 from uros_build.sources.packages import PackageInfo
 from uros_build.sources.workspace import Workspace
 from uros_build.sources.wsfiles import WorkspaceConfig
-from uros_build.target.espidf import IdfProject
-from uros_build.target.ipstack import IpStackHeaders
-from uros_build.target.profiles import (
-    TargetProfile,
-)
-from uros_build.target.rtos import RtosHeaders
 
 # ---------------------------------------------------------------------------------------------
 # uros build
@@ -55,9 +50,7 @@ class BuildPlan:
     verbose: bool
     workspace_packages: tuple[PackageInfo, ...] = ()  # every package colcon will find in the workspace
     warnings: tuple[str, ...] = ()  # inputs that are valid but likely not what the user meant
-    idf: IdfProject | None = None  # the ESP-IDF project micro-ROS is compiled against
-    rtos: RtosHeaders | None = None  # the RTOS micro-ROS is compiled against (--rtos)
-    ip_stack: IpStackHeaders | None = None  # the IP stack the udp transport is compiled against
+    platform: Platform = field(default_factory=Platform)  # ESP-IDF, an RTOS, an IP stack (each or none)
     rebuild: bool = False
     selection: Selection | None = None  # --packages/--for-firmware/uros.yaml packages: (None: all)
     force: bool = False  # --force: the output may be another target's, or hold the user's files
@@ -72,10 +65,6 @@ class BuildPlan:
     compiler_seed: bool = True  # CMake's compiler facts found once per target
     gen_cache: bool = True  # generator runs and configure calls through the user's cache
     gen_cache_dir: Path = Path("~/.cache/uros/gen")  # that cache's folder
-
-    @property
-    def profile(self) -> TargetProfile | None:
-        return target_profile(self.target)
 
     @property
     def requested(self) -> tuple[str, ...]:

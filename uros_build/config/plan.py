@@ -19,6 +19,7 @@ from uros_build.config.buildargs import BuildArgs, build_settings
 from uros_build.config.buildplan import BuildPlan, Selection
 from uros_build.config.colconmeta import meta_for, meta_transport, only_the_preset
 from uros_build.config.platform import (
+    Platform,
     check_multithread,
     check_udp_profile,
     idf_platform,
@@ -205,9 +206,7 @@ def plan_build(args: BuildArgs, env: Mapping[str, str] | None = None) -> BuildPl
         verbose=get(rows.VERBOSE),
         workspace_packages=tuple(packages),
         warnings=tuple(warnings),
-        idf=idf,
-        rtos=rtos,
-        ip_stack=ip_stack,
+        platform=Platform(idf, rtos, ip_stack),
         rebuild=get(rows.REBUILD),
         selection=selection,
         force=force,

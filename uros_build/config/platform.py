@@ -5,7 +5,7 @@ Nothing here starts a process."""
 
 from __future__ import annotations
 
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -20,6 +20,16 @@ from uros_build.target import espidf
 from uros_build.target.espidf import IdfProject
 from uros_build.target.ipstack import IpStackHeaders, read_ip_stack
 from uros_build.target.rtos import RtosHeaders, read_freertos
+
+
+@dataclass(frozen=True)
+class Platform:
+    """What the library compiles against besides its target, as the settings chose it (each None:
+    not asked for); `BuildPlan.platform`."""
+
+    idf: IdfProject | None = None  # the ESP-IDF project micro-ROS is compiled against
+    rtos: RtosHeaders | None = None  # the RTOS micro-ROS is compiled against (--rtos)
+    ip_stack: IpStackHeaders | None = None  # the IP stack the udp transport is compiled against
 
 
 def idf_project(chosen: Chosen[Path | None], target: Target) -> IdfProject | None:

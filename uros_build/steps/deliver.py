@@ -20,6 +20,7 @@ from uros_build.colcon import fingerprint as fp
 from uros_build.colcon import installtree
 from uros_build.config.buildplan import BuildPlan
 from uros_build.config.colconmeta import meta_transport
+from uros_build.config.targets import target_profile
 from uros_build.defaults import BUILD_INFO
 from uros_build.errors import (
     ConfigError,
@@ -174,7 +175,7 @@ def _library(
     staging.mkdir(parents=True)
     library = staging / "libmicroros.a"
     tools = ctx.kind.bintools()
-    profile = plan.profile
+    profile = target_profile(plan.target)
     merge_key = fp.digest_json(
         {
             "archives": fp.stat_files(libs),

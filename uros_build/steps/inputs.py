@@ -19,6 +19,7 @@ from uros_build.colcon import command as colcon
 from uros_build.colcon import fingerprint as fp
 from uros_build.colcon.hosttools import HostFacts
 from uros_build.config.buildplan import BuildPlan
+from uros_build.config.targets import target_profile
 from uros_build.errors import ConfigError, UrosError
 from uros_build.output.buildinfo import read_build_info
 from uros_build.output.folders import owned_entries
@@ -40,7 +41,7 @@ def build_key(ctx: Context, toolchain_file: Path, parts: Mapping[str, str]) -> s
     so they are not in the key; a cache entry lists them and is used only where they match."""
     plan, facts = ctx.plan, ctx.facts
     toolchain = ctx.kind.portable_toolchain(toolchain_file)
-    profile = plan.profile
+    profile, rtos, stack = target_profile(plan.target), plan.platform.rtos, plan.platform.ip_stack
     profile_text = (
         Path(profile.source).read_bytes() if profile is not None and Path(profile.source).is_file() else b""
     )
@@ -58,13 +59,9 @@ def build_key(ctx: Context, toolchain_file: Path, parts: Mapping[str, str]) -> s
             "compiler": fp.digest(facts.gcc_version, driver),
             "packages": parts["packages"],
             # the RTOS headers by content (the toolchain text has their folders as placeholders)
-            "rtos": fp.digest_json(
-                [plan.rtos.name, list(plan.rtos.port), plan.rtos.headers_sha256] if plan.rtos else None
-            ),
+            "rtos": fp.digest_json([rtos.name, list(rtos.port), rtos.headers_sha256] if rtos else None),
             # the IP stack's headers (lwIP's, its port's, lwipopts.h and arch/cc.h) by content
-            "ip_stack": fp.digest_json(
-                [plan.ip_stack.name, plan.ip_stack.headers_sha256] if plan.ip_stack else None
-            ),
+            "ip_stack": fp.digest_json([stack.name, stack.headers_sha256] if stack else None),
             "uros": fp.digest(__version__, *(p.read_bytes() for p in sorted(code.rglob("*.py")))),
         }
     )
@@ -116,13 +113,13 @@ def content_parts(plan: BuildPlan, sources_digest: str) -> dict[str, str]:
     return {
         **workspace_parts(plan.workspace, sources_digest),
         "colcon.meta": fp.digest(meta_text(plan)),
-        "profile": fp.digest(repr(plan.profile)),
+        "profile": fp.digest(repr(target_profile(plan.target))),
         # the ESP-IDF project's version, target, include folders, flags and sdkconfig.h hash
-        "ESP-IDF project": fp.digest(repr(plan.idf)),
+        "ESP-IDF project": fp.digest(repr(plan.platform.idf)),
         # the RTOS's folders, port and headers (kernel, port, FreeRTOSConfig.h) by content
-        "RTOS": fp.digest(repr(plan.rtos)),
+        "RTOS": fp.digest(repr(plan.platform.rtos)),
         # the IP stack's folders and headers (lwIP's, its port's, lwipopts.h, arch/cc.h) by content
-        "IP stack": fp.digest(repr(plan.ip_stack)),
+        "IP stack": fp.digest(repr(plan.platform.ip_stack)),
         "packages": fp.digest_json([list(plan.requested), list(skipped)]),
         "output": fp.digest(str(plan.output)),
     }

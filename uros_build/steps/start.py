@@ -8,6 +8,7 @@ from uros_build import console
 from uros_build.colcon import devws, hosttools
 from uros_build.colcon.hosttools import HostFacts
 from uros_build.config.buildplan import BuildPlan
+from uros_build.config.targets import target_profile
 from uros_build.proc import Runner
 from uros_build.steps.context import Context
 
@@ -25,20 +26,18 @@ def open_run(plan: BuildPlan) -> Runner:
             console.info(f"  {line}")
     for warning in plan.warnings:
         console.warn(warning)
-    if plan.idf is not None:
-        idf = plan.idf
+    idf, rtos, stack = plan.platform.idf, plan.platform.rtos, plan.platform.ip_stack
+    if idf is not None:
         console.info(
             f"ESP-IDF {idf.version_text} project {idf.build_dir} ({idf.target}): {idf.components} "
             f"components, {len(idf.include_dirs)} include folders, sdkconfig.h {idf.sdkconfig_sha256[:12]}"
         )
-    if plan.rtos is not None:
-        rtos = plan.rtos
+    if rtos is not None:
         console.info(
             f"RTOS {rtos.name}: kernel {rtos.kernel}, port {' '.join(rtos.port)}, config {rtos.config} "
             f"(headers {rtos.headers_sha256[:12]})"
         )
-    if plan.ip_stack is not None:
-        stack = plan.ip_stack
+    if stack is not None:
         console.info(
             f"IP stack {stack.name} (PLATFORM_NAME {stack.platform}): {stack.dir}, config {stack.config} "
             f"(headers {stack.headers_sha256[:12]})"
@@ -51,7 +50,7 @@ def host_facts(plan: BuildPlan, runner: Runner) -> HostFacts:
     """The host's and target's tools (probes cached by program identity)."""
     return hosttools.probe_host(
         runner,
-        plan.profile,
+        target_profile(plan.target),
         plan.target_dir,
         check_libraries=plan.config is not None,
         cache=hosttools.ProbeCache(plan.workspace.state_dir / "probes.json"),

@@ -143,6 +143,7 @@ class Profile:
         or a placeholder) and ``clock_header`` for the clock header's path (by default where the
         build writes it, under ``root``); ``portable``: the RTOS's folders as placeholders too."""
         profile, plan = self.profile, self.plan
+        rtos, stack = plan.platform.rtos, plan.platform.ip_stack
         if clock_header is None:
             clock_header = str(
                 Path(root) / plan.target_dir.relative_to(plan.workspace.root) / CLOCK_HEADER_NAME
@@ -158,10 +159,10 @@ class Profile:
             tool_dir=self.facts.tool_dir,
             command=f"uros build --toolchain {profile.name}",
             prefix_map=root,
-            idf=self.plan.idf,
-            transport=meta_transport(self.plan.meta),
-            rtos=plan.rtos.portable() if plan.rtos is not None and portable else plan.rtos,
-            ip_stack=plan.ip_stack.portable() if plan.ip_stack is not None and portable else plan.ip_stack,
+            idf=plan.platform.idf,
+            transport=meta_transport(plan.meta),
+            rtos=rtos.portable() if rtos is not None and portable else rtos,
+            ip_stack=stack.portable() if stack is not None and portable else stack,
         )
 
     def write_toolchain(self) -> Path:
@@ -203,6 +204,7 @@ class Profile:
 
     def described(self) -> Described:
         profile, facts = self.profile, self.facts
+        rtos, stack = self.plan.platform.rtos, self.plan.platform.ip_stack
         # recorded without the workspace's folder, so that build-info.json does not depend on it
         micro_ros = self.toolchain_request("<workspace>", clock_header=CLOCK_HEADER_NAME)
         return Described(
@@ -216,8 +218,8 @@ class Profile:
                 micro_ros_only=tuple(microros_flags(micro_ros)),
             ),
             idf_target=profile.idf_target or None,
-            rtos=RtosInfo(**self.plan.rtos.record()) if self.plan.rtos is not None else None,
-            ip_stack=IpStackInfo(**self.plan.ip_stack.record()) if self.plan.ip_stack is not None else None,
+            rtos=RtosInfo(**rtos.record()) if rtos is not None else None,
+            ip_stack=IpStackInfo(**stack.record()) if stack is not None else None,
         )
 
 
@@ -227,7 +229,7 @@ class IdfProfile(Profile):
     flags (--idf-build): recorded in build-info.json."""
 
     def described(self) -> Described:
-        idf = self.plan.idf
+        idf = self.plan.platform.idf
         assert idf is not None  # chosen for a plan with an ESP-IDF project
         info = IdfInfo(
             version=idf.version_text,
@@ -246,6 +248,6 @@ def kind_of(plan: BuildPlan, facts: HostFacts) -> TargetKind:
     target = plan.target
     if isinstance(target, ToolchainFileTarget):
         return OwnToolchainFile(plan, target)
-    if plan.idf is not None:
+    if plan.platform.idf is not None:
         return IdfProfile(plan, facts, target)
     return Profile(plan, facts, target)
