@@ -4,11 +4,17 @@ one `uros build` travels.
     python benchmarks/house_metrics.py                      # layout figures only
     python benchmarks/house_metrics.py --tests              # also: run the README's test command, its time
     python benchmarks/house_metrics.py --tests-log FILE     # ... or the time a saved pytest output reports
+    python benchmarks/house_metrics.py --costs DIR          # the costliest tests, files and the serial tests
+    python benchmarks/house_metrics.py --costs DIR --write-module-cpu   # ... and tests/module_cpu.json
     python benchmarks/house_metrics.py --build -- ARGS...   # also: the modules one `uros ARGS` passes through
     python benchmarks/house_metrics.py --fixture DIR        # ... of a cold cortex-m7 build of the test fixture in DIR
 
 The test time is the wall clock and the CPU seconds (user + system of every process the suite started,
 which a loaded machine inflates less than the wall clock) of `python -m pytest -q` in the repository.
+
+--tests also records each test's CPU seconds (benchmarks/cpu_per_test.py) in a temporary folder, and
+--costs DIR ranks a folder of such records (one run's: `UROS_TEST_COSTS=DIR PYTHONPATH=benchmarks
+python -m pytest -q -p cpu_per_test`): a session fixture's build counts in the first test that asks for it.
 
 The trip is taken in-process with sys.setprofile: every uros_build module whose code runs during the
 command, in first-visit order, and how many times control moved from one module to another.
@@ -18,6 +24,7 @@ from __future__ import annotations
 
 import argparse
 import ast
+import json
 import re
 import resource
 import subprocess
@@ -28,6 +35,7 @@ from pathlib import Path
 
 REPO = Path(__file__).resolve().parent.parent
 PACKAGE = REPO / "uros_build"
+MODULE_CPU = REPO / "tests" / "module_cpu.json"  # tests/conftest.py orders the modules by it
 README_TEST = [sys.executable, "-m", "pytest", "-q"]  # README.md's test command (.ci/run checks it)
 
 
@@ -85,9 +93,17 @@ def most_imported(top: int = 10) -> None:
 
 
 def tests(extra: list[str]) -> None:
-    """Run the README's test command in the repository: its wall clock and CPU seconds."""
+    """Run the README's test command in the repository: its wall clock and CPU seconds, then the
+    costliest tests (each test's CPU seconds recorded by benchmarks/cpu_per_test.py)."""
+    import os
+    import tempfile
+
+    folder = Path(tempfile.mkdtemp(prefix="uros-test-costs-"))
+    env = {**os.environ, "UROS_TEST_COSTS": str(folder), "PYTHONPATH": str(REPO / "benchmarks")}
     started = time.monotonic()
-    done = subprocess.run([*README_TEST, *extra], cwd=REPO, capture_output=True, text=True)
+    done = subprocess.run(
+        [*README_TEST, "-p", "cpu_per_test", *extra], cwd=REPO, capture_output=True, text=True, env=env
+    )
     wall = time.monotonic() - started
     usage = resource.getrusage(resource.RUSAGE_CHILDREN)
     print(f"test command: {' '.join(['python', '-m', 'pytest', '-q', *extra])} (exit {done.returncode})")
@@ -95,6 +111,41 @@ def tests(extra: list[str]) -> None:
     print(
         f"  wall {wall:.0f} s, CPU {usage.ru_utime + usage.ru_stime:.0f} s (user {usage.ru_utime:.0f} + sys {usage.ru_stime:.0f})"
     )
+    costs(folder)
+
+
+def costs(folder: Path, top: int = 15, write_module_cpu: bool = False) -> None:
+    """The records of benchmarks/cpu_per_test.py in ``folder``, ranked: the ``top`` tests and files by
+    CPU seconds, and every test marked serial (the time the other workers wait for); with
+    ``write_module_cpu`` each module's CPU seconds into tests/module_cpu.json."""
+    records = [json.loads(line) for f in sorted(folder.glob("costs-*.jsonl")) for line in f.open()]
+    if not records:
+        print(f"no per-test records in {folder}")
+        return
+    total = sum(r["cpu"] for r in records)
+    print(f"per-test CPU ({folder}): {len(records)} tests, {total:.0f} s in tests")
+    print(f"  costliest {top} tests (CPU s, wall s):")
+    for r in sorted(records, key=lambda r: -r["cpu"])[:top]:
+        print(f"  {r['cpu']:7.1f} {r['wall']:7.1f}  {r['test']}")
+    files: Counter[str] = Counter()
+    count: Counter[str] = Counter()
+    for r in records:
+        files[r["test"].split("::")[0]] += r["cpu"]
+        count[r["test"].split("::")[0]] += 1
+    print(f"  costliest {top} files (CPU s, tests):")
+    for name, cpu in files.most_common(top):
+        print(f"  {cpu:7.1f} {count[name]:5d}  {name}")
+    if write_module_cpu:
+        table = {name: round(cpu, 1) for name, cpu in files.items()}
+        MODULE_CPU.write_text(json.dumps(table, indent=1, sort_keys=True) + "\n", encoding="utf-8")
+        print(f"  wrote {MODULE_CPU.relative_to(REPO)} (the order tests/conftest.py gives the modules)")
+    serial = [r for r in records if r["serial"]]
+    print(
+        f"  serial tests: {len(serial)}, {sum(r['cpu'] for r in serial):.0f} s CPU, "
+        f"{sum(r['wall'] for r in serial):.0f} s wall alone:"
+    )
+    for r in sorted(serial, key=lambda r: -r["wall"]):
+        print(f"  {r['cpu']:7.1f} {r['wall']:7.1f}  {r['test']}")
 
 
 def _summary(output: str) -> str:
@@ -140,9 +191,14 @@ if __name__ == "__main__":
     parser.add_argument("--build", action="store_true")
     parser.add_argument("--tests", action="store_true", help="run the README's test command and time it")
     parser.add_argument("--tests-log", type=Path, help="a saved pytest output: the time it reports")
+    parser.add_argument("--costs", type=Path, help="a folder of per-test CPU records: ranked")
+    parser.add_argument("--write-module-cpu", action="store_true", help="with --costs: tests/module_cpu.json")
     parser.add_argument("--fixture", type=Path)
     parser.add_argument("argv", nargs="*")
     args = parser.parse_args()
+    if args.costs:
+        costs(args.costs, write_module_cpu=args.write_module_cpu)
+        sys.exit(0)
     layout()
     if args.tests:
         tests([])
