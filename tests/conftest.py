@@ -1,6 +1,7 @@
 from __future__ import annotations
 
 import os
+import sys
 import tempfile
 from collections.abc import Iterator
 
@@ -17,6 +18,23 @@ def pytest_configure(config: pytest.Config) -> None:
         os.environ["UROS_GEN_CACHE_DIR"] = os.environ["UROS_TEST_GEN_CACHE_DIR"] = tempfile.mkdtemp(
             prefix="uros-test-gen-cache-"
         )
+    _keep_bytecode()
+
+
+def _keep_bytecode() -> None:
+    """Where bytecode is not written (PYTHONDONTWRITEBYTECODE, set on some CI images and on this
+    project's lab machines), every `uros` a test starts compiled all of uros_build from source
+    first: 0.25 s more CPU in each start (0.6 -> 0.35 s for `uros --version`, 0.9 -> 0.6 s for an
+    up-to-date build of the fixture).
+    The run's processes (the workers, and every `uros` they start) keep it in a folder of the test
+    runs' own instead (PYTHONPYCACHEPREFIX), never beside the sources; a prefix the caller chose is
+    kept. Python checks each compiled module against its source's time and size, as beside it."""
+    if not sys.flags.dont_write_bytecode or os.environ.get("PYTHONPYCACHEPREFIX"):
+        return
+    os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
+    os.environ["PYTHONPYCACHEPREFIX"] = os.path.join(
+        tempfile.gettempdir(), f"uros-test-pycache-{os.getuid()}"
+    )
 
 
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
