@@ -10,6 +10,7 @@ import sys
 import threading
 import time
 from collections import Counter
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -131,6 +132,38 @@ class Background:
         code = self.proc.wait(timeout=seconds)
         self.reader.join()
         return code
+
+
+def running(marker: str) -> list[str]:
+    """The processes whose command line holds ``marker`` (pgrep -f)."""
+    done = subprocess.run(["pgrep", "-af", marker], capture_output=True, text=True)
+    return [line for line in done.stdout.splitlines() if "pgrep" not in line]
+
+
+def until(condition: Callable[[], object], what: str, seconds: float = 60) -> None:
+    """Wait for ``condition`` (polled every 0.1 s), not for a fixed time: a loaded machine is late;
+    fails naming ``what`` if ``seconds`` pass first."""
+    deadline = time.monotonic() + seconds
+    while not condition():
+        assert time.monotonic() < deadline, f"{what}: not within {seconds} s"
+        time.sleep(0.1)
+
+
+def sleeping_build(args: list[str], marker: str) -> subprocess.Popen[str]:
+    """`uros ARGS` of the fixture with fx_core's configure running `sleep <marker>` (FX_SLEEP: a
+    process a test finds by its unique argument, and whose seconds the marker is), Ctrl-C at its
+    default; returns once that sleep runs (its stderr a pipe)."""
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "uros_build", *args, "--set", f"fx_core.FX_SLEEP={marker}"],
+        stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, preexec_fn=default_sigint,
+    )  # fmt: skip
+
+    def started() -> bool:
+        assert proc.poll() is None, proc.communicate()[1]
+        return bool(running(f"sleep {marker}"))
+
+    until(started, "the configure step's sleep", 120)
+    return proc
 
 
 def build_firmware_project(source: Path, package: Path, build: Path, *cmake_args: str) -> Path:

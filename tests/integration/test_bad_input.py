@@ -461,7 +461,6 @@ def test_missing_readelf_is_reported_before_the_build(tmp_path: Path) -> None:
     assert not (ws / ".uros" / "targets" / "cortex-m7" / "build").exists()
 
 
-@pytest.mark.serial
 def test_a_build_waiting_for_the_lock_says_so(built: Callable[[str], Path]) -> None:
     ws = built("core")
     lock = ws / ".uros" / "targets" / "cortex-m7" / ".lock"

@@ -8,7 +8,6 @@ import os
 import signal
 import subprocess
 import sys
-import time
 from collections import Counter
 from collections.abc import Callable
 from pathlib import Path
@@ -19,11 +18,11 @@ from fixture_ws import (
     FIXTURE_MEMBERS,
     FIXTURE_SKIPPED_PYTHON,
     FIXTURE_SYMBOLS,
+    UP_TO_CORE,
     VARIANTS,
     fixture_build_args,
-    make_fixture_workspace,
 )
-from uros_helpers import build_fixture, default_sigint, defined_globals, need, run_uros, run_uros_here
+from uros_helpers import build_fixture, defined_globals, need, run_uros, run_uros_here, sleeping_build
 
 pytestmark = pytest.mark.integration
 
@@ -149,17 +148,9 @@ def test_failed_build_leaves_previous_output(m7_build: Path) -> None:
     assert not [p for p in (ws / "build").iterdir() if "staging" in p.name]
 
 
-@pytest.mark.serial
 def test_interrupted_build_leaves_previous_output(m7_build: Path) -> None:
     ws, base, out, good = _built(m7_build)
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "uros_build", *base, "--set", "fx_core.FX_SLOW=ON"],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        preexec_fn=default_sigint,
-    )
-    time.sleep(4)  # inside fx_core's 60 s configure step
+    proc = sleeping_build(base, f"60.{os.getpid()}")  # inside fx_core's 60 s configure step
     os.kill(proc.pid, signal.SIGINT)
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 130, err
@@ -261,15 +252,16 @@ def test_the_install_tree_holds_no_scripts_for_shells_nobody_sources(m7_build: P
 
 
 @pytest.mark.colcon
-def test_an_edit_right_after_a_build_reaches_the_library(tmp_path: Path) -> None:
+def test_an_edit_right_after_a_build_reaches_the_library(built: Callable[[str], Path]) -> None:
     """CMake's install leaves a file whose time is within a second of the installed copy's: an edit
     built right after the last build (a scripted loop) must still reach libmicroros.a."""
-    need("arm-none-eabi-gcc", "cmake", "arm-none-eabi-nm")
-    ws = make_fixture_workspace(tmp_path / "ws")
-    args = ["build", "--toolchain", "cortex-m7", "--workspace", str(ws), "--packages-up-to", "fx_core"]
-    run_uros(*args)
+    need("arm-none-eabi-nm")
+    ws = built("core")  # fx_core built (restored: the first edit follows no build of this test)
+    args = fixture_build_args(ws, *UP_TO_CORE)
     core = ws / "mcu_ws" / "src" / "fx_core" / "src" / "core.c"
-    for i in range(5):  # each edit lands within a second of the last build more often than not
+    # each edit lands within a second of the last build more often than not (one more edit than
+    # the five of a cold first build: five follow a build of this test)
+    for i in range(6):
         core.write_text(core.read_text() + f"int fx_core_step{i}(void) {{ return {i}; }}\n")
         run_uros(*args)
         nm = subprocess.run(

@@ -7,8 +7,6 @@ import hashlib
 import os
 import signal
 import subprocess
-import sys
-import time
 from collections.abc import Callable
 from pathlib import Path
 
@@ -21,6 +19,9 @@ from uros_helpers import (
     mount_namespace,
     need,
     run_uros,
+    running,
+    sleeping_build,
+    until,
     uros_build_line,
 )
 
@@ -36,27 +37,11 @@ def _args(ws: Path, *more: str) -> list[str]:
     return fixture_build_args(ws, *UP_TO_CORE, *more)
 
 
-def _running(marker: str) -> list[str]:
-    """The processes whose command line holds ``marker`` (pgrep -f)."""
-    done = subprocess.run(["pgrep", "-af", marker], capture_output=True, text=True)
-    return [line for line in done.stdout.splitlines() if "pgrep" not in line]
-
-
 def _start_sleeping_build(ws: Path, marker: str) -> subprocess.Popen[str]:
     """`uros build` whose configure of fx_core runs `sleep <marker>`; returns once that sleep runs."""
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "uros_build", *_args(ws, "--set", f"fx_core.FX_SLEEP={marker}")],
-        stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
-    )  # fmt: skip
-    deadline = time.monotonic() + 120
-    while not _running(f"sleep {marker}"):
-        assert proc.poll() is None, proc.communicate()[1]
-        assert time.monotonic() < deadline, "the configure step never started"
-        time.sleep(0.2)
-    return proc
+    return sleeping_build(_args(ws), marker)
 
 
-@pytest.mark.serial
 @pytest.mark.parametrize(("signum", "code"), [(signal.SIGTERM, 143), (signal.SIGHUP, 129)])
 def test_sigterm_and_sighup_stop_the_tools(built: Callable[[str], Path], signum: int, code: int) -> None:
     """Issue 8, item 11: SIGTERM (CI cancel, `timeout`) printed nothing, left colcon, cmake and
@@ -73,13 +58,14 @@ def test_sigterm_and_sighup_stop_the_tools(built: Callable[[str], Path], signum:
     errors = [line for line in err.splitlines() if line.startswith("error:")]
     assert errors == [f"error: colcon build was interrupted ({signal.Signals(signum).name})"], err
     assert "Traceback" not in err
-    time.sleep(0.5)
-    assert not _running(f"sleep {marker}") and not _running(f"colcon --log-base {ws}")
+    # 10 s: well inside the sleep's 47 s, which would otherwise end by itself
+    until(
+        lambda: not (running(f"sleep {marker}") or running(f"colcon --log-base {ws}")), "the tools' end", 10
+    )
     assert _sha(out / "libmicroros.a") == good
     assert sorted(p.name for p in (ws / "build").iterdir()) == ["COLCON_IGNORE", "cortex-m7"]
 
 
-@pytest.mark.serial
 def test_a_killed_build_leaves_nothing_running_into_the_next(built: Callable[[str], Path]) -> None:
     """Issue 8, item 11: after SIGKILL of uros (the OOM killer, a CI runner) its tools ran on and a
     next build ran two ninjas in one folder. colcon dies with uros (parent-death signal); what it
@@ -90,18 +76,16 @@ def test_a_killed_build_leaves_nothing_running_into_the_next(built: Callable[[st
     proc = _start_sleeping_build(ws, marker)
     proc.kill()
     proc.communicate(timeout=30)
-    time.sleep(0.5)
-    assert not _running(f"colcon --log-base {ws}")  # the parent-death signal
-    assert _running(f"sleep {marker}")  # cmake's child runs on, for now
+    until(lambda: not running(f"colcon --log-base {ws}"), "colcon's end", 10)  # the parent-death signal
+    assert running(f"sleep {marker}")  # cmake's child runs on, for now
     again = run_uros(*_args(ws))
     assert "stopped 2 processes left running by an earlier uros build of cortex-m7" in again.stderr, (
         again.stderr
     )
-    assert not _running(f"sleep {marker}")
+    assert not running(f"sleep {marker}")
     assert sorted(p.name for p in (ws / "build").iterdir()) == ["COLCON_IGNORE", "cortex-m7"]
 
 
-@pytest.mark.serial
 def test_a_build_waiting_for_the_lock_names_the_build_it_waits_for(built: Callable[[str], Path]) -> None:
     need("pgrep")
     ws = built("core")

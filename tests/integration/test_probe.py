@@ -301,7 +301,6 @@ def test_an_output_and_a_toolchain_that_names_another_target_are_refused(m7_buil
     )
 
 
-@pytest.mark.serial
 def test_a_second_probe_of_a_target_waits_for_the_first(m7_build: Path, tmp_path: Path) -> None:
     """Issue 34, item 7: two probes at once shared one work folder (one removed the other's
     firmware and console log) and blamed a good library. A probe holds a lock per target; the
