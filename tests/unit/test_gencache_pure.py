@@ -6,6 +6,7 @@ the code is never shared. (The generator runs in-process through runpy: no proce
 from __future__ import annotations
 
 import json
+import os
 import sys
 from pathlib import Path
 
@@ -225,7 +226,11 @@ def test_the_idl_parses_of_a_miss_are_remembered(
     (m7 / "build/std_msgs/rosidl_adapter/msg/Bool.idl").write_text("struct Bool { int8 d; };")
     assert gencache.generate(generators[0], cache, m7, MODULES_JSON, WS) == "miss"
     assert parses.read_text() == "pp"  # another text
-    (site / "rosidl_parser" / "parser.py").write_text(PARSER.replace("VERSION = 1", "VERSION = 2"))
+    parser = site / "rosidl_parser" / "parser.py"
+    parser.write_text(PARSER.replace("VERSION = 1", "VERSION = 2"))
+    # the same size within the same second: a compiled copy of the first (where bytecode is
+    # written) would pass Python's check of time and size; an edit a second later does not
+    os.utime(parser, ns=(parser.stat().st_atime_ns, parser.stat().st_mtime_ns + 2_000_000_000))
     monkeypatch.delitem(sys.modules, "rosidl_parser.parser")
     assert gencache.generate(generators[1], cache, m7, MODULES_JSON, WS) == "miss"
     assert parses.read_text() == "ppp"  # another parser
