@@ -20,6 +20,7 @@
 #include "FreeRTOS.h"
 #include "semphr.h"
 #include "task.h"
+#include "fleet.h"
 #include "link.h"
 #include "probe.h"
 
@@ -169,7 +170,7 @@ int probe_two_tasks(void) {
   static const char *const topics[2] = {"uros_probe_a", "uros_probe_b"};
   rclc_subscription_callback_t callbacks[2] = {on_a, on_b};
   if (probe_support_init(&support, &allocator) != RCL_RET_OK) STAGE_FAIL("no session");
-  if (rclc_node_init_default(&node, "uros_probe_tasks", "", &support) != RCL_RET_OK) STAGE_FAIL("node");
+  if (rclc_node_init_default(&node, "uros_probe_tasks", probe_namespace(), &support) != RCL_RET_OK) STAGE_FAIL("node");
   if (rclc_executor_init(&executor, &support.context, 2, &allocator) != RCL_RET_OK) STAGE_FAIL("executor");
   for (int i = 0; i < 2; i++) {
     lane_t *lane = &lanes[i];
