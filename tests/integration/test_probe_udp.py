@@ -147,3 +147,21 @@ def test_no_agent_on_the_port_fails_as_no_agent_answered(udp_library: Path) -> N
     assert report["stages"]["session"]["result"] == "fail", report["stages"]
     assert "no agent answered" in report["stages"]["session"]["detail"]
     assert "stage session failed: no agent answered" in proc.stderr
+
+
+@_RUNS
+def test_two_boards_over_udp_on_one_agent_pass_with_their_own_keys(udp_library: Path) -> None:
+    """Many boards on one agent (issue 40 item 3) over UDP: two QEMUs of one image, each its own user
+    network, to one `udp4` agent; each board's client key read from the CREATE_CLIENT in its pcap."""
+    proc = run_uros(
+        "probe", str(udp_library), "--json", "--agent", str(AGENT), "--instances", "2", "--timeout", "600",
+        check=False,
+    )  # fmt: skip
+    report = json.loads(proc.stdout)
+    assert proc.returncode == 0 and report["passed"], proc.stderr
+    assert report["transport"] == "udp4"
+    keys = [board["client_keys"] for board in report["boards"]]
+    assert all(len(k) == 1 for k in keys) and keys[0] != keys[1], keys
+    for board in report["boards"]:
+        assert board["stages"]["samples"]["result"] == "pass", board["stages"]
+        assert board["stages"]["client-key"]["result"] == "pass"

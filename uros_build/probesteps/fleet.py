@@ -9,11 +9,12 @@ import json
 from dataclasses import asdict, dataclass
 
 from uros_build import console
-from uros_build.errors import VerifyError
+from uros_build.errors import ConfigError, VerifyError
 from uros_build.files import write_atomic
 from uros_build.probesteps.context import Firmware, ProbeContext, Tools
 from uros_build.run import fleet as fleet_mod
 from uros_build.run import machines as probe_mod
+from uros_build.run import relay as relay_mod
 from uros_build.run import stages as stages_mod
 from uros_build.run.session import SessionRun, SessionSpec
 
@@ -31,6 +32,7 @@ class BoardReport:
     console_log: str
     heap_bytes: int | None
     stack_bytes: int | None
+    link: dict[str, dict[str, int]] | None = None  # --link: the relay's counts each way on its link
 
 
 @dataclass(frozen=True)
@@ -52,6 +54,8 @@ def run(ctx: ProbeContext, tools: Tools, firmware: Firmware) -> FleetReport:
     """The boards' session, judged, kept and said."""
     request, plan, network = ctx.request, ctx.plan, ctx.network
     keys = fleet_mod.check_keys(request.client_keys, request.instances)
+    if plan.link is not None and network is not None:
+        raise ConfigError("--link: the relay is the serial link's; this library runs over UDP", "drop --link")
     udp_port = firmware.port if network is not None else None
     spec = SessionSpec(middleware=firmware.middleware, restart_agent=True, udp_port=udp_port)
     what = SessionRun(tools.qemu, tools.agent, plan.machine, firmware.elf, ctx.work, request.timeout)
@@ -104,6 +108,7 @@ def judge(
                 console_log=str(session.console_log),
                 heap_bytes=used[0] if used else None,
                 stack_bytes=used[1] if used else None,
+                link=session.link,
             )
         )
     shared = fleet_mod.shared_line(sent)
@@ -131,6 +136,8 @@ def say(ctx: ProbeContext, report: FleetReport) -> FleetReport:
     for board in report.boards:
         stages = ", ".join(f"{name} {s['result']}" for name, s in board.stages.items())
         console.info(f"board {board.index} ({', '.join(board.client_keys) or 'no key seen'}): {stages}")
+        if board.link is not None:
+            console.info(f"board {board.index}'s link: {relay_mod.describe_counts(board.link)}")
     where = f"{report.instances} boards of {report.target} in QEMU {report.machine}{ctx.on} on one agent"
     if not report.passed:
         raise VerifyError(

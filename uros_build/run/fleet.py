@@ -388,9 +388,10 @@ def run_fleet(
             keys = [k for payload in pcap_payloads(data, spec.udp_port) for k in client_keys(payload)]
         else:
             keys = list(taps[index].keys) if index < len(taps) else []
+        counts = relays[index].summary() if link is not None and index < len(relays) else None
         session = Session(
             status[index], seconds, text, console_log, agent_log, qemu_log,
-            lines=tuple(lines[index]), restarts=tuple(restarts),
+            lines=tuple(lines[index]), restarts=tuple(restarts), link=counts,
         )  # fmt: skip
         boards.append(Board(index, session, tuple(keys), folder))
     return FleetRun(tuple(boards), agent_log, seconds, tuple(agent_argv))
