@@ -128,8 +128,8 @@ def test_a_board_that_sent_no_key_fails_its_key_stage() -> None:
 
 
 def test_the_agent_restarts_once_every_running_board_asked() -> None:
-    assert not fleet._restart_due({}, [], 2, 0.0)
-    assert not fleet._restart_due({0: 10.0}, [], 2, 11.0)
-    assert fleet._restart_due({0: 10.0}, [1], 2, 11.0)  # the other board ended
-    assert fleet._restart_due({0: 10.0, 1: 12.0}, [], 2, 12.0)
-    assert fleet._restart_due({0: 10.0}, [], 2, 10.0 + fleet.RESTART_BARRIER + 1)
+    assert not fleet.restart_due({}, [], 2, 0.0)
+    assert not fleet.restart_due({0: 10.0}, [], 2, 11.0)
+    assert fleet.restart_due({0: 10.0}, [1], 2, 11.0)  # the other board ended
+    assert fleet.restart_due({0: 10.0, 1: 12.0}, [], 2, 12.0)
+    assert fleet.restart_due({0: 10.0}, [], 2, 10.0 + fleet.RESTART_BARRIER + 1)

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from uros_build.errors import ConfigError, StepFailed
-from uros_build.files import read_regular
+from uros_build.files import read_regular, remove_tree
 from uros_build.proc import Background, Runner
 from uros_build.run import machines, netns
 from uros_build.run.relay import ESCAPE, FLAG, HEADER, XOR, Direction, FaultPlan, Relay
@@ -259,7 +259,7 @@ def board_work(work: Path, index: int) -> Path:
     return work / f"board{index}"
 
 
-def _restart_due(asked: dict[int, float], ended: Iterable[int], count: int, now: float) -> bool:
+def restart_due(asked: dict[int, float], ended: Iterable[int], count: int, now: float) -> bool:
     """The agent is restarted once every board still running asked, or RESTART_BARRIER after the first."""
     if not asked:
         return False
@@ -284,6 +284,9 @@ def run_fleet(
     udp = spec.udp_port is not None
     middleware = spec.middleware
     agent_log = work / "agent.log"
+    for stale in work.glob("board*"):  # an earlier run's boards beyond this run's
+        if stale.name[len("board") :].isdigit() and int(stale.name[len("board") :]) >= count:
+            remove_tree(stale)
     started = time.monotonic()
     holder = _namespace(runner, work) if middleware == "dds" else None
     namespace = netns.namespace_id(holder.proc.pid) if holder is not None else None
@@ -350,7 +353,7 @@ def run_fleet(
                     lost.add(index)
                     _at(runner, started, f"board {index} lost the agent")
             ended = [i for i in range(count) if status[i] is not None]
-            due = _restart_due(asked, ended, count, time.time())
+            due = restart_due(asked, ended, count, time.time())
             if spec.restart_agent and stopped is None and not restarts and due:
                 _at(runner, started, f"the agent stopped for the restart (boards asked: {sorted(asked)})")
                 agents[-1].stop()
