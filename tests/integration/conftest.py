@@ -36,14 +36,21 @@ class Built:
         self.failed: dict[str, str] = {}
 
     def restore(self, variant: str = "m7") -> Path:
+        ws, snapshot = self.root / variant / "ws", self.snapshot(variant)
+        _remove(ws)
+        shutil.copytree(snapshot, ws, symlinks=True)
+        return ws
+
+    def snapshot(self, variant: str = "m7") -> Path:
+        """The snapshot of the built ``variant`` (built first if need be), to copy from, never to
+        change: a copy elsewhere is a built workspace moved (its outputs are to read, not rebuild)."""
         need("arm-none-eabi-gcc", "cmake")
         ws, snapshot = self.root / variant / "ws", self.root / variant / "snapshot"
         if variant in self.failed:
             pytest.fail(f"the {variant} fixture build failed in an earlier test:\n{self.failed[variant]}")
-        _remove(ws)
         if snapshot.is_dir():
-            shutil.copytree(snapshot, ws, symlinks=True)
-            return ws
+            return snapshot
+        _remove(ws)
         make_fixture_workspace(ws)
         try:
             build_fixture(ws, *VARIANTS[variant])
@@ -52,7 +59,7 @@ class Built:
             raise
         shutil.copytree(ws, snapshot.with_name("snapshot.part"), symlinks=True)
         snapshot.with_name("snapshot.part").rename(snapshot)
-        return ws
+        return snapshot
 
 
 @pytest.fixture(scope="session")

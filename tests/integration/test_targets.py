@@ -13,6 +13,7 @@ import shutil
 import subprocess
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
+from typing import Any
 
 import pytest
 from fixture_ws import FIXTURE_MEMBERS, add_board_package, make_fixture_workspace
@@ -101,12 +102,19 @@ def _readelf_members(lib: Path) -> dict[str, str]:
 
 
 @pytest.fixture(scope="session")
-def target_builds(tmp_path_factory: pytest.TempPathFactory) -> Path:
+def target_builds(tmp_path_factory: pytest.TempPathFactory, fixture_builds: Any) -> Path:
     """The fixture workspace built for every installed target, all in one workspace (their trees
-    and outputs are kept apart per target), three builds at a time."""
+    and outputs are kept apart per target), three builds at a time. cortex-m7's is the tests' built
+    fixture (integration/conftest.py, variant m7: the same command), copied in: built once a worker."""
     need("cmake")
-    ws = make_fixture_workspace(tmp_path_factory.mktemp("targets"))
-    targets = [t for t, (arch, _, _) in EXPECTED.items() if shutil.which(COMPILERS[arch])]
+    ws = tmp_path_factory.mktemp("targets") / "ws"
+    if shutil.which(COMPILERS["arm"]):
+        shutil.copytree(fixture_builds.snapshot("m7"), ws, symlinks=True)
+    else:
+        make_fixture_workspace(ws)
+    targets = [
+        t for t, (arch, _, _) in EXPECTED.items() if shutil.which(COMPILERS[arch]) and t != "cortex-m7"
+    ]
 
     def build(target: str) -> None:
         run_uros(
