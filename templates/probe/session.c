@@ -11,6 +11,13 @@
 #include "probe.h"
 #include "stages.h"
 
+#ifdef PROBE_LOSSY_LINK
+#include <rmw_microros/rmw_microros.h>
+#ifndef PROBE_LINK_CREATION_MS
+#define PROBE_LINK_CREATION_MS 5000
+#endif
+#endif
+
 void probe_stage(const char *name, const char *result, const char *format, ...) {
   va_list args;
   va_start(args, format);
@@ -28,9 +35,37 @@ void probe_spin_for(rclc_executor_t *executor, uint32_t ms) {
 int probe_session_open(probe_session_t *session) {
   session->allocator = rcl_get_default_allocator();
   EXPECT(probe_support_init(&session->support, &session->allocator), PROBE_NO_SESSION, "no session");
+  probe_link_session(&session->support);
   session->node = rcl_get_zero_initialized_node();
   EXPECT(rclc_node_init_default(&session->node, "uros_probe", probe_namespace(), &session->support), PROBE_NO_ENTITY, "node");
   return 0;
+}
+
+void probe_link_session(rclc_support_t *support) {
+#ifdef PROBE_LOSSY_LINK
+  /* over a link that loses and delays (uros probe --link), an entity's creation is answered after
+   * the reliable stream's retransmissions: rmw's RMW_UXRCE_ENTITY_CREATION_TIMEOUT (1000 ms by
+   * default) gave up on a service and every entity after it (over UDP, 10 % loss, 100-300 ms). Its
+   * teardown does not wait for the agent's confirmations, as main.c's does not: FreeRTOS's
+   * two_tasks teardown failed with 1000 and 5000 ms (the same link) */
+  rmw_context_t *context = rcl_context_get_rmw_context(&support->context);
+  (void)rmw_uros_set_context_entity_creation_session_timeout(context, PROBE_LINK_CREATION_MS);
+  (void)rmw_uros_set_context_entity_destroy_session_timeout(context, 0);
+#else
+  (void)support;
+#endif
+}
+
+void probe_link_publisher(rcl_publisher_t *publisher) {
+#ifdef PROBE_LOSSY_LINK
+  /* rcl_publish on a reliable stream waits for the agent's acknowledgement (rmw's
+   * RMW_UXRCE_PUBLISH_RELIABLE_TIMEOUT, 1000 ms): over a lossy, slow link a sample of several
+   * fragments was not confirmed in time, its fragments stayed in the output stream's history and the
+   * next entity could not be created (over UDP, 10 % loss, 100-300 ms) */
+  (void)rmw_uros_set_publisher_session_timeout(rcl_publisher_get_rmw_handle(publisher), PROBE_LINK_CREATION_MS);
+#else
+  (void)publisher;
+#endif
 }
 
 static int back;

@@ -26,6 +26,7 @@ enum {
   PROBE_FRAGMENTATION = 11,
   PROBE_PARAMETERS = 12,
   PROBE_ACTION = 13,
+  PROBE_BEST_EFFORT = 14,
 };
 
 /* A session with one node: what every stage works in. */
@@ -63,6 +64,9 @@ static inline void probe_ignore(rcl_ret_t ret) {
 void probe_stage(const char *name, const char *result, const char *format, ...)
     __attribute__((format(printf, 3, 4)));
 void probe_spin_for(rclc_executor_t *executor, uint32_t ms);
+/* uros probe --link: a session's entities and a reliable publisher wait longer for the agent */
+void probe_link_session(rclc_support_t *support);
+void probe_link_publisher(rcl_publisher_t *publisher);
 
 int probe_session_open(probe_session_t *session);
 int probe_loop_open(probe_loop_t *loop, probe_session_t *session);
@@ -76,6 +80,7 @@ int stage_service(probe_session_t *session);
 int stage_parameters(probe_session_t *session);
 int stage_action(probe_session_t *session);
 int stage_time(void);
+int stage_best_effort(probe_session_t *session);
 int stage_fragmentation(probe_session_t *session);
 int stage_restart(probe_session_t *session, probe_loop_t *loop);
 #endif

@@ -223,6 +223,16 @@ def test_reliable_samples_arrive_whole_over_a_link_that_loses_one_frame_in_ten()
     for way in ("board_to_agent", "agent_to_board"):
         assert link[way]["frames"] > 50 and 0 < link[way]["lost"] < link[way]["frames"] / 4, link
     stages = report["stages"]
-    for name in ("session", "samples", "fragmentation"):  # reliable streams retransmit what was lost
+    for name in ("session", "samples", "fragmentation", "time", "restart"):  # reliable streams retransmit
         assert stages[name]["result"] == "pass", (name, stages[name])
     assert "came back" in stages["samples"]["detail"]
+    # the best-effort samples' loss is the relay's count; the reconnect opened one session
+    best = link["best_effort"]
+    assert 0 < best["reached_board"] <= best["agent_sent"] <= best["reached_agent"] <= best["board_sent"]
+    assert best["board_sent"] >= 50
+    assert (
+        stages["best_effort"]["result"] == "pass"
+        and "(the relay's counts;" in stages["best_effort"]["detail"]
+    )
+    assert "one session after the restart (the relay's count)" in stages["restart"]["detail"]
+    assert link["transport"] == "serial" and "retransmissions" in proc.stderr

@@ -143,3 +143,78 @@ def test_the_probe_firmware_s_packages_are_checked_in_the_library() -> None:
             [p for p in stages.PACKAGES if p not in ("rclc", "std_msgs")], Path("/o"), "m7", None
         )
     assert "uros build --toolchain m7 --packages std_msgs" in str(caught.value.hint)
+
+
+# --link (issue 40 item 4): the relay's counts judge the best-effort stage and the restart's flapping
+
+
+def _link(
+    up_sent: int, up_passed: int, down_sent: int, down_passed: int, events: list[tuple[str, float]]
+) -> dict[str, object]:
+    """The relay's summary; events: ("create KEY" or "answered", host time)."""
+    return {
+        "transport": "serial",
+        "board_to_agent": {"best_effort": up_sent, "best_effort_passed": up_passed, "time": 2},
+        "agent_to_board": {"best_effort": down_sent, "best_effort_passed": down_passed, "time_passed": 1},
+        "sessions": [{"event": e.split()[0], "client_key": e[7:], "seen": t} for e, t in events],
+    }
+
+
+BEST = Stage("best_effort", "pass", "published 50, counted 40 back in 3120 ms")
+
+
+def test_the_best_effort_figures_are_the_relay_s_not_the_firmware_s() -> None:
+    judged = stages.judge_best_effort(BEST, _link(50, 45, 45, 40, []))
+    assert judged.result == "pass"
+    assert judged.detail == (
+        "the board sent 50 best-effort samples, 45 reached the agent (10% lost), the agent sent 45 back, 40 "
+        "reached the board (11% lost): 20% lost end to end (the relay's counts; the firmware said published "
+        "50, counted 40)"
+    )
+    figures = stages.best_effort_figures(_link(50, 45, 45, 40, []))
+    assert (figures["loss_to_agent"], figures["loss_to_board"], figures["loss"]) == (0.1, 0.111, 0.2)
+
+
+@pytest.mark.parametrize(
+    ("link", "why"),
+    [
+        (_link(50, 45, 45, 39, []), "the firmware counted 40 back, more than the relay delivered"),
+        (_link(0, 0, 0, 0, []), "the relay saw no best-effort sample"),
+        (_link(50, 45, 0, 0, []), "no best-effort sample came back"),
+    ],
+)
+def test_a_best_effort_count_the_relay_does_not_back_fails(link: dict[str, object], why: str) -> None:
+    judged = stages.judge_best_effort(BEST, link)
+    assert judged.result == "fail" and judged.detail.startswith(why), judged.detail
+
+
+def test_a_reconnect_that_opens_two_sessions_after_one_restart_flapped() -> None:
+    restart = Stage("restart", "pass", "reconnected in 367 ms after the agent answered again")
+    lines = [
+        ConsoleLine(100.0, RESTART_ASKED),
+        ConsoleLine(110.0, f"uros-probe: stage restart pass {restart.detail}"),
+    ]
+    first = [("create aa", 50.0), ("answered", 50.3)]
+    # a request sent again before the answer came is a retry (over UDP the key stays the same)
+    once = [*first, ("create aa", 101.0), ("create aa", 102.0), ("answered", 102.2), ("answered", 102.3)]
+    judged = stages.judge_flapping(restart, lines, _link(0, 0, 0, 0, once))
+    assert judged.result == "pass" and judged.detail.endswith(
+        "one session after the restart (the relay's count)"
+    )
+    later = [*once, ("create cc", 111.0), ("answered", 111.1)]  # a later stage's own session
+    assert stages.judge_flapping(restart, lines, _link(0, 0, 0, 0, later)).result == "pass"
+    twice = [*once, ("create bb", 103.5), ("answered", 103.8)]
+    judged = stages.judge_flapping(restart, lines, _link(0, 0, 0, 0, twice))
+    assert judged.result == "fail"
+    assert judged.detail.startswith(
+        "the reconnect flapped: the board opened 2 sessions after one agent restart (client keys aa, bb)"
+    )
+    none = stages.judge_flapping(restart, lines, _link(0, 0, 0, 0, first))
+    assert none.result == "fail" and "opened 0 sessions" in none.detail
+    assert stages.judge_flapping(restart, lines, None) == restart  # no relay, no count
+
+
+def test_the_time_stage_says_the_requests_the_relay_saw() -> None:
+    time = Stage("time", "pass", "epoch 1795656679.921 s (synced in 1032 ms, 2 attempts)")
+    judged = stages.judge_time_link(time, _link(0, 0, 0, 0, []))
+    assert judged.detail.endswith("; the link: 2 time requests, 1 answers reached the board")

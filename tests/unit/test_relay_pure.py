@@ -91,8 +91,97 @@ def test_no_faults_pass_every_frame_at_once() -> None:
 
 
 def test_the_counts_in_one_line() -> None:
-    counts = {"board_to_agent": {"frames": 233, "lost": 20}, "agent_to_board": {"frames": 222, "lost": 27}}
+    counts = {
+        "board_to_agent": {"frames": 233, "lost": 20, "retransmitted": 9},
+        "agent_to_board": {"frames": 222, "lost": 27},
+    }
     assert relay.describe_counts(counts) == (
-        "board to agent 233 frames: 20 lost, 0 corrupted, 0 duplicated, 0 reordered; "
-        "agent to board 222 frames: 27 lost, 0 corrupted, 0 duplicated, 0 reordered"
+        "board to agent 233 frames: 20 lost, 0 corrupted, 0 duplicated, 0 reordered; the sender's reliable "
+        "retransmissions 9; agent to board 222 frames: 27 lost, 0 corrupted, 0 duplicated, 0 reordered; the "
+        "sender's reliable retransmissions 0"
     )
+    assert relay.describe_counts({"transport": "udp", **counts}).startswith("board to agent 233 datagrams:")
+
+
+def message(session: int, stream: int, seq: int, *subs: tuple[int, bytes], key: bytes = b"") -> bytes:
+    """An XRCE message as the client writes it: the header, then submessages aligned to 4 bytes."""
+    out = bytearray([session, stream, seq & 0xFF, seq >> 8]) + key
+    for kind, payload in subs:
+        out += b"\0" * (-len(out) % 4)
+        out += bytes([kind, 0, len(payload) & 0xFF, len(payload) >> 8]) + payload
+    return bytes(out)
+
+
+def create_client(key: bytes) -> bytes:
+    """CREATE_CLIENT with a CLIENT_Representation: cookie, version, vendor, the client key, ..."""
+    return message(0x80, 0, 0, (relay.CREATE_CLIENT, b"XRCE\x01\x00\x01\x0f" + key + b"\x81\x00\x00\x02"))
+
+
+def test_a_frame_gives_back_its_message() -> None:
+    payload = message(0x81, 0x01, 3, (relay.WRITE_DATA, b"\x7e\x01\x02"))
+    assert relay.unframe(frame(payload)) == payload
+    assert relay.unframe(frame(payload)[:-1]) is None  # cut short
+
+
+def test_messages_are_read_header_and_submessages() -> None:
+    heartbeat = 11
+    data = message(0x01, 0x80, 258, (heartbeat, b"\1\2\3"), (relay.DATA, b"abcd"), key=b"\xaa\xbb\xcc\xdd")
+    read = relay.parse_message(data)
+    assert read is not None and (read.session, read.stream, read.seq) == (0x01, 0x80, 258)
+    assert [kind for kind, _ in read.submessages] == [11, relay.DATA]  # the second aligned to 4
+    assert read.submessages[1][1] == b"abcd"
+    assert relay.parse_message(b"\x81") is None
+    cut = relay.parse_message(message(0x81, 1, 0, (relay.DATA, b"abcdef"))[:-2])
+    assert cut is not None and cut.submessages == ()  # a submessage past the end is left out
+
+
+def test_the_observer_counts_best_effort_samples_retransmissions_and_sessions() -> None:
+    seen = relay.Observer()
+    seen.observe(create_client(b"\x11\x22\x33\x44"), 10.0)
+    seen.observe(create_client(b"\x11\x22\x33\x44"), 10.5)  # sent again: a retry, the same session
+    for seq in (0, 1, 1, 2):  # seq 1 sent twice: one retransmission
+        seen.observe(message(0x81, 0x80, seq, (relay.WRITE_DATA, b"x")), 11.0)
+    for seq in range(3):
+        best = seen.observe(message(0x81, 0x01, seq, (relay.WRITE_DATA, b"y")), 11.0)
+        seen.delivered(best, 0 if seq == 1 else 1)  # the second lost on the link
+    seen.observe(create_client(b"\x55\x66\x77\x88"), 20.0)  # a new session numbers anew
+    seen.observe(message(0x81, 0x80, 1, (relay.WRITE_DATA, b"x")), 21.0)
+    t = seen.traffic
+    assert (t.reliable, t.retransmitted) == (5, 1)
+    assert (t.best_effort, t.best_effort_passed, t.sessions) == (3, 2, 3)
+    assert [e for e in seen.events if e[0] == "create"] == [
+        ("create", "11223344", 10.0),
+        ("create", "11223344", 10.5),
+        ("create", "55667788", 20.0),
+    ]
+    back = relay.Observer()
+    answer = back.observe(message(0x81, 0, 0, (relay.STATUS_AGENT, b"\0\0")), 10.6)
+    back.delivered(answer, 1, 10.6)
+    back.delivered(answer, 0, 10.7)  # lost: no answer reached the board
+    assert back.events == [("answered", "", 10.6)]
+
+
+def test_a_way_counts_what_got_through_intact() -> None:
+    plan = relay.FaultPlan(loss=0.2, corrupt=0.1, duplicate=0.1, seed=3)
+    way = relay.Way(plan, "up", framed=False)
+    for seq in range(300):
+        data = message(0x81, 0x01, seq, (relay.WRITE_DATA, b"sample"))
+        way.carry(data, data, 1.0)
+    twin = relay.Direction(plan, random.Random("3-up"), framed=False)  # the same seeded stream
+    intact = 0
+    for seq in range(300):
+        data = message(0x81, 0x01, seq, (relay.WRITE_DATA, b"sample"))
+        intact += sum(1 for _, out in twin.apply(data) if out == data)
+    c, t = way.faults.counts, way.observer.traffic
+    assert t.best_effort == 300 and c.lost > 30 and c.corrupted > 10 and c.duplicated > 10
+    assert t.best_effort_passed == intact
+
+
+def test_over_udp_any_bit_may_be_corrupted() -> None:
+    """A datagram has no flag or escape bytes: every flip is a corruption (serial: a flip into 0x7E
+    or 0x7D is a frame cut short, not counted as corrupted)."""
+    plan = relay.FaultPlan(corrupt=1.0, seed=5)
+    udp = relay.Direction(plan, random.Random(5), framed=False)
+    for _ in range(100):
+        udp.apply(b"\x7c" * 16)
+    assert udp.counts.corrupted == 100

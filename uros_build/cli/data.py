@@ -161,8 +161,9 @@ def export_arduino(output: Path, sources: tuple[Path, ...]) -> None:
 @toolchain_option("The target whose output to probe.")
 @click.option("--agent", help="A MicroXRCEAgent program (default: $UROS_AGENT).")
 @click.option(
-    "--timeout", type=float, default=60.0, show_default=True, help="Seconds the firmware may take in QEMU."
-)
+    "--timeout", type=float,
+    help="Seconds the firmware may take in QEMU.  [default: 60; 180 with --link]",
+)  # fmt: skip
 @click.option(
     "--app", "app", type=PATH_ARG,
     help="Run your application instead: a folder of C files with void appMain(void *arg).",
@@ -188,7 +189,7 @@ def export_arduino(output: Path, sources: tuple[Path, ...]) -> None:
 @click.option("--board", help="Another QEMU board of the target (meta/probe/machines.yaml), e.g. microbit.")
 @click.option(
     "--link", metavar="FAULTS",
-    help="A serial link that drops: a seeded relay between QEMU and the agent, e.g. "
+    help="A link that drops (serial or UDP): a seeded relay between QEMU and the agent, e.g. "
     "loss=10%,delay=50-150,seed=7 (also corrupt=, duplicate=, reorder=).",
 )  # fmt: skip
 @click.option(
@@ -208,6 +209,8 @@ def export_arduino(output: Path, sources: tuple[Path, ...]) -> None:
 def probe(app: Path | None, defines: tuple[str, ...], duration: float | None, **request: Any) -> None:
     """Run a built library: boot a probe firmware (or your --app) in QEMU against a real XRCE-DDS Agent."""
     # every other option is a field of ProbeRequest by its own name (tests/unit/test_cli_pure.py)
+    if request["timeout"] is None:  # a lossy link is slow: 55 s at load 20 over 10 % loss, 100-300 ms
+        request["timeout"] = 180.0 if request["link"] else 60.0
     probe_cmd.probe(probe_cmd.ProbeRequest(app=probe_cmd.app_request(app, defines, duration), **request))
 
 

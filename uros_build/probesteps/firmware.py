@@ -28,8 +28,16 @@ def build(ctx: ProbeContext, peer: PeerRun | None) -> Firmware:
     folders = (*freertos_mod.firmware_folders(rtos), *network_mod.firmware_folders(network))
     verbose = ctx.request.verbose
     if plan.app is None:
+        # --link: the best-effort stage, whose loss the relay counts (templates/probe/stage_best_effort.c)
+        lossy = f"-DUROS_PROBE_LINK={'ON' if plan.link is not None else 'OFF'}"
         spec = FirmwareBuild(
-            probe_mod.firmware_sources(), "uros_probe", plan.machine, plan.out, ctx.work, defines, folders
+            probe_mod.firmware_sources(),
+            "uros_probe",
+            plan.machine,
+            plan.out,
+            ctx.work,
+            (*defines, lossy),
+            folders,
         )
         return Firmware(build_firmware(ctx.runner, spec, verbose), middleware, port)
     compiler = plan.info.compiler.path if plan.info.compiler is not None else None

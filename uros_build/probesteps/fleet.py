@@ -32,7 +32,7 @@ class BoardReport:
     console_log: str
     heap_bytes: int | None
     stack_bytes: int | None
-    link: dict[str, dict[str, int]] | None = None  # --link: the relay's counts each way on its link
+    link: dict[str, object] | None = None  # --link: the relay's counts each way on its link
 
 
 @dataclass(frozen=True)
@@ -55,7 +55,10 @@ def run(ctx: ProbeContext, tools: Tools, firmware: Firmware) -> FleetReport:
     request, plan, network = ctx.request, ctx.plan, ctx.network
     keys = fleet_mod.check_keys(request.client_keys, request.instances)
     if plan.link is not None and network is not None:
-        raise ConfigError("--link: the relay is the serial link's; this library runs over UDP", "drop --link")
+        raise ConfigError(
+            "--link with --instances: each board's relay is on its serial link; this library runs over UDP",
+            "drop --link, or probe one board",
+        )
     udp_port = firmware.port if network is not None else None
     spec = SessionSpec(middleware=firmware.middleware, restart_agent=True, udp_port=udp_port)
     what = SessionRun(tools.qemu, tools.agent, plan.machine, firmware.elf, ctx.work, request.timeout)

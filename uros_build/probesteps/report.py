@@ -63,7 +63,7 @@ def probe_report(ctx: ProbeContext, tools: Tools, firmware: Firmware, ran: Sessi
     plan, text = ctx.plan, ran.console
     used = probe_mod.resources_used(text)
     limits = probe_mod.limits_held(text)
-    stages = stages_mod.stages_of(ran.lines, ran.restarts, firmware.middleware)
+    stages = stages_mod.stages_of(ran.lines, ran.restarts, firmware.middleware, ran.link)
     with_peer = ctx.plan.peer is not None
     # --graph: what uros's own peer saw is a stage, not a verdict
     if ctx.request.graph and ran.peer_log is not None:
@@ -96,11 +96,17 @@ def probe_report(ctx: ProbeContext, tools: Tools, firmware: Firmware, ran: Sessi
         peer_log=str(ran.peer_log) if ran.peer_log else None,
         passed=ok,
         pcap=str(pcap) if pcap is not None else None,
-        link={"plan": plan.link.describe(), **ran.link} if plan.link is not None and ran.link else None,
+        link=_link(plan.link.describe(), ran.link) if plan.link is not None and ran.link else None,
     )
     # its bytes' sha256, not build-info's
     write_report(ctx.work, asdict(report), plan.out / plan.info.library.file)
     return ProbeRun(report, tuple(stages), limits, ran, with_peer)
+
+
+def _link(plan: str, counts: Mapping[str, object]) -> dict[str, object]:
+    """--json's link: the plan, the relay's counts each way, the sessions it saw, the best-effort
+    samples' figures."""
+    return {"plan": plan, **counts, "best_effort": stages_mod.best_effort_figures(counts)}
 
 
 def app_report(ctx: ProbeContext, firmware: Firmware, ran: Session) -> appverdict.AppReport:

@@ -4,7 +4,6 @@ firmware ends or the timeout (run/session.py)."""
 from __future__ import annotations
 
 from uros_build import console
-from uros_build.errors import ConfigError
 from uros_build.probesteps.context import Firmware, ProbeContext, Tools
 from uros_build.run import app as app_mod
 from uros_build.run import network as network_mod
@@ -23,10 +22,6 @@ def run(ctx: ProbeContext, tools: Tools, peer: PeerRun | None, firmware: Firmwar
     timeout = ctx.request.timeout
     link = plan.link
     if link is not None:
-        if network is not None:
-            raise ConfigError(
-                "--link: the relay is the serial link's; this library runs over UDP", "drop --link"
-            )
         console.info(f"the link: a relay between QEMU and the agent ({link.describe()})")
     if plan.app is None:
         if middleware == "ced":

@@ -45,6 +45,8 @@ def say_probe(ctx: ProbeContext, run: ProbeRun) -> ProbeReport:
         console.info(probe_mod.describe_limits(run.limits))
     if ran.link is not None:
         console.info(f"the link: {relay_mod.describe_counts(ran.link)}")
+        for stage in (s for s in run.stages if s.name in ("best_effort", "time", "restart")):
+            console.info(f"{stage.name}: {stage.detail}")
     return report
 
 

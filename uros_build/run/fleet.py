@@ -25,11 +25,10 @@ from uros_build.errors import ConfigError, StepFailed
 from uros_build.files import read_regular, remove_tree
 from uros_build.proc import Background, Runner
 from uros_build.run import machines, netns
-from uros_build.run.relay import ESCAPE, FLAG, HEADER, XOR, Direction, FaultPlan, Relay
+from uros_build.run.relay import CREATE_CLIENT, Direction, FaultPlan, Relay, parse_message, unframe
 from uros_build.run.session import (
     AGENT_LOST,
     LOST_WAIT,
-    RESTART_ASKED,
     WATCH_SECONDS,
     Session,
     SessionRun,
@@ -39,7 +38,7 @@ from uros_build.run.session import (
     _stop_the_rest,
     _wait_for_pty,
 )
-from uros_build.run.stages import ConsoleLine, Stage
+from uros_build.run.stages import RESTART_ASKED, ConsoleLine, Stage
 
 # A QEMU each (about 40 MB of host RAM and a share of a core), a relay thread each on serial, one
 # agent for all: 16 keeps a run on a workstation bounded; 8 passed on this project's 2 cores.
@@ -51,7 +50,6 @@ UID_BASE = 0x0B0A0D00
 # firmware waits up to 60 s when it is one of many (fleet.h), uros a little less
 RESTART_BARRIER = 50.0
 MAX_PCAP_BYTES = 64 * 1024 * 1024
-CREATE_CLIENT = 0x00  # the XRCE submessage id
 COOKIE = b"XRCE"
 FIX = (
     "give each board its own client key from a unique id (its chip's UID, its MAC address): "
@@ -119,44 +117,17 @@ def agent_multiserial_argv(agent: str, ptys: Sequence[str], middleware: str) -> 
     return [agent, "multiserial", "--devs", " ".join(ptys), "-b", "115200", "-m", middleware, "-v6"]
 
 
-def unframe(frame: bytes) -> bytes | None:
-    """The XRCE message of one serial frame as the relay cut it (flag, escapes, header, payload,
-    CRC), or None: cut short (pure)."""
-    raw = bytearray()
-    escaped = False
-    for byte in frame[1:] if frame[:1] == bytes([FLAG]) else frame:
-        if escaped:
-            raw.append(byte ^ XOR)
-            escaped = False
-        elif byte == ESCAPE:
-            escaped = True
-        else:
-            raw.append(byte)
-    if len(raw) < HEADER:
-        return None
-    length = raw[2] | raw[3] << 8
-    if len(raw) < HEADER + length:
-        return None
-    return bytes(raw[HEADER : HEADER + length])
-
-
 def client_keys(message: bytes) -> list[int]:
     """The client keys of the CREATE_CLIENT submessages in one XRCE message (pure): its header is 4
     bytes, 8 with a key for a session id under 0x80; each submessage a 4-byte header (id, flags,
     little-endian length) and its payload, aligned to 4; CREATE_CLIENT's payload the cookie "XRCE",
     version and vendor (4), then the key (4, big-endian as the agent prints it)."""
-    if not message:
-        return []
-    at = 4 if message[0] >= 0x80 else 8
-    found = []
-    while at + 4 <= len(message):
-        kind, length = message[at], message[at + 2] | message[at + 3] << 8
-        payload = message[at + 4 : at + 4 + length]
-        if kind == CREATE_CLIENT and payload[:4] == COOKIE and len(payload) >= 12:
-            found.append(int.from_bytes(payload[8:12], "big"))
-        at += 4 + length
-        at += -at % 4
-    return found
+    read = parse_message(message)
+    return [
+        int.from_bytes(payload[8:12], "big")
+        for kind, payload in (read.submessages if read is not None else ())
+        if kind == CREATE_CLIENT and payload[:4] == COOKIE and len(payload) >= 12
+    ]
 
 
 def pcap_payloads(data: bytes, port: int) -> list[bytes]:
@@ -326,9 +297,10 @@ def run_fleet(
                         f"its output is in {board_work(work, index) / 'qemu.log'}",
                     )
                 relay = Relay(pty, link or FaultPlan())
-                tap = _KeyTap(relay.up)
-                relay.up = tap
-                relays.append(relay.start())
+                tap = _KeyTap(relay.up.faults)
+                relay.up.faults = tap
+                relay.start()
+                relays.append(relay)
                 taps.append(tap)
                 ptys.append(relay.agent_pty)
             agent_argv = agent_multiserial_argv(run.agent_program, ptys, middleware)

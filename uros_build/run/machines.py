@@ -385,6 +385,7 @@ VERDICTS: Mapping[int, str] = {
     11: "stage fragmentation failed",
     12: "stage parameters failed",
     13: "stage action failed",
+    14: "stage best_effort failed",
     70: "the firmware crashed (hard fault)",
     71: "an unaligned access did not trap: the machine does not check ARMv6-M's alignment (CCR.UNALIGN_TRP)",
     72: "a FreeRTOS task overflowed its stack",

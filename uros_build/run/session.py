@@ -24,14 +24,13 @@ from uros_build import console
 from uros_build.errors import StepFailed
 from uros_build.proc import Background, Runner, stop_leftovers, stop_processes
 from uros_build.run import machines, netns
-from uros_build.run.relay import FaultPlan, Relay
-from uros_build.run.stages import ConsoleLine
+from uros_build.run.relay import FaultPlan, Relay, UdpRelay
+from uros_build.run.stages import RESTART_ASKED, ConsoleLine
 
 # How long the agent outlives the firmware while a peer runs: the firmware's last samples (sent
 # just before its exit) are still on their way through the agent to the peer.
 AGENT_GRACE = 2.0
 WATCH_SECONDS = 0.01  # how often the console is read: the resolution of a line's host time
-RESTART_ASKED = "uros-probe: restart the agent"  # templates/probe/stage_restart.c
 AGENT_LOST = "uros-probe: agent lost"
 LOST_WAIT = 5.0  # seconds to wait for AGENT_LOST before starting the agent again all the same
 
@@ -46,7 +45,7 @@ class SessionSpec:
     # the board's NIC (in the run's namespace when there is one) and its frames recorded in pcap
     udp_port: int | None = None
     pcap: Path | None = None
-    link: FaultPlan | None = None  # serial: a relay between QEMU's pty and the agent (run/relay.py)
+    link: FaultPlan | None = None  # a relay between QEMU's pty or port and the agent (run/relay.py)
 
 
 # rmw_microxrcedds (humble) keeps the agent's port in char agent_port[MAX_PORT_LEN], MAX_PORT_LEN 5
@@ -73,6 +72,16 @@ def free_udp_port(tries: int = 200) -> int:
         f"uros probe: no free UDP port from {FIRST_PORT} to {LARGEST_PORT} for the agent",
         "run as root (the agent then runs in a network namespace of the run's own, on 8888)",
     )
+
+
+def relay_port(board_port: int, namespace: bool) -> int:
+    """The agent's port behind a UDP relay on the firmware's: the next one in the run's own
+    namespace (nothing else is there), else a free one."""
+    if namespace:
+        return board_port + 1
+    while (port := free_udp_port()) == board_port:
+        continue
+    return port
 
 
 def middleware_for(peer: bool, euid: int) -> str:
@@ -150,7 +159,7 @@ class Session:
     peer_log: Path | None = None  # None: no peer ran
     lines: tuple[ConsoleLine, ...] = ()  # the console as it appeared
     restarts: tuple[tuple[float, float], ...] = ()  # host times: the agent stopped, started again
-    link: dict[str, dict[str, int]] | None = None  # the relay's counts per direction (spec.link)
+    link: dict[str, object] | None = None  # the relay's counts per direction (spec.link)
 
 
 class _Console:
@@ -252,14 +261,21 @@ def run_session(
             holder.stop()
         raise
     agents: list[Background] = []
-    relay: Relay | None = None
+    relay: Relay | UdpRelay | None = None
     peer_proc = None
     peer_status = None
     lines: list[ConsoleLine] = []
     restarts: list[tuple[float, float]] = []
     try:
         if spec.udp_port is not None:
-            agent_argv = machines.agent_udp_argv(agent_program, spec.udp_port, middleware)
+            agent_port = spec.udp_port
+            if spec.link is not None:  # the relay on the firmware's port, the agent on another
+                agent_port = relay_port(spec.udp_port, holder is not None)
+                space = netns.namespace_of(holder.proc.pid) if holder is not None else None
+                relay = UdpRelay(spec.udp_port, agent_port, spec.link, space)
+                relay.start()
+                runner.log(f"the link: a relay udp {spec.udp_port} <-> {agent_port} ({spec.link.describe()})")
+            agent_argv = machines.agent_udp_argv(agent_program, agent_port, middleware)
         else:
             pty = _wait_for_pty(qemu_log, qemu, 10.0)
             if pty is None:
@@ -268,7 +284,8 @@ def run_session(
                     f"its output is in {qemu_log}",
                 )
             if spec.link is not None:  # the agent on the relay's pty, the relay on QEMU's
-                relay = Relay(pty, spec.link).start()
+                relay = Relay(pty, spec.link)
+                relay.start()
                 runner.log(f"the link: a relay {pty} <-> {relay.agent_pty} ({spec.link.describe()})")
                 pty = relay.agent_pty
             agent_argv = machines.agent_argv(agent_program, pty, middleware)

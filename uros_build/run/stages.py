@@ -10,7 +10,7 @@ time from the agent's restart to the node publishing again."""
 from __future__ import annotations
 
 import re
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -26,8 +26,10 @@ CED_SERVICE = (
     "uros runs only as root, in a network namespace of its own"
 )
 TIME_LIMIT = 1.0  # seconds the firmware's epoch may be off the host's (issue 31)
+RESTART_ASKED = "uros-probe: restart the agent"  # templates/probe/stage_restart.c
 _STAGE = re.compile(r"^uros-probe: stage ([a-z][a-z0-9_-]*) (pass|fail|skip)\b ?(.*)$")
 _EPOCH = re.compile(r"\bepoch (\d+)\.(\d{3}) s\b")
+_BEST_EFFORT = re.compile(r"\bpublished (\d+), counted (\d+) back\b")
 
 
 @dataclass(frozen=True)
@@ -89,19 +91,136 @@ def judge_restart(stage: Stage, seen: float | None, restarts: Sequence[tuple[flo
     )
 
 
+def _way(link: Mapping[str, object], name: str) -> Mapping[str, object]:
+    way = link.get(name)
+    return way if isinstance(way, dict) else {}
+
+
+def _count(way: Mapping[str, object], key: str) -> int:
+    value = way.get(key, 0)
+    return value if isinstance(value, int) else 0
+
+
+def _lost(passed: int, sent: int) -> float:
+    return round(1 - min(passed, sent) / sent, 3) if sent else 1.0
+
+
+def best_effort_figures(link: Mapping[str, object]) -> dict[str, int | float]:
+    """The best-effort samples as the relay counted them (run/relay.py Traffic): what the board
+    sent, what reached the agent, what the agent sent back, what reached the board, and the share
+    lost on the way there, on the way back (the link's) and end to end (the agent's too)."""
+    up, down = _way(link, "board_to_agent"), _way(link, "agent_to_board")
+    sent, back = _count(up, "best_effort"), _count(down, "best_effort")
+    reached_agent, reached_board = _count(up, "best_effort_passed"), _count(down, "best_effort_passed")
+    return {
+        "board_sent": sent,
+        "reached_agent": reached_agent,
+        "agent_sent": back,
+        "reached_board": reached_board,
+        "loss_to_agent": _lost(reached_agent, sent),
+        "loss_to_board": _lost(reached_board, back),
+        "loss": _lost(reached_board, sent),
+    }
+
+
+def judge_best_effort(stage: Stage, link: Mapping[str, object] | None) -> Stage:
+    """The best-effort stage's verdict and figures are the relay's counts: the firmware's line says
+    what it published and counted back, and it may not count more than the relay delivered."""
+    if stage.result != "pass" or link is None:
+        return stage
+    said = _BEST_EFFORT.search(stage.detail)
+    if said is None:
+        return replace(stage, result="fail", detail=f"{stage.detail}: no counts in the line")
+    published, counted = int(said[1]), int(said[2])
+    f = best_effort_figures(link)
+    sent, reached_board = int(f["board_sent"]), int(f["reached_board"])
+    figures = (
+        f"the board sent {sent} best-effort samples, {f['reached_agent']} reached the agent "
+        f"({f['loss_to_agent']:.0%} lost), the agent sent {f['agent_sent']} back, {reached_board} reached "
+        f"the board ({f['loss_to_board']:.0%} lost): {f['loss']:.0%} lost end to end (the relay's counts; "
+        f"the firmware said published {published}, counted {counted})"
+    )
+    if sent == 0:
+        return replace(stage, result="fail", detail=f"the relay saw no best-effort sample: {figures}")
+    if reached_board == 0:
+        return replace(stage, result="fail", detail=f"no best-effort sample came back: {figures}")
+    if counted > reached_board:
+        return replace(
+            stage,
+            result="fail",
+            detail=f"the firmware counted {counted} back, more than the relay delivered: {figures}",
+        )
+    return replace(stage, detail=figures)
+
+
+def judge_time_link(stage: Stage, link: Mapping[str, object] | None) -> Stage:
+    """The time requests the relay saw (every one of the run: the stage's are the only ones)."""
+    if link is None:
+        return stage
+    asked = _count(_way(link, "board_to_agent"), "time")
+    answered = _count(_way(link, "agent_to_board"), "time_passed")
+    return replace(
+        stage, detail=f"{stage.detail}; the link: {asked} time requests, {answered} answers reached the board"
+    )
+
+
+def sessions_opened(link: Mapping[str, object], since: float, until: float) -> list[str]:
+    """The sessions the board opened from ``since`` to ``until`` (host times), as the relay saw them:
+    a session is CREATE_CLIENT requests and the first STATUS_AGENT answer that reached the board;
+    requests sent again before an answer came are retries of the same session, a request after an
+    answer opens another. Each session by the client key of its first request."""
+    found = link.get("sessions")
+    opened: list[str] = []
+    answered = True  # before the first request: nothing open
+    for item in found if isinstance(found, list) else []:
+        seen = item.get("seen") if isinstance(item, dict) else None
+        if not isinstance(seen, float | int) or not since < seen <= until:
+            continue
+        if item.get("event") == "create" and answered:
+            opened.append(str(item.get("client_key")))
+            answered = False
+        elif item.get("event") == "answered" and opened:
+            answered = True
+    return opened
+
+
+def judge_flapping(stage: Stage, lines: Sequence[ConsoleLine], link: Mapping[str, object] | None) -> Stage:
+    """The reconnect loop does not flap: one agent restart, one new session. Flapping, measured by
+    the relay: the board opened more than one session from asking for the restart to the stage's
+    line (a CREATE_CLIENT after an answer reached it); one sent again before an answer is a retry.
+    (A later stage may open its own: FreeRTOS's two_tasks does.)"""
+    asked = next((x.seen for x in lines if x.text.strip() == RESTART_ASKED), None)
+    done = seen_at(lines, "restart")
+    if stage.result != "pass" or link is None or asked is None or done is None:
+        return stage
+    keys = sessions_opened(link, asked, done)
+    if len(keys) == 1:
+        return replace(stage, detail=f"{stage.detail}; one session after the restart (the relay's count)")
+    what = f"{len(keys)} sessions after one agent restart (client keys {', '.join(keys) or 'none'})"
+    said = f"the reconnect flapped: the board opened {what}, the relay's count"
+    return replace(stage, result="fail", detail=f"{said}: {stage.detail}")
+
+
 def stages_of(
-    lines: Sequence[ConsoleLine], restarts: Sequence[tuple[float, float]] = (), middleware: str = "dds"
+    lines: Sequence[ConsoleLine],
+    restarts: Sequence[tuple[float, float]] = (),
+    middleware: str = "dds",
+    link: Mapping[str, object] | None = None,
 ) -> list[Stage]:
     """The console's stages with the host's judgement added. With the agent's CED middleware (uros
-    without root) a failed service stage is the agent's doing, not the library's: skip, and why."""
+    without root) a failed service stage is the agent's doing, not the library's: skip, and why.
+    ``link``: the relay's counts (--link), which judge the best-effort stage and the restart's
+    flapping, and add the time requests it saw."""
     out = []
     for stage in parse(lines):
         if stage.name == "service" and stage.result == "fail" and middleware == "ced":
             stage = replace(stage, result="skip", detail=CED_SERVICE)
         elif stage.name == "time":
-            stage = judge_time(stage, seen_at(lines, "time"))
+            stage = judge_time_link(judge_time(stage, seen_at(lines, "time")), link)
         elif stage.name == "restart":
-            stage = judge_restart(stage, seen_at(lines, "restart"), restarts)
+            stage = judge_flapping(judge_restart(stage, seen_at(lines, "restart"), restarts), lines, link)
+        elif stage.name == "best_effort":
+            stage = judge_best_effort(stage, link)
         out.append(stage)
     return out
 

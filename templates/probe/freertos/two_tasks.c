@@ -23,6 +23,7 @@
 #include "fleet.h"
 #include "link.h"
 #include "probe.h"
+#include "stages.h"
 
 #ifndef PROBE_TWO_TASKS_SAMPLES
 #define PROBE_TWO_TASKS_SAMPLES 20 /* per task */
@@ -30,7 +31,11 @@
 #ifndef PROBE_TWO_TASKS_PERIOD_MS
 #define PROBE_TWO_TASKS_PERIOD_MS 20 /* both tasks wake on the same tick: their publishes overlap */
 #endif
+#ifdef PROBE_LOSSY_LINK /* uros probe --link: the reliable stream retransmits what the link loses (issue 40) */
+#define PROBE_TWO_TASKS_DEADLINE_MS 20000u
+#else
 #define PROBE_TWO_TASKS_DEADLINE_MS 5000u
+#endif
 #define TEXT_MAX 96
 #define BODY_LENGTH 40
 
@@ -170,6 +175,7 @@ int probe_two_tasks(void) {
   static const char *const topics[2] = {"uros_probe_a", "uros_probe_b"};
   rclc_subscription_callback_t callbacks[2] = {on_a, on_b};
   if (probe_support_init(&support, &allocator) != RCL_RET_OK) STAGE_FAIL("no session");
+  probe_link_session(&support);
   if (rclc_node_init_default(&node, "uros_probe_tasks", probe_namespace(), &support) != RCL_RET_OK) STAGE_FAIL("node");
   if (rclc_executor_init(&executor, &support.context, 2, &allocator) != RCL_RET_OK) STAGE_FAIL("executor");
   for (int i = 0; i < 2; i++) {
