@@ -1,4 +1,4 @@
-"""The uros-python shim a target's CMake builds run Python through (pyshim.shim_text), run by a
+"""The uros-python shim a target's CMake builds run Python through (shim/shimfile.py), run by a
 real shell with this interpreter: CMake's FindPython probe gets the standard library's distutils and
 prints the same folders as the interpreter itself does; its questions about the interpreter get the
 interpreter's own answers; every other call is the interpreter,
@@ -16,7 +16,7 @@ import pytest
 from fixture_ws import make_fixture_workspace
 from uros_helpers import need, run_uros
 
-from uros_build.shim import pyshim
+from uros_build.shim import pyshim, shimfile
 
 pytestmark = [pytest.mark.integration, pytest.mark.colcon]
 
@@ -36,16 +36,18 @@ def _shim(tmp_path: Path) -> Path:
     answers, has_distutils = pyshim.parse_answers(asked.stdout)
     assert has_distutils == (sys.version_info < (3, 12))
     shim.write_text(
-        pyshim.shim_text(
-            sys.executable,
-            tmp_path / "cache",
-            tmp_path / "target",
-            tmp_path,
-            Path(__file__).parents[2],
-            "test",
-            {"empy": "-"},
-            stdlib_distutils=has_distutils,
-            answers=answers,
+        shimfile.shim_text(
+            shimfile.Shim(
+                sys.executable,
+                tmp_path / "cache",
+                tmp_path / "target",
+                tmp_path,
+                Path(__file__).parents[2],
+                "test",
+                {"empy": "-"},
+                stdlib_distutils=has_distutils,
+                answers=answers,
+            )
         )
     )
     shim.chmod(0o755)

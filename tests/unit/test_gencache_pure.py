@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from uros_build.shim import gencache, pyshim
+from uros_build.shim import gencache, pyshim, shimfile
 
 MODULES = {"empy": "3.3.4", "lark": "1.1.1"}
 MODULES_JSON = json.dumps(MODULES, sort_keys=True)  # as uros writes it into the shim
@@ -119,9 +119,11 @@ def test_code_that_names_its_folder_is_not_shared(tmp_path: Path, counter: Path)
 
 def test_the_shim_sends_only_generator_runs_to_the_cache(tmp_path: Path) -> None:
     def shim(stdlib_distutils: bool) -> str:
-        return pyshim.shim_text(
-            "/venv/bin/python3", tmp_path / "c d", tmp_path / "t", tmp_path / "w", Path("/code"), "uros 1 build",
-            MODULES, stdlib_distutils=stdlib_distutils,
+        return shimfile.shim_text(
+            shimfile.Shim(
+                "/venv/bin/python3", tmp_path / "c d", tmp_path / "t", tmp_path / "w", Path("/code"),
+                "uros 1 build", MODULES, stdlib_distutils=stdlib_distutils,
+            )
         )  # fmt: skip
 
     text = shim(True)

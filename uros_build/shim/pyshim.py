@@ -1,7 +1,7 @@
 """The ``uros-python`` shim: the Python of a target's CMake builds (issue 19, item 1).
 
 Each target's CMake configures and builds run Python through a small shell script
-(:func:`shim_text`) that sends three kinds of call to uros and everything else to the real
+(shimfile.py writes it) that sends three kinds of call to uros and everything else to the real
 interpreter, unchanged:
 
 - rosidl generator runs (``SCRIPT --generator-arguments-file FILE``): the generation cache
@@ -27,7 +27,7 @@ from uros_build.shim import callcache, gencache
 
 TYPE_CHECKING = False
 if TYPE_CHECKING:
-    from collections.abc import Mapping, Sequence
+    from collections.abc import Sequence
     from pathlib import Path
 
 RUNS = "gen-runs.log"  # in the target's folder: one line per generator run or configure call of its build
@@ -116,56 +116,6 @@ def parse_answers(text: str) -> tuple[dict[str, str], bool]:
     known = (*FINDPYTHON_QUESTIONS, VERSION_FLAG)
     answers = {code: data[code] for code in known if isinstance(data.get(code), str)}
     return answers, data["distutils"]
-
-
-def shim_text(
-    python: str,
-    cache_dir: Path,
-    target_dir: Path,
-    workspace: Path,
-    code_dir: Path,
-    written_by: str,
-    modules: Mapping[str, str],
-    stdlib_distutils: bool,
-    answers: Mapping[str, str] | None = None,
-) -> str:
-    """The ``Python3_EXECUTABLE`` of a target's CMake builds. ``code_dir``: the folder holding
-    uros_build (appended to the path: the calls' own imports resolve as before). ``modules``:
-    :func:`gencache.module_versions` of ``python``, found once by uros rather than on every run.
-    ``stdlib_distutils``: ``python`` has a distutils of its own (before 3.12). ``answers``: what
-    ``python`` wrote for each of FINDPYTHON_QUESTIONS (:func:`parse_answers`)."""
-    import json
-
-    from uros_build import templating
-
-    given = dict(answers or {})
-    return templating.render(
-        "uros-python.sh.j2",
-        written_by=written_by,
-        python=python,
-        # Compiled modules kept in the cache's folder, even where PYTHONDONTWRITEBYTECODE is set
-        # (it is, on some CI images): else every call compiles uros's cache modules (and a miss
-        # rosidl's, empy's and lark's) again, ~20 ms per call; no .pyc lands beside anyone's
-        # sources. https://docs.python.org/3/using/cmdline.html#cmdoption-X (pycache_prefix)
-        pycache=str(cache_dir / "pycache"),
-        entry=(
-            f"import sys; sys.path.append({str(code_dir)!r}); "
-            "from uros_build.shim.pyshim import main; sys.exit(main(sys.argv[1:]))"
-        ),
-        folders=[str(p) for p in (cache_dir, target_dir, workspace)],
-        versions=json.dumps(dict(modules), sort_keys=True),
-        repair=(
-            f"import sys; sys.path.append({str(code_dir)!r}); "
-            "from uros_build.shim.pyshim import drop_unloadable; "
-            "sys.exit(0 if drop_unloadable(sys.argv[1]) else 1)"
-        ),
-        answers=[(code, text) for code, text in sorted(given.items()) if code in FINDPYTHON_QUESTIONS],
-        version_flag=VERSION_FLAG,
-        version_answer=given.get(VERSION_FLAG),
-        arguments_flag=gencache.ARGUMENTS_FLAG,
-        stdlib_distutils=stdlib_distutils,
-        findpython_probe=FINDPYTHON_PROBE,
-    )
 
 
 def drop_unloadable(folder: str) -> int:

@@ -20,7 +20,7 @@ from uros_build.colcon import fingerprint as fp
 from uros_build.config.buildplan import BuildPlan
 from uros_build.files import write_if_changed
 from uros_build.proc import Runner
-from uros_build.shim import gencache, pyshim
+from uros_build.shim import gencache, pyshim, shimfile
 from uros_build.sources import meta as meta_mod
 from uros_build.sources import packages as packages_mod
 from uros_build.steps.context import Context
@@ -209,16 +209,18 @@ def python_shim(plan: BuildPlan, runner: Runner, folder: Path) -> Path:
         )
     except ValueError:  # not what print_answers prints: every question goes to the interpreter
         answers, has_distutils = {}, False
-    text = pyshim.shim_text(
-        python,
-        plan.gen_cache_dir,  # $UROS_GEN_CACHE_DIR, else the XDG cache's uros/gen: every workspace's
-        folder,
-        plan.workspace.root,
-        code_dir,
-        f"uros {__version__} build",
-        gencache.module_versions(),
-        stdlib_distutils=has_distutils,
-        answers=answers,
+    text = shimfile.shim_text(
+        shimfile.Shim(
+            python,
+            plan.gen_cache_dir,  # $UROS_GEN_CACHE_DIR, else the XDG cache's uros/gen: every workspace's
+            folder,
+            plan.workspace.root,
+            code_dir,
+            f"uros {__version__} build",
+            gencache.module_versions(),
+            stdlib_distutils=has_distutils,
+            answers=answers,
+        )
     )
     write_if_changed(shim, text)
     shim.chmod(0o755)
