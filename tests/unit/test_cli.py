@@ -8,6 +8,8 @@ import pytest
 from click.testing import CliRunner
 
 from uros_build.cli import cli
+from uros_build.commands.check import CheckRequest
+from uros_build.commands.size import SizeRequest
 from uros_build.probesteps.context import ProbeRequest
 
 
@@ -117,3 +119,10 @@ def test_every_probe_option_is_a_field_of_the_probe_request() -> None:
     probe = cli.commands["probe"]
     options = {p.name for p in probe.params}
     assert options - {"app", "defines", "duration"} == {f.name for f in fields(ProbeRequest)} - {"app"}
+
+
+@pytest.mark.parametrize("name", ["check", "size"])
+def test_every_check_and_size_option_is_a_field_of_its_request(name: str) -> None:
+    """cli/build.py hands check's and size's options to their records by name."""
+    record = {"check": CheckRequest, "size": SizeRequest}[name]
+    assert {p.name for p in cli.commands[name].params} == {f.name for f in fields(record)}

@@ -50,21 +50,10 @@ def build(**values: Any) -> None:
     type=PATH_ARG,
     help="Your firmware's sources: each message type they use, its largest size against MTU x history.",
 )
-def check(
-    library: Path,
-    toolchain: str | None,
-    profile: Path | None,
-    verbose: bool,
-    as_json: bool,
-    whole_archive: bool,
-    for_firmware: Path | None,
-) -> None:
+def check(**request: Any) -> None:
     """Check that every object in LIBRARY has the ELF facts of a target (exit 5 if not); list the
     global symbols two members define and the symbols the firmware must provide."""
-    check_cmd.check_library(
-        library, target=toolchain, profile_path=profile, verbose=verbose, as_json=as_json,
-        whole_archive=whole_archive, for_firmware=for_firmware,
-    )  # fmt: skip
+    check_cmd.check_library(check_cmd.CheckRequest(**request))  # every option a field by its own name
 
 
 @click.command()
@@ -117,21 +106,8 @@ def info(output: Path | None, toolchain: str | None, workspace: Path | None, as_
 )
 @click.option("--flash", metavar="SIZE", help="The chip's flash, as --ram (e.g. 2M).")
 @JSON
-def size(
-    library: Path | None,
-    toolchain: str | None,
-    workspace: Path | None,
-    elf: Path | None,
-    map_file: Path | None,
-    objects: bool,
-    ram: str | None,
-    flash: str | None,
-    as_json: bool,
-) -> None:
+def size(**request: Any) -> None:
     """text/data/bss of libmicroros.a per package (LIBRARY: the .a or its output folder), with the
     firmware's map file what each package costs once linked (after --gc-sections), and with --ram/--flash
     (or the chip the target's profile names) whether it fits."""
-    size_cmd.show_size(
-        library, workspace=workspace, toolchain=toolchain, elf=elf, map_file=map_file, objects=objects,
-        as_json=as_json, ram=ram, flash=flash,
-    )  # fmt: skip
+    size_cmd.show_size(size_cmd.SizeRequest(**request))  # every option a field by its own name

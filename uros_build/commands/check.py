@@ -3,6 +3,7 @@ define (``--whole-archive``: a failure) and the symbols the firmware must provid
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 from uros_build import console
@@ -16,15 +17,22 @@ from uros_build.target import abi
 from uros_build.target.profiles import find_profile, load_profile_file
 
 
-def check_library(
-    library: Path,
-    target: str | None,
-    profile_path: Path | None,
-    verbose: bool,
-    as_json: bool = False,
-    whole_archive: bool = False,
-    for_firmware: Path | None = None,
-) -> None:
+@dataclass(frozen=True)
+class CheckRequest:
+    """`uros check`'s command line, as given (cli/build.py hands every option by its own name)."""
+
+    library: Path
+    toolchain: str | None = None  # the target, by name
+    profile: Path | None = None  # or the user's own profile file
+    verbose: bool = False
+    as_json: bool = False
+    whole_archive: bool = False  # a global symbol two members define fails the check
+    for_firmware: Path | None = None  # the firmware's sources: message sizes and entities
+
+
+def check_library(request: CheckRequest) -> None:
+    library, target, profile_path = request.library, request.toolchain, request.profile
+    as_json, whole_archive, for_firmware = request.as_json, request.whole_archive, request.for_firmware
     if (target is None) == (profile_path is None):
         raise ConfigError("uros check needs one target", "pass --toolchain NAME or --profile FILE")
     if not library.is_file():
@@ -40,7 +48,7 @@ def check_library(
         if firmware is not None
         else []
     )
-    runner = Runner(new_run_log(user_log_dir(), "check"), verbose=verbose)
+    runner = Runner(new_run_log(user_log_dir(), "check"), verbose=request.verbose)
     try:
         summary = abi.check_library(runner, library.resolve(), profile)
         # a library's members; a linked firmware (app.elf) or one object has none to collide

@@ -7,6 +7,7 @@ does not fit: a CI gate)."""
 from __future__ import annotations
 
 import sys
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -24,6 +25,32 @@ from uros_build.sources.options import known_options
 from uros_build.sources.workspace import Workspace, workspace_of_output
 from uros_build.target.memsize import show_bytes
 from uros_build.target.profiles import Chip, TargetProfile, find_profile
+
+
+@dataclass(frozen=True)
+class SizeRequest:
+    """`uros size`'s command line, as given (cli/build.py hands every option by its own name)."""
+
+    library: Path | None = None  # LIBRARY: the .a or its output folder
+    workspace: Path | None = None
+    toolchain: str | None = None
+    elf: Path | None = None  # --elf: the firmware linked against the library
+    map_file: Path | None = None  # --map: its GNU ld map file
+    objects: bool = False  # --objects: every object of the library too
+    ram: str | None = None  # --ram SIZE, as typed
+    flash: str | None = None  # --flash SIZE, as typed
+    as_json: bool = False
+
+
+@dataclass(frozen=True)
+class MemoryBudget:
+    """What the library must fit: --ram/--flash in bytes, else the chip the target's profile names
+    (``from_chip``: neither flag was given)."""
+
+    ram: int | None
+    flash: int | None
+    chip: Chip
+    from_chip: bool
 
 
 def size_tool(info: BuildInfo | None) -> str:
@@ -55,14 +82,8 @@ def _installed_by(ws: Workspace | None, key: str) -> dict[str, str]:
     return sizes.manifest_archives(manifests)
 
 
-def measure(
-    runner: Runner,
-    library: Path,
-    info: BuildInfo | None,
-    elf: Path | None,
-    map_file: Path | None,
-    objects: bool,
-) -> dict[str, Any]:
+def measure(runner: Runner, library: Path, info: BuildInfo | None, request: SizeRequest) -> dict[str, Any]:
+    elf, map_file = request.elf, request.map_file
     tool = size_tool(info)
     members = sizes.parse_berkeley(runner.query([tool, str(library)], step=f"size {library.name}"))
     archives = info.library.inputs if info else ()
@@ -121,7 +142,7 @@ def measure(
             sizes.parse_berkeley(runner.query([tool, str(elf)], step=f"size {elf.name}")).values(), Sizes()
         )
         data["elf"] = {"file": str(elf), **whole.as_dict()}
-    if objects:
+    if request.objects:
         data["objects"] = [
             {
                 "member": m,
@@ -199,25 +220,16 @@ def render(data: dict[str, Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def show_size(
-    library: Path | None,
-    workspace: Path | None,
-    toolchain: str | None,
-    elf: Path | None,
-    map_file: Path | None,
-    objects: bool,
-    as_json: bool,
-    ram: str | None = None,
-    flash: str | None = None,
-) -> None:
+def show_size(request: SizeRequest) -> None:
+    library, elf, ram, flash = request.library, request.elf, request.ram, request.flash
     ram_budget, flash_budget = budget.budget_value(ram, "--ram"), budget.budget_value(flash, "--flash")
-    if elf is not None and map_file is None:
+    if elf is not None and request.map_file is None:
         raise ConfigError("--elf without --map", "link with -Wl,-Map=app.map and pass --map app.map too")
-    for path, flag in ((elf, "--elf"), (map_file, "--map")):
+    for path, flag in ((elf, "--elf"), (request.map_file, "--map")):
         if path is not None and not path.is_file():  # a FIFO or a device is never read
             raise ConfigError(f"{flag} {path}: {'not a regular file' if path.exists() else 'no such file'}")
-    finish_killed_swaps(library, workspace)
-    lib, info = _library(library, workspace, toolchain)
+    finish_killed_swaps(library, request.workspace)
+    lib, info = _library(library, request.workspace, request.toolchain)
     if not lib.is_file():
         raise ConfigError(
             f"{lib}: no such file", "pass libmicroros.a, a `uros build` output folder, or --toolchain NAME"
@@ -231,7 +243,7 @@ def show_size(
             "the sizes are this file's; a probe of the library built then is not counted"
         )
     runner = Runner(new_run_log(user_log_dir(), "size"))
-    data = measure(runner, lib.resolve(), info, elf, map_file, objects)
+    data = measure(runner, lib.resolve(), info, request)
     data["library_sha256"] = own
     data["matches_build_info"] = info.library.sha256 == own if info is not None else None
     chip = profile_chip(info)
@@ -239,18 +251,9 @@ def show_size(
     flash_budget = flash_budget if flash_budget is not None else chip.flash_bytes
     fits, line = True, ""
     if ram_budget is not None or flash_budget is not None:
-        data["budget"], fits, line = check_budget(
-            runner,
-            lib.resolve(),
-            info,
-            data,
-            ram_budget,
-            flash_budget,
-            chip,
-            ram is None and flash is None,
-            own,
-        )
-    if as_json:
+        asked = MemoryBudget(ram_budget, flash_budget, chip, from_chip=ram is None and flash is None)
+        data["budget"], fits, line = check_budget(runner, lib.resolve(), info, data, asked)
+    if request.as_json:
         console.print_json(data)
     else:
         # the verdict is the last line: on standard output when it fits, as the error when not
@@ -348,19 +351,12 @@ def _headers(out: Path, info: BuildInfo | None, names: set[str]) -> dict[str, di
 
 
 def check_budget(
-    runner: Runner,
-    library: Path,
-    info: BuildInfo | None,
-    data: dict[str, Any],
-    ram: int | None,
-    flash: int | None,
-    chip: Chip,
-    from_chip: bool,
-    library_sha256: str | None = None,
+    runner: Runner, library: Path, info: BuildInfo | None, data: dict[str, Any], asked: MemoryBudget
 ) -> tuple[dict[str, Any], bool, str]:
-    """The budget's part of `uros size`: what the firmware needs against ``ram``/``flash``, the
-    probe's heap and stack when a passed run of this very library measured them, the options that
-    cost most RAM (their pools' sizes from the library's symbols)."""
+    """The budget's part of `uros size`: what the firmware needs against ``asked``, the probe's
+    heap and stack when a passed run of this very library (``data``'s library_sha256) measured them,
+    the options that cost most RAM (their pools' sizes from the library's symbols)."""
+    ram, flash, chip, library_sha256 = asked.ram, asked.flash, asked.chip, data.get("library_sha256")
     # the run of this library's own variant: a FreeRTOS run's heap is the kernel's, not newlib's
     found: Measured | str = (
         read_measured(library.parent, info.target, library_sha256, info.rtos.name if info.rtos else None)
@@ -394,7 +390,7 @@ def check_budget(
     result = {
         "ram": ram,
         "flash": flash,
-        "chip": chip.name if from_chip and chip.known else None,
+        "chip": chip.name if asked.from_chip and chip.known else None,
         "library": {**library_sizes.as_dict(), "counted": source},
         "rest_of_firmware": rest.as_dict() if rest is not None else None,
         "heap": need.heap,
