@@ -7,9 +7,9 @@ than the wall clock.
 For every test (setup, call and teardown: a session fixture's build is counted in the first test that
 asks for it, on its worker) it records the user + system seconds of the pytest process and of every
 process it started and waited for (getrusage RUSAGE_SELF + RUSAGE_CHILDREN: a grandchild is counted
-when its parent waited for it, as colcon, CMake and ninja do), the wall seconds, whether it is marked
-serial, and its worker. Under pytest-xdist each worker writes its own file, so tests running side by
-side do not count each other's work.
+when its parent waited for it, as colcon, CMake and ninja do), the wall seconds, when it ended,
+whether it is marked serial, and its worker. Under pytest-xdist each worker writes its own file, so
+tests running side by side do not count each other's work.
 """
 
 from __future__ import annotations
@@ -41,6 +41,7 @@ def pytest_runtest_protocol(item: pytest.Item, nextitem: pytest.Item | None) -> 
         "test": item.nodeid,
         "cpu": round(_cpu() - cpu, 3),
         "wall": round(time.monotonic() - wall, 3),
+        "end": round(time.time(), 3),  # when it ended: each worker's last end shows its idle tail
         "serial": item.get_closest_marker("serial") is not None,
         "worker": os.environ.get("PYTEST_XDIST_WORKER", "main"),
     }

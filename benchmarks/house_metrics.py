@@ -139,6 +139,16 @@ def costs(folder: Path, top: int = 15, write_module_cpu: bool = False) -> None:
         table = {name: round(cpu, 1) for name, cpu in files.items()}
         MODULE_CPU.write_text(json.dumps(table, indent=1, sort_keys=True) + "\n", encoding="utf-8")
         print(f"  wrote {MODULE_CPU.relative_to(REPO)} (the order tests/conftest.py gives the modules)")
+    if all("end" in r for r in records):  # when each worker ended, from the first test's start
+        start = min(r["end"] - r["wall"] for r in records)
+        last = max(r["end"] for r in records)
+        for worker in sorted({r["worker"] for r in records}):
+            mine = [r for r in records if r["worker"] == worker]
+            end = max(r["end"] for r in mine)
+            print(
+                f"  worker {worker}: {len(mine)} tests, busy {sum(r['wall'] for r in mine):.0f} s, "
+                f"done at {end - start:.0f} s, idle at the end {last - end:.0f} s"
+            )
     serial = [r for r in records if r["serial"]]
     print(
         f"  serial tests: {len(serial)}, {sum(r['cpu'] for r in serial):.0f} s CPU, "
