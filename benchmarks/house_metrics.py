@@ -118,7 +118,7 @@ def costs(folder: Path, top: int = 15, write_module_cpu: bool = False) -> None:
     """The records of benchmarks/cpu_per_test.py in ``folder``, ranked: the ``top`` tests and files by
     CPU seconds, and every test marked serial (the time the other workers wait for); with
     ``write_module_cpu`` each module's CPU seconds into tests/module_cpu.json."""
-    records = [json.loads(line) for f in sorted(folder.glob("costs-*.jsonl")) for line in f.open()]
+    records = [json.loads(line) for f in sorted(folder.glob("*costs-*.jsonl")) for line in f.open()]
     if not records:
         print(f"no per-test records in {folder}")
         return

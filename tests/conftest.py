@@ -46,15 +46,16 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
     """The modules with tests marked serial first (pytest-xdist keeps this order of the modules with
     --no-loadscope-reorder: their serial tests run while the other modules wait), then the others
     the costliest first, by the CPU seconds module_cpu.json measured for them (written by
-    `benchmarks/house_metrics.py --costs DIR --write-module-cpu`; a module it lacks comes last): a
-    worker that takes a module late takes a short one, so the workers end together (with --dist
-    loadfile a module runs on one worker, start to end)."""
+    `benchmarks/house_metrics.py --costs DIR --write-module-cpu`; a module it lacks, a new one,
+    counts as the costliest: early, where a long module does no harm). A worker that takes a module
+    late takes a short one, so the workers end together (with --dist loadfile a module runs on one
+    worker, start to end)."""
     cpu: dict[str, float] = json.loads(MODULE_CPU.read_text()) if MODULE_CPU.is_file() else {}
     serial = {item.nodeid.split("::")[0] for item in items if item.get_closest_marker("serial")}
 
     def order(item: pytest.Item) -> tuple[bool, float]:
         path = item.nodeid.split("::")[0]
-        return path not in serial, -cpu.get(path, 0.0)
+        return path not in serial, -cpu.get(path, float("inf"))
 
     items.sort(key=order)
 
