@@ -201,3 +201,21 @@ def test_the_chip_builds_through_idf_build_with_debians_riscv_gcc(tmp_path: Path
     )  # fmt: skip
     assert "app_main: 10 0 5 9" in run.stdout + run.stderr, run.stdout + run.stderr  # semihosting: stderr
     assert run.returncode == 24
+
+
+@pytest.mark.parametrize(
+    ("target", "code"),
+    [
+        ("rv32imc", "M (div) inline; calls __mulsf3, __atomic_exchange_4; soft-float ABI (ilp32)"),
+        ("rv32imac", "M (div), A (amoswap.w) inline; calls __mulsf3; soft-float ABI (ilp32)"),
+        ("rv32imafc", "F (fmadd.s), M (div), A (amoswap.w) inline; single-float ABI (ilp32f)"),
+    ],
+)
+def test_doctor_says_what_debians_riscv_gcc_makes_for_each_isa(
+    tmp_path: Path, target: str, code: str
+) -> None:
+    # the bare-metal twins of the C3, C6/H2 and P4 use Debian's compiler by name; the esp32* profiles
+    # ask riscv32-esp-elf-gcc the same (docs/esp32.md)
+    need(GCC)
+    doctor = run_uros("doctor", "--toolchain", target, "-w", str(tmp_path), check=False)
+    assert f"/{GCC}: makes RV32 code: {code}" in doctor.stdout, doctor.stdout

@@ -247,3 +247,23 @@ def test_xtensa_code_tells_espressif_core_code_from_the_lx106_stand_in() -> None
     assert abi.xtensa_code(no_fpu) == (
         "makes code with DIV32 (quos), S32C1I (s32c1i) (windowed ABI), calls __mulsf3 (a core without them)"
     )
+
+
+@pytest.mark.parametrize(
+    ("chip", "words"),
+    [
+        # the ESP32-C3: no "A" and no F: ESP-IDF's newlib defines __atomic_exchange_4 there (stdatomic.c)
+        (
+            "esp32c3",
+            "makes RV32 code: M (div) inline; calls __mulsf3, __atomic_exchange_4; soft-float ABI (ilp32)",
+        ),
+        ("esp32c6", "makes RV32 code: M (div), A (amoswap.w) inline; calls __mulsf3; soft-float ABI (ilp32)"),
+        ("esp32p4", "makes RV32 code: F (fmadd.s), M (div), A (amoswap.w) inline; single-float ABI (ilp32f)"),
+    ],
+)
+def test_riscv_code_says_what_the_compiler_makes_for_each_chip(chip: str, words: str) -> None:
+    # objdump -dr + readelf -h of abi.XTENSA_CODE_PROBE compiled -O2 with the chip's cpu_flags by Debian's
+    # riscv64-unknown-elf-gcc 12.2 (what `uros doctor --toolchain <chip>` prints)
+    text = (DATA / f"code-{chip}-riscv64-gcc12.txt").read_text(encoding="utf-8")
+    assert abi.riscv_code(text, text) == words
+    assert abi.riscv_code("", "").endswith("float ABI unknown")

@@ -186,7 +186,7 @@ def eval_target(
     profile: TargetProfile, compiler: str | None, problem: str | None, code: str | None = None
 ) -> list[Check]:
     """The compiler check and, with it found, libc and C++ headers (``problem``: which is missing);
-    ``code``: what the compiler makes for the core, where uros asked it (abi.xtensa_code)."""
+    ``code``: what the compiler makes for the core, where uros asked it (abi.xtensa_code, abi.riscv_code)."""
     hint = profile.install_hint or f"install {profile.tool('gcc')}"
     name = f"{profile.name} compiler"
     if compiler is None:
@@ -366,20 +366,29 @@ def probe_target(runner: Runner, profile: TargetProfile) -> list[Check]:
             compilers.check_target_prerequisites(runner, profile, tools, Path(scratch))
         except (MissingToolError, StepFailed) as exc:
             problem = exc.message
-        windowed = profile.elf.xtensa_abi == "0"
-        code = _xtensa_code(runner, profile, tools["gcc"], Path(scratch)) if windowed else None
+        code = _code(runner, profile, tools["gcc"], Path(scratch))
     return eval_target(profile, tools["gcc"], problem, code)
 
 
-def _xtensa_code(runner: Runner, profile: TargetProfile, gcc: str, scratch: Path) -> str | None:
-    """An ESP32's compiler: real Espressif-core code or the lx106 stand-in's (docs/esp32.md)."""
-    source, obj = scratch / "uros_xtensa_probe.c", scratch / "uros_xtensa_probe.o"
+def _code(runner: Runner, profile: TargetProfile, gcc: str, scratch: Path) -> str | None:
+    """What an ESP32's compiler makes of abi.XTENSA_CODE_PROBE with the profile's flags: Espressif-core
+    code or the lx106 stand-in's (docs/esp32.md); a RISC-V target's F/M/A instructions and float ABI."""
+    windowed = profile.elf.xtensa_abi == "0"
+    if not windowed and profile.elf.machine != "RISC-V":
+        return None
+    source, obj = scratch / "uros_code_probe.c", scratch / "uros_code_probe.o"
     source.write_text(abi.XTENSA_CODE_PROBE, encoding="utf-8")
     try:
         argv = [gcc, *profile.cpu_flags, "-O2", "-c", str(source), "-o", str(obj)]
         runner.query(argv, step="compile a probe")
         objdump = gcc[: -len("gcc")] + "objdump"
-        return abi.xtensa_code(runner.query([objdump, "-dr", str(obj)], step="disassemble the probe"))
+        disassembly = runner.query([objdump, "-dr", str(obj)], step="disassemble the probe")
+        if windowed:
+            return abi.xtensa_code(disassembly)
+        header = runner.query(
+            [gcc[: -len("gcc")] + "readelf", "-h", str(obj)], step="read the probe's header"
+        )
+        return abi.riscv_code(disassembly, header)
     except (MissingToolError, StepFailed):
         return None
 

@@ -288,13 +288,15 @@ def verify(
 
 # What a windowed-ABI Xtensa compiler makes of plain C tells an Espressif core's code from lx106's: the
 # ESP32/ESP32-S3 have an FPU (madd.s, wfr), DIV32 (quos) and S32C1I; Debian 12's lx106 cc1 (the stand-in
-# of tests/esp32s3-compat-env.sh) calls library routines for all three. `uros doctor` compiles this.
+# of tests/esp32s3-compat-env.sh) calls library routines for all three. `uros doctor` compiles this
+# (for the RISC-V chips too: riscv_code below).
 XTENSA_CODE_PROBE = """float uros_fma(float a, float b, float c) { return a * b + c; }
 int uros_div(int a, int b) { return a / b; }
 unsigned uros_word;
 unsigned uros_swap(unsigned v) { return __atomic_exchange_n(&uros_word, v, __ATOMIC_SEQ_CST); }
 """
-# objdump -d's instruction lines: "   1b:\td22230        \tquos\ta2, a2, a3" (literals have no mnemonic)
+# objdump -d's instruction lines: "   1b:\td22230        \tquos\ta2, a2, a3" (literals have no mnemonic);
+# RISC-V's have the same layout ("   0:\t60b57543          \tfmadd.s\tfa0,fa0,fa1,fa2")
 XTENSA_MNEMONIC = re.compile(r"^[ \t]*[0-9a-f]+:[ \t]+[0-9a-f]+[ \t]+([a-z][a-z0-9.]*)", re.M)
 # core option -> (an instruction that uses it, the routine called without it)
 XTENSA_OPTIONS = (
@@ -319,6 +321,34 @@ def xtensa_code(disassembly: str) -> str:
             "a stand-in, not Espressif's code generation (docs/esp32.md)"
         )
     return f"makes code with {', '.join(has)} ({abi}), calls {', '.join(calls)} (a core without them)"
+
+
+# The same probe (XTENSA_CODE_PROBE) tells what a RISC-V compiler makes for an ESP32 chip's -march/-mabi: the
+# P4's F extension (fmadd.s), M (div) and the C6/H2/P4's A (amoswap.w); without them, library calls
+# (ESP-IDF's newlib defines the 1/2/4-byte __atomic_* routines on a chip without "A", the C3).
+RISCV_OPTIONS = (
+    ("F", "fmadd.s", "__mulsf3"),
+    ("M", "div", "__divsi3"),
+    ("A", "amoswap.w", "__atomic_exchange_4"),
+)
+
+
+def riscv_code(disassembly: str, header: str) -> str:
+    """What ``objdump -dr`` and ``readelf -h`` of XTENSA_CODE_PROBE's object show, in words (pure)."""
+    mnemonics = set(XTENSA_MNEMONIC.findall(disassembly))
+    found = {
+        insn for _, insn, _ in RISCV_OPTIONS if any(m == insn or m.startswith(insn + ".") for m in mnemonics)
+    }
+    has = [f"{option} ({insn})" for option, insn, _ in RISCV_OPTIONS if insn in found]
+    calls = [r for _, insn, r in RISCV_OPTIONS if insn not in found and r in disassembly]
+    found_abi = riscv_float_abi(header)
+    # the RV32 -mabi that writes it (ilp32, ilp32f, ilp32d)
+    mabi = next((m for m in ("ilp32", "ilp32f", "ilp32d") if RISCV_FLOAT_ABI[m] == found_abi), None)
+    float_abi = f"{found_abi} ({mabi})" if found_abi else "float ABI unknown"
+    words = f"makes RV32 code: {', '.join(has) or 'no F, M or A instruction'} inline"
+    if calls:
+        words += f"; calls {', '.join(calls)}"
+    return f"{words}; {float_abi}"
 
 
 def check_library(runner: Runner, library: Path, profile: TargetProfile) -> dict[str, Any]:
