@@ -26,22 +26,28 @@ from __future__ import annotations
 import json
 import os
 import re
-import shlex
 import shutil
-import subprocess
-import sys
 import time
 from pathlib import Path
 
 import pytest
-from uros_helpers import REPO, humble_mirror_args, run_uros
+from idf_project import (
+    EXAMPLE,
+    compile_as_idf_does,
+    component_include_dirs,
+    configure,
+    example_firmware,
+    libc_include_dirs,
+    run,
+    words,
+)
+from uros_helpers import run_uros
 
 pytestmark = [pytest.mark.integration, pytest.mark.realsources]
 
 MIRROR = os.environ.get("UROS_MIRROR")
 IDF_PATH = os.environ.get("IDF_PATH")
 PREFIX = "xtensa-esp32s3-elf-"
-EXAMPLE = REPO / "examples" / "esp32s3-idf"
 
 
 def _missing() -> str | None:
@@ -57,32 +63,8 @@ def _missing() -> str | None:
     return None
 
 
-def _run(argv: list[str], cwd: Path | None = None, env: dict[str, str] | None = None) -> str:
-    done = subprocess.run(argv, cwd=cwd, env=env, capture_output=True, text=True)
-    if done.returncode != 0:
-        raise AssertionError(
-            f"{' '.join(argv)} failed ({done.returncode}):\n{done.stdout[-4000:]}\n{done.stderr[-4000:]}"
-        )
-    return done.stdout
-
-
-def _configure(project: Path) -> Path:
-    """ESP-IDF's own CMake, as `idf.py reconfigure` runs it. The compiler checks are skipped (a
-    toolchain without ESP-IDF's libraries cannot link their test program); IDF_MAINTAINER turns an
-    unknown toolchain version into a warning."""
-    env = {**os.environ, "IDF_MAINTAINER": "1", "IDF_COMPONENT_MANAGER": "0"}
-    build = project / "build"
-    _run(
-        ["cmake", "-S", str(project), "-B", str(build), "-G", "Ninja", "-DIDF_TARGET=esp32s3",
-         "-DPYTHON_DEPS_CHECKED=1", f"-DPYTHON={sys.executable}",
-         "-DCMAKE_C_COMPILER_WORKS=1", "-DCMAKE_CXX_COMPILER_WORKS=1"],
-        env=env,
-    )  # fmt: skip
-    return build
-
-
 def _xtensa_abi_by_member(lib: Path) -> dict[str, str | None]:
-    out = _run(["readelf", "--string-dump=.xtensa.info", str(lib)])
+    out = run(["readelf", "--string-dump=.xtensa.info", str(lib)])
     members: dict[str, str | None] = {}
     for chunk in out.split("\nFile: ")[1:]:
         head, _, body = chunk.partition("\n")
@@ -91,31 +73,12 @@ def _xtensa_abi_by_member(lib: Path) -> dict[str, str | None]:
     return members
 
 
-def _header_words(folders: list[str]) -> set[str]:
-    """Every identifier that appears in a header under ``folders``."""
-    words: set[str] = set()
-    for folder in folders:
-        for header in Path(folder).rglob("*.h"):
-            words.update(
-                re.findall(r"\b[A-Za-z_]\w*\b", header.read_text(encoding="utf-8", errors="replace"))
-            )
-    return words
-
-
-def _libc_include_dirs() -> list[str]:
-    probe = subprocess.run(
-        [PREFIX + "gcc", "-xc", "-E", "-v", os.devnull], capture_output=True, text=True, check=True
-    ).stderr
-    block = probe.split("#include <...> search starts here:")[1].split("End of search list.")[0]
-    return [line.strip() for line in block.splitlines() if line.strip()]
-
-
 def _libgcc_symbols() -> set[str]:
     """libgcc's routines: the compiler's libgcc.a, and the ones the ESP32-S3 ROM holds, which ESP-IDF
     links by address (esp32s3.rom.libgcc.ld). Debian's lx106 libgcc.a leaves out __divsi3, __udivdi3,
     __floatsisf and others (the ESP8266 ROM has them), so its archive alone would not do."""
-    libgcc = _run([PREFIX + "gcc", "-print-libgcc-file-name"]).strip()
-    defined = set(_run([PREFIX + "nm", "--defined-only", "--format=just-symbols", libgcc]).split())
+    libgcc = run([PREFIX + "gcc", "-print-libgcc-file-name"]).strip()
+    defined = set(run([PREFIX + "nm", "--defined-only", "--format=just-symbols", libgcc]).split())
     assert IDF_PATH
     rom = Path(IDF_PATH) / "components" / "esp_rom" / "esp32s3" / "ld" / "esp32s3.rom.libgcc.ld"
     return defined | set(re.findall(r"^\s*(\w+)\s*=\s*0x", rom.read_text(), re.MULTILINE))
@@ -126,14 +89,9 @@ def test_real_humble_for_esp32s3_against_an_esp_idf_project(tmp_path: Path) -> N
     assert MIRROR
     project = tmp_path / "microros_hsb"
     shutil.copytree(EXAMPLE, project, ignore=shutil.ignore_patterns("build", "sdkconfig", "micro_ros"))
-    idf_build = _configure(project)
+    idf_build = configure(project, "esp32s3")
 
-    interfaces = tmp_path / "demo_interfaces"
-    run_uros("interface", "new", "demo_interfaces", "--msg", str(EXAMPLE / "interfaces" / "Hsb.msg"),
-             "--output", str(interfaces))  # fmt: skip
-    fw = tmp_path / "firmware"
-    run_uros("create-firmware", "generate_lib", "--distro", "humble", "--workspace", str(fw),
-             "--extra-package", str(interfaces), *humble_mirror_args(MIRROR))  # fmt: skip
+    fw = example_firmware(tmp_path, MIRROR)
     started = time.monotonic()
     proc = run_uros("build", "--toolchain", "esp32s3", "--workspace", str(fw), "--idf-build", str(idf_build))
     seconds = time.monotonic() - started
@@ -156,30 +114,19 @@ def test_real_humble_for_esp32s3_against_an_esp_idf_project(tmp_path: Path) -> N
     # the ESP-IDF side: the exported component in the project, configured again, main.c compiled
     # with the compile command ESP-IDF wrote for it
     run_uros("export", "esp-idf", "--from", str(out), "--output", str(project / "components" / "micro_ros"))
-    _configure(project)
-    entries = json.loads((idf_build / "compile_commands.json").read_text())
+    configure(project, "esp32s3")
     objects = []
     # main.c (Wi-Fi, the task) and app/app.c (the node's appMain, which `uros probe --app` also runs)
     for source in ("main/main.c", "app/app.c"):
-        entry = next(e for e in entries if e["file"].endswith(source))
-        argv = shlex.split(entry["command"])
-        obj = Path(entry["directory"]) / argv[argv.index("-o") + 1]
-        obj.parent.mkdir(parents=True, exist_ok=True)
-        _run(argv, cwd=Path(entry["directory"]))
+        obj = compile_as_idf_does(idf_build, source)
         assert _xtensa_abi_by_member_single(obj) == "0"
         objects.append(str(obj))
 
     closure = tmp_path / "closure.o"
-    _run([PREFIX + "ld", "-r", "-o", str(closure), *objects, str(lib)])
-    undefined = set(_run([PREFIX + "nm", "-u", "--format=just-symbols", str(closure)]).split())
-    description = json.loads((idf_build / "project_description.json").read_text())
-    idf_dirs = [
-        str(Path(c["dir"]) / inc)
-        for name, c in description["build_component_info"].items()
-        if name != "micro_ros"
-        for inc in c.get("include_dirs", [])
-    ]
-    declared = _header_words([*idf_dirs, str(idf_build / "config"), *_libc_include_dirs()])
+    run([PREFIX + "ld", "-r", "-o", str(closure), *objects, str(lib)])
+    undefined = set(run([PREFIX + "nm", "-u", "--format=just-symbols", str(closure)]).split())
+    idf_dirs = component_include_dirs(idf_build)
+    declared = words([*idf_dirs, str(idf_build / "config"), *libc_include_dirs(PREFIX + "gcc")])
     libgcc = _libgcc_symbols()
     reported = set(info["abi_check"].get("undefined_atomics", {}))
     unexplained = sorted(
@@ -193,7 +140,7 @@ def test_real_humble_for_esp32s3_against_an_esp_idf_project(tmp_path: Path) -> N
     assert atomics_small <= reported
     for symbol in atomics_small:
         assert f"needs {symbol} (" in proc.stderr
-    size = _run([PREFIX + "size", "-t", str(lib)]).splitlines()[-1].split()
+    size = run([PREFIX + "size", "-t", str(lib)]).splitlines()[-1].split()
     print(
         f"\nesp32s3 proof: {seconds:.0f} s uros build, {len(members)} objects, {lib.stat().st_size} bytes, "
         f"size -t text/data/bss {size[0]}/{size[1]}/{size[2]}, {len(list((out / 'include').rglob('*.h')))} "
@@ -202,5 +149,5 @@ def test_real_humble_for_esp32s3_against_an_esp_idf_project(tmp_path: Path) -> N
 
 
 def _xtensa_abi_by_member_single(obj: Path) -> str | None:
-    found = re.search(r"\bABI=(\d+)", _run(["readelf", "--string-dump=.xtensa.info", str(obj)]))
+    found = re.search(r"\bABI=(\d+)", run(["readelf", "--string-dump=.xtensa.info", str(obj)]))
     return found[1] if found else None
