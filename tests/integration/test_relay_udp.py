@@ -11,7 +11,7 @@ import time
 
 import pytest
 
-from uros_build.run import relay
+from uros_build.run import relay, xrcewire
 from uros_build.run.session import free_udp_port
 
 pytestmark = pytest.mark.integration
@@ -19,7 +19,7 @@ pytestmark = pytest.mark.integration
 
 def _best_effort(seq: int) -> bytes:
     """An XRCE message on best-effort stream 1 with one WRITE_DATA (its number in the payload)."""
-    return bytes([0x81, 0x01, seq & 0xFF, seq >> 8, relay.WRITE_DATA, 0, 4, 0]) + seq.to_bytes(4, "little")
+    return bytes([0x81, 0x01, seq & 0xFF, seq >> 8, xrcewire.WRITE_DATA, 0, 4, 0]) + seq.to_bytes(4, "little")
 
 
 def _echo(sock: socket.socket, stop: threading.Event) -> None:
@@ -30,7 +30,7 @@ def _echo(sock: socket.socket, stop: threading.Event) -> None:
             data, source = sock.recvfrom(2048)
         except OSError:
             continue
-        sock.sendto(data[:4] + bytes([relay.DATA]) + data[5:], source)
+        sock.sendto(data[:4] + bytes([xrcewire.DATA]) + data[5:], source)
 
 
 def _run(seed: int) -> tuple[set[int], dict[str, object]]:

@@ -9,7 +9,7 @@ import pytest
 
 from uros_build.errors import ConfigError
 from uros_build.run import stages
-from uros_build.run.session import RESTART_ASKED, _Console
+from uros_build.run.session import RESTART_ASKED, ConsoleReader
 from uros_build.run.stages import ConsoleLine, Stage
 
 CONSOLE = """uros-probe: boot
@@ -87,7 +87,7 @@ def test_the_verdict_line_names_every_stage_and_the_first_failure() -> None:
 def test_the_console_is_read_line_by_line_as_it_grows(tmp_path: Path) -> None:
     """run/session.py stamps each whole line when it first sees it; a half-written line waits."""
     log = tmp_path / "console.log"
-    console = _Console(log)
+    console = ConsoleReader(log)
     assert console.read() == []  # QEMU has not made the file yet
     log.write_bytes(b"uros-probe: boot\r\nuros-probe: resta")
     first = console.read()

@@ -8,16 +8,18 @@ import random
 import pytest
 
 from uros_build.errors import ConfigError
-from uros_build.run import relay
+from uros_build.run import relay, xrcewire
 
 
 def frame(payload: bytes, src: int = 0, dst: int = 1) -> bytes:
     """A frame as the XRCE-DDS client's serial framing writes it (escapes applied; a fixed CRC)."""
     body = bytes([src, dst, len(payload) & 0xFF, len(payload) >> 8]) + payload + b"\x12\x34"
-    out = bytearray([relay.FLAG])
+    out = bytearray([xrcewire.FLAG])
     for byte in body:
         out += (
-            bytes([relay.ESCAPE, byte ^ relay.XOR]) if byte in (relay.FLAG, relay.ESCAPE) else bytes([byte])
+            bytes([xrcewire.ESCAPE, byte ^ xrcewire.XOR])
+            if byte in (xrcewire.FLAG, xrcewire.ESCAPE)
+            else bytes([byte])
         )
     return bytes(out)
 
@@ -49,7 +51,7 @@ def test_a_bad_plan_is_one_line(text: str, message: str) -> None:
 
 def test_frames_are_cut_whole_with_escapes_and_text_between() -> None:
     one, two = frame(b"\x7e\x7d\x01"), frame(b"hello")
-    framer = relay.Framer()
+    framer = xrcewire.Framer()
     stream = b"boot\n" + one + two
     out = []
     for i in range(0, len(stream), 3):  # as the bytes arrive, a few at a time
@@ -62,9 +64,9 @@ def test_frames_are_cut_whole_with_escapes_and_text_between() -> None:
 
 def test_a_frame_cut_short_ends_at_the_next_flag() -> None:
     cut, whole = frame(b"abcdef")[:5], frame(b"xy")
-    out = relay.Framer().feed(cut + whole)
+    out = xrcewire.Framer().feed(cut + whole)
     assert out == [(True, cut), (True, whole)]
-    assert relay.frame_end(frame(b"abc")[:-1]) is None  # not all here yet
+    assert xrcewire.frame_end(frame(b"abc")[:-1]) is None  # not all here yet
 
 
 def test_the_same_seed_makes_the_same_faults() -> None:
@@ -114,24 +116,24 @@ def message(session: int, stream: int, seq: int, *subs: tuple[int, bytes], key: 
 
 def create_client(key: bytes) -> bytes:
     """CREATE_CLIENT with a CLIENT_Representation: cookie, version, vendor, the client key, ..."""
-    return message(0x80, 0, 0, (relay.CREATE_CLIENT, b"XRCE\x01\x00\x01\x0f" + key + b"\x81\x00\x00\x02"))
+    return message(0x80, 0, 0, (xrcewire.CREATE_CLIENT, b"XRCE\x01\x00\x01\x0f" + key + b"\x81\x00\x00\x02"))
 
 
 def test_a_frame_gives_back_its_message() -> None:
-    payload = message(0x81, 0x01, 3, (relay.WRITE_DATA, b"\x7e\x01\x02"))
-    assert relay.unframe(frame(payload)) == payload
-    assert relay.unframe(frame(payload)[:-1]) is None  # cut short
+    payload = message(0x81, 0x01, 3, (xrcewire.WRITE_DATA, b"\x7e\x01\x02"))
+    assert xrcewire.unframe(frame(payload)) == payload
+    assert xrcewire.unframe(frame(payload)[:-1]) is None  # cut short
 
 
 def test_messages_are_read_header_and_submessages() -> None:
     heartbeat = 11
-    data = message(0x01, 0x80, 258, (heartbeat, b"\1\2\3"), (relay.DATA, b"abcd"), key=b"\xaa\xbb\xcc\xdd")
-    read = relay.parse_message(data)
+    data = message(0x01, 0x80, 258, (heartbeat, b"\1\2\3"), (xrcewire.DATA, b"abcd"), key=b"\xaa\xbb\xcc\xdd")
+    read = xrcewire.parse_message(data)
     assert read is not None and (read.session, read.stream, read.seq) == (0x01, 0x80, 258)
-    assert [kind for kind, _ in read.submessages] == [11, relay.DATA]  # the second aligned to 4
+    assert [kind for kind, _ in read.submessages] == [11, xrcewire.DATA]  # the second aligned to 4
     assert read.submessages[1][1] == b"abcd"
-    assert relay.parse_message(b"\x81") is None
-    cut = relay.parse_message(message(0x81, 1, 0, (relay.DATA, b"abcdef"))[:-2])
+    assert xrcewire.parse_message(b"\x81") is None
+    cut = xrcewire.parse_message(message(0x81, 1, 0, (xrcewire.DATA, b"abcdef"))[:-2])
     assert cut is not None and cut.submessages == ()  # a submessage past the end is left out
 
 
@@ -140,12 +142,12 @@ def test_the_observer_counts_best_effort_samples_retransmissions_and_sessions() 
     seen.observe(create_client(b"\x11\x22\x33\x44"), 10.0)
     seen.observe(create_client(b"\x11\x22\x33\x44"), 10.5)  # sent again: a retry, the same session
     for seq in (0, 1, 1, 2):  # seq 1 sent twice: one retransmission
-        seen.observe(message(0x81, 0x80, seq, (relay.WRITE_DATA, b"x")), 11.0)
+        seen.observe(message(0x81, 0x80, seq, (xrcewire.WRITE_DATA, b"x")), 11.0)
     for seq in range(3):
-        best = seen.observe(message(0x81, 0x01, seq, (relay.WRITE_DATA, b"y")), 11.0)
+        best = seen.observe(message(0x81, 0x01, seq, (xrcewire.WRITE_DATA, b"y")), 11.0)
         seen.delivered(best, 0 if seq == 1 else 1)  # the second lost on the link
     seen.observe(create_client(b"\x55\x66\x77\x88"), 20.0)  # a new session numbers anew
-    seen.observe(message(0x81, 0x80, 1, (relay.WRITE_DATA, b"x")), 21.0)
+    seen.observe(message(0x81, 0x80, 1, (xrcewire.WRITE_DATA, b"x")), 21.0)
     t = seen.traffic
     assert (t.reliable, t.retransmitted) == (5, 1)
     assert (t.best_effort, t.best_effort_passed, t.sessions) == (3, 2, 3)
@@ -155,7 +157,7 @@ def test_the_observer_counts_best_effort_samples_retransmissions_and_sessions() 
         ("create", "55667788", 20.0),
     ]
     back = relay.Observer()
-    answer = back.observe(message(0x81, 0, 0, (relay.STATUS_AGENT, b"\0\0")), 10.6)
+    answer = back.observe(message(0x81, 0, 0, (xrcewire.STATUS_AGENT, b"\0\0")), 10.6)
     back.delivered(answer, 1, 10.6)
     back.delivered(answer, 0, 10.7)  # lost: no answer reached the board
     assert back.events == [("answered", "", 10.6)]
@@ -165,12 +167,12 @@ def test_a_way_counts_what_got_through_intact() -> None:
     plan = relay.FaultPlan(loss=0.2, corrupt=0.1, duplicate=0.1, seed=3)
     way = relay.Way(plan, "up", framed=False)
     for seq in range(300):
-        data = message(0x81, 0x01, seq, (relay.WRITE_DATA, b"sample"))
+        data = message(0x81, 0x01, seq, (xrcewire.WRITE_DATA, b"sample"))
         way.carry(data, data, 1.0)
     twin = relay.Direction(plan, random.Random("3-up"), framed=False)  # the same seeded stream
     intact = 0
     for seq in range(300):
-        data = message(0x81, 0x01, seq, (relay.WRITE_DATA, b"sample"))
+        data = message(0x81, 0x01, seq, (xrcewire.WRITE_DATA, b"sample"))
         intact += sum(1 for _, out in twin.apply(data) if out == data)
     c, t = way.faults.counts, way.observer.traffic
     assert t.best_effort == 300 and c.lost > 30 and c.corrupted > 10 and c.duplicated > 10

@@ -25,20 +25,21 @@ from uros_build.errors import ConfigError, StepFailed
 from uros_build.files import read_regular, remove_tree
 from uros_build.proc import Background, Runner
 from uros_build.run import machines, netns
-from uros_build.run.relay import CREATE_CLIENT, Direction, FaultPlan, Relay, parse_message, unframe
+from uros_build.run.relay import Direction, FaultPlan, Relay
 from uros_build.run.session import (
     AGENT_LOST,
     LOST_WAIT,
     WATCH_SECONDS,
+    ConsoleReader,
     Session,
     SessionRun,
     SessionSpec,
-    _Console,
-    _namespace,
-    _stop_the_rest,
-    _wait_for_pty,
+    open_namespace,
+    stop_the_rest,
+    wait_for_pty,
 )
 from uros_build.run.stages import RESTART_ASKED, ConsoleLine, Stage
+from uros_build.run.xrcewire import CREATE_CLIENT, parse_message, unframe
 
 # A QEMU each (about 40 MB of host RAM and a share of a core), a relay thread each on serial, one
 # agent for all: 16 keeps a run on a workstation bounded; 8 passed on this project's 2 cores.
@@ -259,13 +260,13 @@ def run_fleet(
         if stale.name[len("board") :].isdigit() and int(stale.name[len("board") :]) >= count:
             remove_tree(stale)
     started = time.monotonic()
-    holder = _namespace(runner, work) if middleware == "dds" else None
+    holder = open_namespace(runner, work) if middleware == "dds" else None
     namespace = netns.namespace_id(holder.proc.pid) if holder is not None else None
     qemus: list[Background] = []
     relays: list[Relay] = []
     taps: list[_KeyTap] = []
     agents: list[Background] = []
-    consoles: list[_Console] = []
+    consoles: list[ConsoleReader] = []
     lines: list[list[ConsoleLine]] = [[] for _ in range(count)]
     status: list[int | None] = [None] * count
     restarts: list[tuple[float, float]] = []
@@ -282,14 +283,15 @@ def run_fleet(
             if udp and holder is not None:
                 argv = netns.enter_argv(holder.proc.pid, argv)
             qemus.append(runner.start(argv, step=f"QEMU board {index}", output=folder / "qemu.log"))
-            consoles.append(_Console(folder / "qemu.log" if machine.board.console_stdout else console_log))
+            log = folder / "qemu.log" if machine.board.console_stdout else console_log
+            consoles.append(ConsoleReader(log))
         if udp:
             assert spec.udp_port is not None
             agent_argv = machines.agent_udp_argv(run.agent_program, spec.udp_port, middleware)
         else:
             ptys = []
             for index, qemu in enumerate(qemus):
-                pty = _wait_for_pty(board_work(work, index) / "qemu.log", qemu, 10.0)
+                pty = wait_for_pty(board_work(work, index) / "qemu.log", qemu, 10.0)
                 if pty is None:
                     raise StepFailed(
                         f"QEMU {machine.machine} of board {index} did not open the firmware's link "
@@ -346,7 +348,7 @@ def run_fleet(
                 proc.stop()
         for relay in relays:
             relay.stop()
-        _stop_the_rest(runner, namespace)
+        stop_the_rest(runner, namespace)
     seconds = time.monotonic() - started
     boards = []
     for index in range(count):

@@ -110,7 +110,7 @@ def stop_left_running(owner: str) -> None:
         )
 
 
-def _stop_the_rest(runner: Runner, namespace: str | None) -> None:
+def stop_the_rest(runner: Runner, namespace: str | None) -> None:
     """Once the run's own programs are stopped: whatever they started that still runs, by its mark
     (a peer's plain child) and by the run's network namespace (a daemon, even one that cleared its
     environment), so nothing of the run outlives it nor keeps its namespace alive."""
@@ -162,7 +162,7 @@ class Session:
     link: dict[str, object] | None = None  # the relay's counts per direction (spec.link)
 
 
-class _Console:
+class ConsoleReader:
     """The console file's whole lines as QEMU writes them, each stamped when first read."""
 
     def __init__(self, path: Path) -> None:
@@ -180,7 +180,7 @@ class _Console:
         return [ConsoleLine(now, x.decode("utf-8", "replace").rstrip("\r")) for x in whole]
 
 
-def _wait_for_pty(qemu_output: Path, qemu: Background, seconds: float) -> str | None:
+def wait_for_pty(qemu_output: Path, qemu: Background, seconds: float) -> str | None:
     end = time.monotonic() + seconds
     while time.monotonic() < end:
         text = qemu_output.read_text(encoding="utf-8", errors="replace") if qemu_output.is_file() else ""
@@ -220,7 +220,7 @@ def _holds(pid: int, path: str) -> bool:
     return False
 
 
-def _namespace(runner: Runner, work: Path) -> Background:
+def open_namespace(runner: Runner, work: Path) -> Background:
     """A network namespace of the run's own, loopback up with multicast (run/netns.py)."""
     holder = runner.start(netns.holder_argv(), step="the network namespace", output=work / "netns.log")
     end = time.monotonic() + 5.0
@@ -249,7 +249,7 @@ def run_session(
     argv = machines.qemu_argv(machine, elf, console_log, spec.pcap if udp else None)
     started = time.monotonic()
     middleware = "dds" if peer is not None else spec.middleware  # a peer speaks DDS
-    holder = _namespace(runner, work) if middleware == "dds" else None
+    holder = open_namespace(runner, work) if middleware == "dds" else None
     namespace = netns.namespace_id(holder.proc.pid) if holder is not None else None
     qemu_argv = [qemu_program, *argv[1:]]
     if udp and holder is not None:  # the user network's 10.0.2.2 is the loopback of QEMU's namespace
@@ -277,7 +277,7 @@ def run_session(
                 runner.log(f"the link: a relay udp {spec.udp_port} <-> {agent_port} ({spec.link.describe()})")
             agent_argv = machines.agent_udp_argv(agent_program, agent_port, middleware)
         else:
-            pty = _wait_for_pty(qemu_log, qemu, 10.0)
+            pty = wait_for_pty(qemu_log, qemu, 10.0)
             if pty is None:
                 raise StepFailed(
                     f"QEMU {machine.machine} did not open the firmware's link (no pseudo-terminal)",
@@ -298,7 +298,7 @@ def run_session(
                 netns.enter_argv(holder.proc.pid, peer.argv), step="the peer", output=peer.log, env=peer.env
             )
         # the firmware's text: its console file, or QEMU's own output (meta/probe/machines.yaml)
-        console = _Console(qemu_log if machine.board.console_stdout else console_log)
+        console = ConsoleReader(qemu_log if machine.board.console_stdout else console_log)
         stopped: float | None = None  # when uros stopped the agent for a restart
         status = None
         while time.monotonic() - started < timeout:
@@ -332,7 +332,7 @@ def run_session(
                 proc.stop()
         if relay is not None:
             relay.stop()
-        _stop_the_rest(runner, namespace)
+        stop_the_rest(runner, namespace)
     seconds = time.monotonic() - started
     if machine.board.console_stdout and qemu_log.is_file():  # console.log as on every machine
         console_log.write_text(qemu_log.read_text(encoding="utf-8", errors="replace"), encoding="utf-8")
