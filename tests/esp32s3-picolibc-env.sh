@@ -9,8 +9,8 @@
 #      no multilib, no tests, no crt0 (the probe brings its start-up), errno a plain variable (no TLS:
 #      nothing sets THREADPTR on bare metal), installed into COMPILER_DIR/picolibc;
 #   3. its specs as COMPILER_DIR/picolibc/picolibc-esp32s3.specs with libgcc left out of the link (`*lib:
-#      -lc` only: the call0 libgcc.a must not fill in what the firmware lacks; the probe's board brings
-#      its windowed helpers), and -B COMPILER_DIR/picolibc/ in the gcc/g++ wrappers so that
+#      -lc` only, `*libgcc:` -lc: the call0 libgcc.a must not fill in what the firmware lacks; the
+#      probe's board brings its windowed helpers), and -B COMPILER_DIR/picolibc/ in the gcc/g++ wrappers so that
 #      --specs=picolibc-esp32s3.specs (the profile's) is found by name.
 # Nothing is installed system-wide; nothing it writes belongs in this repository.
 #
@@ -94,7 +94,11 @@ PY
 fi
 
 # 3. the specs, without libgcc in the link
-sed -e 's/%(libgcc)//' "$P/picolibc.specs" > "$P/picolibc-esp32s3.specs"
+# (GCC links libgcc twice: picolibc's *lib names it, and the driver's own sequence adds %G, the *libgcc
+# spec; both go: an undefined helper is then a link error, not call0 code. A spec cannot be empty:
+# *libgcc becomes -lc, picolibc again)
+# (first: GCC 13 calls a specs file malformed where a blank line follows the last spec's end)
+{ printf '*libgcc:\n-lc\n\n'; sed -e 's/%(libgcc)//' "$P/picolibc.specs"; } > "$P/picolibc-esp32s3.specs"
 for t in gcc g++; do
   w=bin/xtensa-esp32s3-elf-$t
   grep -q -- "-B$P/" "$w" || sed -i "s|\\(exec [^ ]*\\) \"\\\$@\"|\\1 -B$P/ \"\$@\"|" "$w"

@@ -50,6 +50,8 @@ static void say(const char *text, int link) {
 
 volatile float fa = 1.5f, fb = 2.25f, fc = 0.5f;
 volatile int32_t n = -1000003, d = 7;
+volatile uint64_t big = 1795838795990442123ull; /* nanoseconds: the clock's 64-bit arithmetic */
+volatile int shift = 37;
 static uint32_t atom = 5u;
 
 __attribute__((noinline)) static int32_t deep(int32_t k) { /* a register window per call */
@@ -68,7 +70,13 @@ int main(void) {
   if (old != 5u || atom != 9u) return 13;
   if (depth != 100) return 14;
   if (probe_millis() > 1000u) return 15;
-  say("uros-s3: fpu quos s32c1i windows ok\n", 0);
+  /* the board's windowed libgcc helpers (no libgcc.a: Debian's is call0) */
+  if (big / 1000000u != 1795838795990ull || big % 1000000u != 442123u) return 16; /* __udivmoddi4 */
+  if (-(int64_t)big % 1000 != -123) return 17;                                    /* __moddi3 */
+  if ((big << shift) != 0x9c04116000000000ull || (big >> shift) != 0xc760ceu) return 18;
+  if ((-(int64_t)big >> shift) != -0xc760cfll) return 19;                         /* __ashrdi3 */
+  if (fa / fb * 9.0f != 6.0f) return 20;                                          /* __divsf3 */
+  say("uros-s3: fpu quos s32c1i windows libgcc ok\n", 0);
   return 42;
 }
 """
@@ -102,7 +110,12 @@ def test_bare_metal_s3_code_runs_on_the_lx60_board_with_the_s3_core(s3: Path) ->
     board = s3 / "board"
     board.mkdir()
     for name, text in machines.board_files(machine).items():
-        if name in {"board.c", "sections.ld", "probe_machine.h", "probe.ld", "uart_ns16550.c"}:
+        if name.endswith((".ld", ".h")) or name in {
+            "board.c",
+            "uart_ns16550.c",
+            "libgcc_lx106.c",
+            "libgcc_windowed.c",
+        }:
             (board / name).write_text(text, encoding="utf-8")
     for name in ("probe.h",):
         shutil.copy(machines.firmware_sources() / name, board / name)
@@ -111,7 +124,8 @@ def test_bare_metal_s3_code_runs_on_the_lx60_board_with_the_s3_core(s3: Path) ->
     _tool(
         "gcc", "-mlongcalls", "-O2", "-fno-tree-loop-distribute-patterns", SPECS, "-nostdlib", "-nostartfiles",
         f"-I{board}",
-        str(board / "board.c"), str(board / "uart_ns16550.c"), str(s3 / "main.c"),
+        *(str(board / c) for c in ("board.c", "uart_ns16550.c", "libgcc_lx106.c", "libgcc_windowed.c")),
+        str(s3 / "main.c"),
         f"-L{board}", f"-T{board / 'probe.ld'}", "-Wl,--gc-sections", "-o", str(elf),
     )  # fmt: skip
     text = _tool("objdump", "-d", str(elf))
@@ -124,5 +138,5 @@ def test_bare_metal_s3_code_runs_on_the_lx60_board_with_the_s3_core(s3: Path) ->
     ]  # fmt: skip
     run = subprocess.run(argv, capture_output=True, text=True, timeout=60, check=False)
     assert run.returncode == 42, (run.returncode, run.stdout, run.stderr)
-    assert "uros-s3: fpu quos s32c1i windows ok" in run.stdout  # the console: simcall write
+    assert "uros-s3: fpu quos s32c1i windows libgcc ok" in run.stdout  # the console: simcall write
     assert uart.read_bytes() == b"uros-s3: uart\r\n"  # the 16550 at 0x7d050020
