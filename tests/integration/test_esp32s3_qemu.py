@@ -4,8 +4,8 @@ S3's instructions, runs on QEMU's lx60 board with the S3 core imported (`-M lx60
 Needs (each test skips cleanly without it):
 - UROS_ESP32S3_QEMU: a qemu-system-xtensa whose `-cpu help` lists esp32s3 (tests/esp32s3-qemu-env.sh);
 - xtensa-esp32s3-elf-gcc on PATH that makes Espressif-core code (tests/esp32s3-real-env.sh), with the
-  windowed picolibc of tests/esp32s3-picolibc-env.sh (its specs give the headers here, nothing is linked
-  from it in the bare-metal test);
+  windowed picolibc of tests/esp32s3-picolibc-env.sh (its specs give the headers in the bare-metal test,
+  which links nothing from it);
 
 The bare-metal firmware is the probe board's own start-up (templates/probe/xtensa/board.c, windowed:
 register window, overflow/underflow vectors, CPENABLE, ATOMCTL), its 16550 driver and a main() that uses
