@@ -6,6 +6,9 @@ Needs (each test skips cleanly without it):
 - xtensa-esp32s3-elf-gcc on PATH that makes Espressif-core code (tests/esp32s3-real-env.sh), with the
   windowed picolibc of tests/esp32s3-picolibc-env.sh (its specs give the headers in the bare-metal test,
   which links nothing from it);
+- for `uros probe --toolchain esp32s3-bare`: UROS_MIRROR (upstream clones) and UROS_AGENT (a
+  MicroXRCEAgent); UROS_HUMBLE_WS names a Humble workspace (a copy: the probe writes into it) so that
+  only the esp32s3-bare library is built.
 
 The bare-metal firmware is the probe board's own start-up (templates/probe/xtensa/board.c, windowed:
 register window, overflow/underflow vectors, CPENABLE, ATOMCTL), its 16550 driver and a main() that uses
@@ -15,13 +18,14 @@ is main()'s return value through the simulator call, and the UART's bytes land i
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import subprocess
 from pathlib import Path
 
 import pytest
-from uros_helpers import s3_compiler_skip
+from uros_helpers import humble_mirror_args, run_uros, s3_compiler_skip
 
 from uros_build.run import machines
 from uros_build.target import abi
@@ -140,3 +144,28 @@ def test_bare_metal_s3_code_runs_on_the_lx60_board_with_the_s3_core(s3: Path) ->
     assert run.returncode == 42, (run.returncode, run.stdout, run.stderr)
     assert "uros-s3: fpu quos s32c1i windows libgcc ok" in run.stdout  # the console: simcall write
     assert uart.read_bytes() == b"uros-s3: uart\r\n"  # the 16550 at 0x7d050020
+
+
+def test_uros_probe_passes_every_stage_on_the_s3_core(s3: Path) -> None:
+    """The real ESP32-S3 library (Humble std_msgs) in the probe firmware on the S3 core, against a real
+    agent, through the CLI: QEMU starts paused until the agent holds the pty (machines.yaml
+    start_paused), and the restart stage stops and starts the agent under the running firmware."""
+    mirror, agent = os.environ.get("UROS_MIRROR"), os.environ.get("UROS_AGENT")
+    if not (mirror and agent):
+        pytest.skip("set UROS_MIRROR (upstream clones) and UROS_AGENT (a MicroXRCEAgent)")
+    ws = Path(os.environ.get("UROS_HUMBLE_WS") or s3 / "fw")
+    if not os.environ.get("UROS_HUMBLE_WS"):
+        run_uros("create-firmware", "--distro", "humble", "-w", str(ws), *humble_mirror_args(mirror))
+    run_uros("build", "--toolchain", "esp32s3-bare", "-w", str(ws), "--packages", "std_msgs")
+    proc = run_uros("probe", "--json", "--toolchain", "esp32s3-bare", "-w", str(ws), check=False)
+    assert proc.stdout.strip(), proc.stderr
+    data = json.loads(proc.stdout)
+    assert proc.returncode == 0 and data["status"] == 0, proc.stderr
+    assert data["machine"] == "lx60-nommu" and f"qemu: {QEMU} (UROS_ESP32S3_QEMU)" in proc.stderr
+    passed = ("session", "samples", "limits", "fragmentation", "time", "restart")
+    results = {name: stage["result"] for name, stage in data["stages"].items()}
+    assert {name: results[name] for name in passed} == dict.fromkeys(passed, "pass"), results
+    assert data["limits"] == {"nodes": 1, "publishers": 1, "subscriptions": 1}
+    console = Path(str(data["console_log"])).read_text()
+    assert "uros-probe: PASS" in console and "10 came back" in console
+    assert "QEMU started paused" in Path(str(data["run_log"])).read_text()

@@ -107,6 +107,7 @@ def _broken(path: tuple[str, ...], value: Any) -> dict[str, Any]:
         (("boards", "an505", "qemu_args"), ["-bios", "none;rm"], "not a plain QEMU argument"),
         (("boards", "an505", "qemu_env"), "PATH", "not an environment variable name like UROS_X_QEMU"),
         (("boards", "an505", "qemu_env"), "UROS_Q; rm", "not an environment variable name"),
+        (("boards", "an505", "start_paused"), "yes", "start_paused: must be true or false"),
         (("boards", "an505", "colour"), "red", "colour: unknown key"),
         (("machines", "cortex-m33", "board"), "an521", "'an521' is not one of the boards"),
         (("machines", "cortex-m33", "startup"), ["turbo"], "'turbo' is not one of unaligned-trap"),
@@ -249,6 +250,20 @@ def test_the_esp32s3_board_names_its_qemu_by_an_environment_variable() -> None:
     assert table["esp8266"].board.qemu_env == ""
     argv = machines.qemu_argv(s3, Path("/w/fw.elf"), Path("/w/console.log"))
     assert argv[:5] == ["qemu-system-xtensa", "-M", "lx60-nommu", "-cpu", "esp32s3"]
+    assert "-S" not in argv and argv[argv.index("-monitor") + 1] == "none"  # no monitor socket: not paused
+    paused = machines.qemu_argv(s3, Path("/w/fw.elf"), Path("/w/console.log"), None, Path("/t/monitor"))
+    assert paused[5:9] == ["-S", "-nographic", "-monitor", "unix:/t/monitor,server=on,wait=off"]
+    assert [a for a in paused if a not in {"-S", "unix:/t/monitor,server=on,wait=off", "none"}] == [
+        a for a in argv if a != "none"
+    ]
+    # only the S3's board starts paused; every other board's command line is what it was
+    assert board.start_paused and not any(
+        m.board.start_paused for m in table.values() if m.board.name != "lx60-nommu-esp32s3"
+    )
+    lx106 = table["esp8266"]
+    assert machines.qemu_argv(lx106, Path("/w/fw.elf"), Path("/w/c.log"), None, Path("/t/m")) == (
+        machines.qemu_argv(lx106, Path("/w/fw.elf"), Path("/w/c.log"))
+    )
     assert "UROS_ESP32S3_QEMU" in machines.qemu_hint(board.qemu, board)
     assert "qemu-system-misc" in machines.qemu_hint(board.qemu)
     assert "#define PROBE_CLOCK_HZ 240000000u" in machines.machine_header(s3)

@@ -69,6 +69,8 @@ class Board:
     stack: int
     nic: Nic | None = None  # None: no NIC the probe drives (the serial link only)
     qemu_env: str = ""  # the environment variable naming a QEMU build with the core ("" : PATH's qemu)
+    # QEMU starts paused (-S, its monitor on a socket) until the agent holds the link, then `cont`
+    start_paused: bool = False
 
 
 @dataclass(frozen=True)
@@ -104,7 +106,7 @@ def _region(data: Mapping[str, Any], key: str, where: str) -> Region:
 
 _BOARD_KEYS = {
     "qemu", "machine", "cpu", "qemu_args", "arch", "uart", "console", "link", "reg_shift", "clock_hz",
-    "rom", "ram", "stack", "sources", "nic", "qemu_env",
+    "rom", "ram", "stack", "sources", "nic", "qemu_env", "start_paused",
 }  # fmt: skip
 
 
@@ -144,6 +146,7 @@ def parse_board(name: str, entry: Any, where: str) -> Board:
             f"{where}: qemu_env: {qemu_env!r} is not an environment variable name like UROS_X_QEMU"
         )
     return Board(
+        start_paused=loader.boolean(item, "start_paused", where),
         qemu_env=qemu_env,
         nic=nic,
         name=name,
@@ -289,11 +292,15 @@ def memory_script(board: Board) -> str:
     )
 
 
-def qemu_argv(machine: Machine, elf: Path, console_log: Path, pcap: Path | None = None) -> list[str]:
+def qemu_argv(
+    machine: Machine, elf: Path, console_log: Path, pcap: Path | None = None, monitor: Path | None = None
+) -> list[str]:
     """The link UART on a new pseudo-terminal (the agent's end), the console to a file (a second UART,
     or semihosting's console on one-UART machines), and semihosting so that the firmware's exit
     status is QEMU's. ``pcap``: the probe over UDP, the board's NIC on QEMU's user network (no root;
-    the guest reaches the host's loopback at 10.0.2.2) with its frames recorded in that file."""
+    the guest reaches the host's loopback at 10.0.2.2) with its frames recorded in that file.
+    ``monitor``: on a board that starts paused, the Unix socket of QEMU's monitor (the session says
+    `cont` there once the agent holds the link)."""
     board = machine.board
     if pcap is not None and board.nic is not None:
         net = [
@@ -303,7 +310,10 @@ def qemu_argv(machine: Machine, elf: Path, console_log: Path, pcap: Path | None 
         ]  # fmt: skip
         return [*qemu_argv(machine, elf, console_log)[:-2], *net, "-kernel", str(elf)]
     argv = [board.qemu, "-M", board.machine, *(["-cpu", board.cpu] if board.cpu else []), *board.qemu_args]
-    argv += ["-nographic", "-monitor", "none"]
+    if board.start_paused and monitor is not None:
+        argv += ["-S", "-nographic", "-monitor", f"unix:{monitor},server=on,wait=off"]
+    else:
+        argv += ["-nographic", "-monitor", "none"]
     if board.console_stdout:
         argv += [
             "-semihosting-config", "enable=on,target=native",

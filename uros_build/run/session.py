@@ -14,7 +14,9 @@ from __future__ import annotations
 
 import os
 import random
+import shutil
 import socket
+import tempfile
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -220,6 +222,34 @@ def _holds(pid: int, path: str) -> bool:
     return False
 
 
+# QEMU 7.2's pty chardev (chardev/char-pty.c) looks for the other end of a pty nobody held once a
+# second; a firmware that runs before it did may write through and never read again (docs/esp32.md)
+PTY_POLL_SECONDS = 2.0
+
+
+def continue_paused(monitor: Path, qemu: Background, seconds: float) -> None:
+    """Say `cont` on the monitor of a QEMU started paused (-S): the firmware runs from then on."""
+    end = time.monotonic() + seconds
+    with socket.socket(socket.AF_UNIX, socket.SOCK_STREAM) as conn:
+        while True:
+            try:
+                conn.connect(str(monitor))
+                break
+            except OSError as exc:
+                if qemu.wait(0.05) is not None or time.monotonic() > end:
+                    raise StepFailed(f"QEMU's monitor {monitor} did not answer: {exc}") from None
+        conn.settimeout(max(0.1, end - time.monotonic()))
+        heard = b""
+        try:
+            while heard.count(b"(qemu)") < 1:  # the banner and its first prompt
+                heard += conn.recv(4096) or b"(qemu)"
+            conn.sendall(b"cont\n")
+            while heard.count(b"(qemu)") < 2:  # the prompt after cont
+                heard += conn.recv(4096) or b"(qemu)"
+        except OSError as exc:
+            raise StepFailed(f"QEMU's monitor {monitor} did not take `cont`: {exc}") from None
+
+
 def open_namespace(runner: Runner, work: Path) -> Background:
     """A network namespace of the run's own, loopback up with multicast (run/netns.py)."""
     holder = runner.start(netns.holder_argv(), step="the network namespace", output=work / "netns.log")
@@ -246,7 +276,11 @@ def run_session(
     console_log, qemu_log, agent_log = work / "console.log", work / "qemu.log", work / "agent.log"
     console_log.unlink(missing_ok=True)
     udp = spec.udp_port is not None
-    argv = machines.qemu_argv(machine, elf, console_log, spec.pcap if udp else None)
+    # a board that starts paused: the monitor's socket in a short folder of its own (a Unix socket's
+    # path has at most 107 bytes; the work folder's may be longer)
+    paused = machine.board.start_paused and not udp
+    monitor = Path(tempfile.mkdtemp(prefix="uros-qemu-")) / "monitor" if paused else None
+    argv = machines.qemu_argv(machine, elf, console_log, spec.pcap if udp else None, monitor)
     started = time.monotonic()
     middleware = "dds" if peer is not None else spec.middleware  # a peer speaks DDS
     holder = open_namespace(runner, work) if middleware == "dds" else None
@@ -259,6 +293,8 @@ def run_session(
     except BaseException:
         if holder is not None:
             holder.stop()
+        if monitor is not None:
+            shutil.rmtree(monitor.parent, ignore_errors=True)
         raise
     agents: list[Background] = []
     relay: Relay | UdpRelay | None = None
@@ -292,6 +328,11 @@ def run_session(
         if holder is not None:  # Fast DDS in the namespace: the peer's participants find the agent's
             agent_argv = netns.enter_argv(holder.proc.pid, agent_argv)
         agents.append(runner.start(agent_argv, step="the agent", output=agent_log))
+        if monitor is not None:  # the agent holds the link before the firmware's first byte
+            _wait_for_agent(agent_log, agents[0], 5.0, pty)
+            qemu.wait(PTY_POLL_SECONDS)  # QEMU sees the pty's other end (its timer: once a second)
+            continue_paused(monitor, qemu, 5.0)
+            runner.log(f"QEMU started paused; `cont` {PTY_POLL_SECONDS:.0f} s after the agent held {pty}")
         if peer is not None and holder is not None:
             _wait_for_agent(agent_log, agents[0], 5.0, None if spec.udp_port is not None else pty)
             peer_proc = runner.start(
@@ -333,6 +374,8 @@ def run_session(
         if relay is not None:
             relay.stop()
         stop_the_rest(runner, namespace)
+        if monitor is not None:
+            shutil.rmtree(monitor.parent, ignore_errors=True)
     seconds = time.monotonic() - started
     if machine.board.console_stdout and qemu_log.is_file():  # console.log as on every machine
         console_log.write_text(qemu_log.read_text(encoding="utf-8", errors="replace"), encoding="utf-8")
