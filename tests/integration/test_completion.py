@@ -28,7 +28,7 @@ def _complete(words: str, shell: str = "bash", cwd: Path | None = None) -> list[
 
 def test_targets_distros_packages_and_options_complete(tmp_path: Path) -> None:
     assert _complete("uros build --toolchain cortex-m4") == ["cortex-m4", "cortex-m4f"]
-    assert _complete("uros targets show esp32s") == ["esp32s2", "esp32s3", "esp32s3-bare"]
+    assert _complete("uros targets show esp32s") == ["esp32s2", "esp32s3-bare", "esp32s3"]
     # the shipped rv32 profiles
     assert _complete("uros toolchain render rv") == ["rv32imac", "rv32imafc", "rv32imc"]
     assert _complete("uros create-firmware --distro h") == ["humble"]
