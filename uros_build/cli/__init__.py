@@ -4,6 +4,12 @@ one place that turns errors into a message and an exit code.
 One vocabulary across commands: the target is ``--toolchain`` (a target name, or for `uros build`
 also a profile or a .cmake file), a workspace folder is ``-w/--workspace``, what a command writes
 goes to ``-o/--output``. Earlier spellings (``--target``, ``--dir``) still work and are hidden.
+
+Each callback imports its command's module (uros_build.commands.X) when it runs, not at the top: a
+start imported every command's modules, about 0.2 s of CPU before anything ran (`uros --version`
+0.42 -> 0.21 s CPU, measured side by side on this project's 2-core machine), paid by every shell
+completion and by each of the test suite's hundreds of `uros` runs. Only what the options
+themselves need (the settings table, the export formats) is imported at the top.
 """
 
 from __future__ import annotations

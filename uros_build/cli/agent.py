@@ -15,7 +15,6 @@ from uros_build.cli.common import (
     mirror_override_option,
     workspace_option,
 )
-from uros_build.commands import agent as agent_cmd
 
 
 @click.group(cls=Group)
@@ -45,6 +44,8 @@ def agent_build(
     verbose: bool,
 ) -> None:
     """Build the agent (micro_ros_agent, else MicroXRCEAgent) once; `uros probe` then uses it."""
+    from uros_build.commands import agent as agent_cmd
+
     agent_cmd.build(distro, workspace, mirrors, overrides, jobs, verbose)
 
 
@@ -67,6 +68,8 @@ BAUD = click.option("-b", "--baudrate", "baud", type=int, default=115200, show_d
 @AGENT
 def agent_run_serial(dev: str | None, baud: int, verbosity: int | None, agent: str | None) -> None:
     """One board on a serial link."""
+    from uros_build.commands import agent as agent_cmd
+
     devices = (dev,) if dev else ()
     agent_cmd.run(agent_cmd.Transport("serial", devices, baud), verbosity, agent)
 
@@ -81,6 +84,8 @@ def agent_run_serial(dev: str | None, baud: int, verbosity: int | None, agent: s
 @AGENT
 def agent_run_multiserial(devs: tuple[str, ...], baud: int, verbosity: int | None, agent: str | None) -> None:
     """Several boards, one serial link each, on one agent."""
+    from uros_build.commands import agent as agent_cmd
+
     transport = agent_cmd.Transport("multiserial", agent_cmd.parse_devices(devs), baud)
     agent_cmd.run(transport, verbosity, agent)
 
@@ -91,6 +96,8 @@ def agent_run_multiserial(devs: tuple[str, ...], baud: int, verbosity: int | Non
 @AGENT
 def agent_run_udp4(port: int, verbosity: int | None, agent: str | None) -> None:
     """Boards over UDP/IPv4."""
+    from uros_build.commands import agent as agent_cmd
+
     agent_cmd.run(agent_cmd.Transport("udp4", port=port), verbosity, agent)
 
 

@@ -16,13 +16,6 @@ from uros_build.cli.common import (
     toolchain_option,
     workspace_option,
 )
-from uros_build.commands import build as build_cmd
-from uros_build.commands import check as check_cmd
-from uros_build.commands import clean as clean_cmd
-from uros_build.commands import doctor as doctor_cmd
-from uros_build.commands import info as info_cmd
-from uros_build.commands import size as size_cmd
-from uros_build.config.buildargs import BuildArgs
 from uros_build.config.settings import SETTINGS
 
 
@@ -31,6 +24,9 @@ from uros_build.config.settings import SETTINGS
 def build(**values: Any) -> None:
     """Build libmicroros.a, its include tree and a CMake package for a target (default: the
     target or targets in the workspace's uros.yaml)."""
+    from uros_build.commands import build as build_cmd
+    from uros_build.config.buildargs import BuildArgs
+
     build_cmd.build_all(BuildArgs(**values))
 
 
@@ -53,6 +49,8 @@ def build(**values: Any) -> None:
 def check(**request: Any) -> None:
     """Check that every object in LIBRARY has the ELF facts of a target (exit 5 if not); list the
     global symbols two members define and the symbols the firmware must provide."""
+    from uros_build.commands import check as check_cmd
+
     check_cmd.check_library(check_cmd.CheckRequest(**request))  # every option a field by its own name
 
 
@@ -67,6 +65,8 @@ def check(**request: Any) -> None:
 def clean(toolchain: str | None, profile: Path | None, everything: bool, workspace: Path | None) -> None:
     """Remove uros's per-target trees (.uros/targets/<target>) and outputs (build/<target>), never
     anything uros did not write, and say how much that freed."""
+    from uros_build.commands import clean as clean_cmd
+
     clean_cmd.clean(workspace=workspace, toolchain=toolchain, everything=everything, profile=profile)
 
 
@@ -77,6 +77,8 @@ def clean(toolchain: str | None, profile: Path | None, everything: bool, workspa
 def doctor(toolchain: str | None, workspace: Path | None, as_json: bool) -> None:
     """Check that this host can build (tools, target compiler, disk) and the workspace's state;
     one line per check with its fix, exit 5 when a build would fail."""
+    from uros_build.commands import doctor as doctor_cmd
+
     doctor_cmd.doctor(workspace=workspace, toolchain=toolchain, as_json=as_json)
 
 
@@ -88,6 +90,8 @@ def doctor(toolchain: str | None, workspace: Path | None, as_json: bool) -> None
 def info(output: Path | None, toolchain: str | None, workspace: Path | None, as_json: bool) -> None:
     """What a built library contains: ROS 2 types, packages and their commits, options in force,
     flags, sizes (OUTPUT: a `uros build` output folder)."""
+    from uros_build.commands import info as info_cmd
+
     info_cmd.show_info(output=output, workspace=workspace, toolchain=toolchain, as_json=as_json)
 
 
@@ -110,4 +114,6 @@ def size(**request: Any) -> None:
     """text/data/bss of libmicroros.a per package (LIBRARY: the .a or its output folder), with the
     firmware's map file what each package costs once linked (after --gc-sections), and with --ram/--flash
     (or the chip the target's profile names) whether it fits."""
+    from uros_build.commands import size as size_cmd
+
     size_cmd.show_size(size_cmd.SizeRequest(**request))  # every option a field by its own name

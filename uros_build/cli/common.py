@@ -13,7 +13,6 @@ import click
 from click.shell_completion import CompletionItem
 
 from uros_build import console, defaults
-from uros_build.commands import listings
 from uros_build.config import settings as rows
 from uros_build.config.settings import Setting
 from uros_build.errors import did_you_mean
@@ -62,18 +61,26 @@ def matching(names: list[str], incomplete: str) -> list[CompletionItem]:
 
 
 def complete_targets(ctx: click.Context, param: click.Parameter, incomplete: str) -> list[CompletionItem]:
+    from uros_build.commands import listings
+
     return matching(listings.target_names(), incomplete)
 
 
 def complete_distros(ctx: click.Context, param: click.Parameter, incomplete: str) -> list[CompletionItem]:
+    from uros_build.commands import listings
+
     return matching(listings.distro_names(), incomplete)
 
 
 def complete_packages(ctx: click.Context, param: click.Parameter, incomplete: str) -> list[CompletionItem]:
+    from uros_build.commands import listings
+
     return matching(listings.package_names(ctx.params.get("workspace")), incomplete)
 
 
 def complete_sets(ctx: click.Context, param: click.Parameter, incomplete: str) -> list[CompletionItem]:
+    from uros_build.commands import listings
+
     return matching(listings.set_candidates(ctx.params.get("workspace")), incomplete)
 
 

@@ -25,10 +25,6 @@ from uros_build.cli.common import (
     toolchain_option,
     workspace_option,
 )
-from uros_build.commands import export as export_cmd
-from uros_build.commands import interface as interface_cmd
-from uros_build.commands import listings
-from uros_build.commands import probe as probe_cmd
 from uros_build.output import exports
 from uros_build.output.exports.base import ExportFormat
 
@@ -38,6 +34,8 @@ from uros_build.output.exports.base import ExportFormat
 @click.pass_context
 def targets(ctx: click.Context, as_json: bool) -> None:
     """List the shipped target profiles (`uros targets show NAME` prints one)."""
+    from uros_build.commands import listings
+
     if ctx.invoked_subcommand is None:
         columns = (("name", "TARGET"), ("compiler", "COMPILER"), ("transport", "TRANSPORT"))
         table(listings.targets_table(), as_json, (*columns, ("description", "DESCRIPTION")))
@@ -47,6 +45,8 @@ def targets(ctx: click.Context, as_json: bool) -> None:
 @click.argument("name", shell_complete=complete_targets)
 def targets_show(name: str) -> None:
     """Print the profile of target NAME, to copy and edit: uros targets show cortex-m7 > my-board.yaml"""
+    from uros_build.commands import listings
+
     click.echo(listings.target_profile_text(name), nl=False)
 
 
@@ -56,6 +56,8 @@ def targets_show(name: str) -> None:
 def distros(ctx: click.Context, as_json: bool) -> None:
     """List the micro-ROS distro manifests (meta/distros/; `uros distros show NAME` lists one's
     repositories and the stand-ins it was built with here)."""
+    from uros_build.commands import listings
+
     if ctx.invoked_subcommand is None:
         columns = (("name", "DISTRO"), ("status", "STATUS"), ("dev_repositories", "DEV REPOS"))
         more = (("mcu_repositories", "MCU REPOS"), ("stand_in_count", "STAND-INS"))
@@ -67,6 +69,8 @@ def distros(ctx: click.Context, as_json: bool) -> None:
 @JSON
 def distros_show(name: str, as_json: bool) -> None:
     """Print the repositories of distro NAME and, for each declared stand-in, what stands in and why."""
+    from uros_build.commands import listings
+
     columns = (("path", "REPOSITORY"), ("version", "VERSION"), ("stand_in", "STAND-IN (--stand-ins)"))
     table(listings.distro_repositories(name), as_json, (*columns, ("why", "WHY")))
 
@@ -86,6 +90,8 @@ def toolchain() -> None:
 @click.option("--gcc-major", type=int, help="The cross GCC's major version (decides GCC<6 workarounds).")
 def toolchain_render(target: str, output: Path | None, purpose: str, gcc_major: int | None) -> None:
     """Render the CMake toolchain file of TARGET (a target name or a profile .yaml)."""
+    from uros_build.commands import listings
+
     listings.render_toolchain_file(target, output, micro_ros=purpose == "micro-ros", gcc_major=gcc_major)
 
 
@@ -110,6 +116,8 @@ def meta_write(
     output: Path | None,
 ) -> None:
     """Write a colcon.meta (JSON, sorted keys)."""
+    from uros_build.commands import listings
+
     listings.write_meta(preset, toolchain, transport, metas, sets, output)
 
 
@@ -119,6 +127,8 @@ def meta_options(as_json: bool) -> None:
     """The memory and entity options per package (RMW_UXRCE_MAX_*, history, MTU): upstream default,
     what uros's default preset builds with, and what a larger value costs; --set is checked
     against them."""
+    from uros_build.commands import listings
+
     columns = (("package", "PACKAGE"), ("option", "OPTION"), ("default", "DEFAULT"), ("preset", "PRESET"))
     table(listings.options_table(), as_json, (*columns, ("cost", "COST")))
 
@@ -131,6 +141,7 @@ def export() -> None:
 def _export_command(fmt: ExportFormat) -> click.Command:
     """One `uros export KIND --output DIR [--from DIR]` command, from the format's record: every
     kind but arduino has this shape."""
+    from uros_build.commands import export as export_cmd
 
     @click.command(fmt.kind, help=fmt.what)
     @output_option(fmt.output_help, required=True)
@@ -152,6 +163,8 @@ EXPORT_COMMANDS = tuple(_export_command(fmt) for fmt in exports.FORMATS)
 )  # fmt: skip
 def export_arduino(output: Path, sources: tuple[Path, ...]) -> None:
     """Write a precompiled Arduino library (library.properties, src/<mcu>/<fpu>-<abi>/libmicroros.a)."""
+    from uros_build.commands import export as export_cmd
+
     export_cmd.export_arduino(sources, output)
 
 
@@ -208,6 +221,8 @@ def export_arduino(output: Path, sources: tuple[Path, ...]) -> None:
 @VERBOSE
 def probe(app: Path | None, defines: tuple[str, ...], duration: float | None, **request: Any) -> None:
     """Run a built library: boot a probe firmware (or your --app) in QEMU against a real XRCE-DDS Agent."""
+    from uros_build.commands import probe as probe_cmd
+
     # every other option is a field of ProbeRequest by its own name (tests/unit/test_cli_pure.py)
     if request["timeout"] is None:  # a lossy link is slow: 55 s at load 20 over 10 % loss, 100-300 ms
         request["timeout"] = 180.0 if request["link"] else 60.0
@@ -229,4 +244,6 @@ def interface_new(
     name: str, msgs: tuple[Path, ...], srvs: tuple[Path, ...], output: Path | None, force: bool
 ) -> None:
     """Scaffold an interface package NAME from .msg/.srv files (package.xml, CMakeLists.txt)."""
+    from uros_build.commands import interface as interface_cmd
+
     interface_cmd.interface_new(name, list(msgs), list(srvs), output, force)

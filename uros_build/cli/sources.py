@@ -18,9 +18,6 @@ from uros_build.cli.common import (
     toolchain_option,
     workspace_option,
 )
-from uros_build.commands import add_package as add_package_cmd
-from uros_build.commands import create_firmware as create_cmd
-from uros_build.commands import update as update_cmd
 from uros_build.config.sourceplan import CreateArgs, UpdateArgs
 
 
@@ -66,6 +63,8 @@ def _git_jobs(what: str) -> Decorator:
 @VERBOSE
 def create_firmware(workspace: Path | None, no_dev_build: bool, **values: Any) -> None:
     """Create a micro-ROS firmware workspace (PLATFORM: generate_lib, a library for any MCU)."""
+    from uros_build.commands import create_firmware as create_cmd
+
     create_cmd.create_firmware(CreateArgs(directory=workspace, build_dev=not no_dev_build, **values))
 
 
@@ -90,6 +89,8 @@ def update(
 ) -> None:
     """Move the workspace's clones to the newest commits of their branches (no re-clone), show what
     moved and write uros.lock."""
+    from uros_build.commands import update as update_cmd
+
     update_cmd.update(
         UpdateArgs(
             directory=workspace, distro=distro, before=before, dry_run=dry_run, jobs=jobs, verbose=verbose
@@ -104,4 +105,6 @@ def update(
 @VERBOSE
 def add_package(source: str, workspace: Path | None, version: str | None, verbose: bool) -> None:
     """Add a package (a folder, kept in sync at every build, or a git URL) to the MCU workspace."""
+    from uros_build.commands import add_package as add_package_cmd
+
     add_package_cmd.add_package(source, workspace, version, verbose)
