@@ -279,16 +279,18 @@ def run_session(
     # a board that starts paused: the monitor's socket in a short folder of its own (a Unix socket's
     # path has at most 107 bytes; the work folder's may be longer)
     paused = machine.board.start_paused and not udp
-    monitor = Path(tempfile.mkdtemp(prefix="uros-qemu-")) / "monitor" if paused else None
-    argv = machines.qemu_argv(machine, elf, console_log, spec.pcap if udp else None, monitor)
     started = time.monotonic()
     middleware = "dds" if peer is not None else spec.middleware  # a peer speaks DDS
     holder = open_namespace(runner, work) if middleware == "dds" else None
     namespace = netns.namespace_id(holder.proc.pid) if holder is not None else None
-    qemu_argv = [qemu_program, *argv[1:]]
-    if udp and holder is not None:  # the user network's 10.0.2.2 is the loopback of QEMU's namespace
-        qemu_argv = netns.enter_argv(holder.proc.pid, qemu_argv)
+    # made once the namespace is there, so that a namespace that cannot be made leaves no folder
+    monitor: Path | None = None
     try:
+        monitor = Path(tempfile.mkdtemp(prefix="uros-qemu-")) / "monitor" if paused else None
+        argv = machines.qemu_argv(machine, elf, console_log, spec.pcap if udp else None, monitor)
+        qemu_argv = [qemu_program, *argv[1:]]
+        if udp and holder is not None:  # the user network's 10.0.2.2 is the loopback of QEMU's namespace
+            qemu_argv = netns.enter_argv(holder.proc.pid, qemu_argv)
         qemu = runner.start(qemu_argv, step="QEMU", output=qemu_log)
     except BaseException:
         if holder is not None:
