@@ -8,10 +8,11 @@ from __future__ import annotations
 import json
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import yaml
 
+from uros_build import resources
 from uros_build.errors import ConfigError, did_you_mean
 
 
@@ -55,7 +56,15 @@ class DuplicateKey(yaml.MarkedYAMLError):
         self.key = key
 
 
-class _LineLoader(yaml.SafeLoader):
+if TYPE_CHECKING:  # what the mixin below extends, to the type checker (its stubs take loaders only)
+    _Constructor = yaml.SafeLoader
+else:
+    _Constructor = yaml.constructor.SafeConstructor
+
+
+class _LineMappings(_Constructor):
+    """Mappings as :class:`LineDict`, a key given twice refused (:class:`DuplicateKey`)."""
+
     def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict[Any, Any]:
         seen: dict[tuple[str, str], int] = {}
         for key_node, _value in node.value:
@@ -71,14 +80,49 @@ class _LineLoader(yaml.SafeLoader):
         return out
 
 
+class _LineLoader(_LineMappings, yaml.SafeLoader):
+    """PyYAML's pure-Python SafeLoader: the reference, and the one whose error messages uros prints."""
+
+
 _LineLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _LineLoader.construct_mapping)
+
+# The same over libyaml's parser when PyYAML has it (yaml.__with_libyaml__), for the data files uros
+# ships only (toolchains/, meta/: every `uros build` reads three, ~0.02 s of its start through the
+# pure-Python scanner and parser, ~10x less through libyaml). Scalars are resolved and constructed
+# by the same Python classes (SafeConstructor, Resolver); the two parsers differ only on text that
+# PyYAML refuses and libyaml takes (a tab in some places, `|#`, ...), which a user's file could hold
+# and the shipped ones do not: tests/unit/test_loader.py checks that every shipped file gives the
+# same data and key lines both ways. A user's file always gets _LineLoader's verdict and message.
+_CLineLoader: type[_LineMappings] | None = None
+if getattr(yaml, "__with_libyaml__", False):
+
+    class _CLine(_LineMappings, yaml.CSafeLoader):
+        """_LineLoader over libyaml's parser."""
+
+    _CLine.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _CLine.construct_mapping)
+    _CLineLoader = _CLine
+
+
+def _loader_for(path: Path) -> type[_LineMappings]:
+    """libyaml's loader for a data file uros ships (under its toolchains/ or meta/ folder), when
+    PyYAML has it; else the pure-Python one."""
+    if _CLineLoader is None:
+        return _LineLoader
+    where = path.resolve()
+    for name in ("toolchains", "meta"):
+        try:
+            if where.is_relative_to(resources.data_dir(name)):
+                return _CLineLoader
+        except FileNotFoundError:  # not in this installation: nothing of it is read
+            pass
+    return _LineLoader
 
 
 def load_yaml(path: Path, flag: str = "", hint: str | None = None) -> Any:
     """Parsed YAML whose mappings know their keys' lines (:class:`LineDict`)."""
     text = read_text(path, flag, hint)
     try:
-        return yaml.load(text, Loader=_LineLoader)  # a SafeLoader: plain data types only
+        return yaml.load(text, Loader=_loader_for(path))  # a SafeLoader: plain data types only
     except DuplicateKey as exc:
         prefix = f"{flag} " if flag else ""
         line = exc.problem_mark.line + 1 if exc.problem_mark is not None else 0

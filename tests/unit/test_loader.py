@@ -7,7 +7,9 @@ from typing import Any
 
 import pytest
 
-from uros_build import loader
+import yaml
+
+from uros_build import loader, resources
 from uros_build.errors import ConfigError
 
 
@@ -167,3 +169,43 @@ def test_a_merge_key_may_be_overridden(tmp_path: Path) -> None:
     path = tmp_path / "p.yaml"
     path.write_text("base: &b {x: 1, y: 2}\nother:\n  <<: *b\n  x: 3\n", encoding="utf-8")
     assert loader.load_yaml(path)["other"] == {"x": 3, "y": 2}
+
+
+def _shipped_yaml() -> list[Path]:
+    found = sorted(resources.toolchains_dir().glob("*.yaml"))
+    for pattern in ("*.yaml", "*.repos"):
+        found += sorted(resources.meta_dir().rglob(pattern))
+    return found
+
+
+def _with_lines(data: Any) -> Any:
+    """``data`` with each mapping's key lines beside it."""
+    if isinstance(data, dict):
+        return ({k: _with_lines(v) for k, v in data.items()}, getattr(data, "key_lines", None))
+    if isinstance(data, list):
+        return [_with_lines(v) for v in data]
+    return data
+
+
+@pytest.mark.skipif(loader._CLineLoader is None, reason="PyYAML without libyaml")
+def test_shipped_files_parse_the_same_with_libyaml() -> None:
+    """The data files uros ships are read through libyaml (start-up cost): each gives the same data,
+    and the same key lines, as through PyYAML's pure-Python loader (the one user files get)."""
+    files = _shipped_yaml()
+    assert len(files) > 30
+    for path in files:
+        assert loader._loader_for(path) is loader._CLineLoader, path
+        text = path.read_text(encoding="utf-8")
+        pure = yaml.load(text, Loader=loader._LineLoader)
+        assert _with_lines(yaml.load(text, Loader=loader._CLineLoader)) == _with_lines(pure), path
+        assert loader.load_yaml(path) == pure
+
+
+def test_user_files_get_the_pure_python_loader(tmp_path: Path) -> None:
+    """A file of the user's is parsed by the pure-Python loader, whose verdicts and messages uros
+    prints: libyaml takes some text it refuses (a block scalar's header followed by `#`)."""
+    path = tmp_path / "profile.yaml"
+    path.write_text("name: |#x\n", encoding="utf-8")
+    assert loader._loader_for(path) is loader._LineLoader
+    err = _error(loader.load_yaml, path)
+    assert err.message.startswith(f"{path}:1:8: not valid YAML: expected ")
