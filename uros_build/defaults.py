@@ -19,3 +19,5 @@ WORKSPACE_HELP = f"nearest folder upward with {WORKSPACE_MARKER}, else ./{FIRMWA
 # holding one is a uros output, not an IDF build).
 BUILD_INFO = "build-info.json"
 CORE_PACKAGES = ("rcl", "rclc", "rmw_microxrcedds", "micro_ros_utilities")
+# How long an HTTP team cache may stay silent (output/team_cache.py), unless $UROS_CACHE_TIMEOUT says
+CACHE_TIMEOUT_SECONDS = 60.0

@@ -141,12 +141,13 @@ def export() -> None:
 def _export_command(fmt: ExportFormat) -> click.Command:
     """One `uros export KIND --output DIR [--from DIR]` command, from the format's record: every
     kind but arduino has this shape."""
-    from uros_build.commands import export as export_cmd
 
     @click.command(fmt.kind, help=fmt.what)
     @output_option(fmt.output_help, required=True)
     @FROM
     def command(output: Path, source: Path | None) -> None:
+        from uros_build.commands import export as export_cmd  # when it runs: start-up cost
+
         export_cmd.export_format(fmt.kind, source, output)
 
     return command

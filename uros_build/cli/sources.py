@@ -18,7 +18,6 @@ from uros_build.cli.common import (
     toolchain_option,
     workspace_option,
 )
-from uros_build.config.sourceplan import CreateArgs, UpdateArgs
 
 
 def _git_jobs(what: str) -> Decorator:
@@ -64,6 +63,7 @@ def _git_jobs(what: str) -> Decorator:
 def create_firmware(workspace: Path | None, no_dev_build: bool, **values: Any) -> None:
     """Create a micro-ROS firmware workspace (PLATFORM: generate_lib, a library for any MCU)."""
     from uros_build.commands import create_firmware as create_cmd
+    from uros_build.config.sourceplan import CreateArgs  # here, not at the top: start-up cost
 
     create_cmd.create_firmware(CreateArgs(directory=workspace, build_dev=not no_dev_build, **values))
 
@@ -90,6 +90,7 @@ def update(
     """Move the workspace's clones to the newest commits of their branches (no re-clone), show what
     moved and write uros.lock."""
     from uros_build.commands import update as update_cmd
+    from uros_build.config.sourceplan import UpdateArgs  # here, not at the top: start-up cost
 
     update_cmd.update(
         UpdateArgs(

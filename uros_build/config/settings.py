@@ -23,11 +23,13 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Generic, TypeVar
+from typing import TYPE_CHECKING, Any, Generic, TypeVar
 
 from uros_build import defaults
-from uros_build.output.team_cache import TIMEOUT_SECONDS
-from uros_build.sources.wsfiles import WorkspaceConfig
+
+if TYPE_CHECKING:  # only the table's types: the workspace's files and what they import are not
+    # needed to make the table, which every `uros` start makes (start-up cost)
+    from uros_build.sources.wsfiles import WorkspaceConfig
 
 T = TypeVar("T")
 
@@ -356,7 +358,8 @@ CACHE: Setting[str | None] = Setting(
     ),
 )  # fmt: skip
 CACHE_TIMEOUT: Setting[float] = Setting(
-    "cache_timeout", None, None, ENV, TIMEOUT_SECONDS, f"{TIMEOUT_SECONDS:g} seconds",
+    "cache_timeout", None, None, ENV, defaults.CACHE_TIMEOUT_SECONDS,
+    f"{defaults.CACHE_TIMEOUT_SECONDS:g} seconds",
     "how long an HTTP team cache may stay silent (seconds; more than 0, less than a day)",
     from_env=_seconds,
 )  # fmt: skip

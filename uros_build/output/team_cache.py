@@ -35,6 +35,7 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:
     from _typeshed import WriteableBuffer
 
+from uros_build import defaults
 from uros_build.errors import ConfigError
 from uros_build.files import reason as _reason
 from uros_build.files import sha256_regular
@@ -44,7 +45,7 @@ FORMAT = 2  # 2: the manifest names every file with its size and sha256 (1: the 
 TOKEN_VARIABLE = "UROS_CACHE_TOKEN"
 # a socket's silence, unless $UROS_CACHE_TIMEOUT says otherwise (config/settings.py); the whole of a
 # request has a deadline too (HttpStore)
-TIMEOUT_SECONDS = 60.0
+TIMEOUT_SECONDS = defaults.CACHE_TIMEOUT_SECONDS
 MIN_RATE = 256 * 1024  # bytes per second a download may not fall below, on average, for its deadline
 _SCHEMES = ("file", "http", "https")
 
