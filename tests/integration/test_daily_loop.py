@@ -6,11 +6,12 @@ from __future__ import annotations
 import json
 import re
 import subprocess
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
 from fixture_ws import make_fixture_workspace
-from uros_helpers import need, run_uros
+from uros_helpers import need, run_uros, run_uros_here
 
 pytestmark = [pytest.mark.integration, pytest.mark.colcon]
 
@@ -20,9 +21,10 @@ def _members(lib: Path) -> list[str]:
     return out.stdout.split()
 
 
-def test_for_firmware_builds_what_its_sources_use(tmp_path: Path) -> None:
-    need("arm-none-eabi-gcc", "cmake")
-    ws = make_fixture_workspace(tmp_path / "ws")
+def test_for_firmware_builds_what_its_sources_use(built: Callable[[str], Path], tmp_path: Path) -> None:
+    # the restored whole-fixture build: fx_flat and fx_time are built in the trees, and still left
+    # out of the library of a firmware that does not use them
+    ws = built("m7")
     # a test-only dependency of a chosen package is not built (colcon's --packages-up-to would)
     lint = ws / "mcu_ws" / "src" / "fx_lint"
     lint.mkdir()
@@ -57,7 +59,7 @@ def test_for_firmware_builds_what_its_sources_use(tmp_path: Path) -> None:
     assert json.loads((out / "build-info.json").read_text())["packages"] == [
         "fx_core", "fx_dup", "fx_flat", "fx_util"
     ]  # fmt: skip
-    proc = run_uros(*args, "--packages", "fx_flatt", check=False)
+    proc = run_uros_here(*args, "--packages", "fx_flatt", check=False)  # refused before any process
     assert proc.returncode == 2 and "--packages fx_flatt: no package fx_flatt" in proc.stderr
     assert "closest: fx_flat" in proc.stderr
 
@@ -66,19 +68,35 @@ def test_for_firmware_builds_what_its_sources_use(tmp_path: Path) -> None:
 
 
 @pytest.fixture(scope="module")
-def board_ws(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """The fixture workspace with a profile of the user's (target 'board'), built once."""
+def _board_built(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The fixture workspace with a profile of the user's (target 'board') in <root>/board, built
+    once, kept as <root>/snapshot: the root."""
     need("arm-none-eabi-gcc", "cmake")
+    import shutil
+
     import yaml
     from uros_helpers import REPO
 
     root = tmp_path_factory.mktemp("daily")
-    ws = make_fixture_workspace(root / "ws")
+    ws = make_fixture_workspace(root / "board" / "ws")
     data = yaml.safe_load((REPO / "toolchains" / "cortex-m7.yaml").read_text())
     data.update(name="board")
-    (root / "board.yaml").write_text(yaml.safe_dump(data))
+    (ws.parent / "board.yaml").write_text(yaml.safe_dump(data))
     run_uros(*_board_args(ws))
-    return ws
+    shutil.copytree(root / "board", root / "snapshot", symlinks=True)
+    return root
+
+
+@pytest.fixture
+def board_ws(_board_built: Path) -> Path:
+    """The built 'board' workspace, a fresh copy for this test restored where it was built
+    (copytree keeps every mtime: the next build of the same command is up to date)."""
+    import shutil
+
+    folder = _board_built / "board"
+    shutil.rmtree(folder)
+    shutil.copytree(_board_built / "snapshot", folder, symlinks=True)
+    return folder / "ws"
 
 
 def _board_args(ws: Path, *more: str) -> list[str]:
@@ -187,8 +205,7 @@ def test_each_input_change_redoes_its_steps_and_nothing_else(board_ws: Path, cas
     # an output inside a plain workspace: its files are not sources (or nothing would be up to date)
     more = tuple(str(ws / "fw-out") if m == "OUT" else m for m in more)
     base = _board_args(ws)
-    run_uros(*base)  # whatever the previous case left: back to this case's baseline
-    assert "up to date" in run_uros(*base).stderr
+    assert "up to date" in run_uros(*base).stderr  # the restored build: this case's baseline
     change(ws)
     try:
         proc = run_uros(*base, *more, env=env)
@@ -212,17 +229,17 @@ def test_each_input_change_redoes_its_steps_and_nothing_else(board_ws: Path, cas
 
 
 def test_progress_is_one_line_per_package_and_the_slowest_at_the_end(board_ws: Path) -> None:
+    # build-info.json says what was built, the same for the same inputs (round 3, issue 34, 7:
+    # package_seconds made it differ at every build): the restored first build's, then --rebuild's;
+    # the times are the target's timings.json
+    info = board_ws / "build" / "board" / "build-info.json"
+    first = info.read_bytes()
     proc = run_uros(*_board_args(board_ws, "--rebuild"))
     lines = [line for line in proc.stderr.splitlines() if line.startswith("[")]
     assert len(lines) == 5 and all(" built fx_" in line for line in lines) and lines[-1].startswith("[5/5]")
     assert all(re.match(r"\[\d/5\] ", line) for line in lines), lines  # the total known from the start
     assert "colcon built 5 packages in" in proc.stderr and "slowest: " in proc.stderr
     assert "+ " not in proc.stderr.split("==> colcon build")[1].split("colcon built")[0]  # no argv wall
-    # build-info.json says what was built, the same for the same inputs (round 3, issue 34, 7:
-    # package_seconds made it differ at every build); the times are the target's timings.json
-    info = board_ws / "build" / "board" / "build-info.json"
-    first = info.read_bytes()
-    run_uros(*_board_args(board_ws, "--rebuild"))
     assert info.read_bytes() == first
     timings = json.loads((board_ws / ".uros/targets/board/timings.json").read_text())
     assert sorted(timings["package_seconds"]) == sorted(json.loads(first)["packages"])

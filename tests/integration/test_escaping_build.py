@@ -14,7 +14,7 @@ from typing import Any
 import pytest
 import yaml
 from fixture_ws import add_board_package, add_plain_package, fixture_build_args, make_fixture_workspace
-from uros_helpers import REPO, need, run_uros
+from uros_helpers import REPO, need, run_uros, run_uros_here
 
 pytestmark = [pytest.mark.integration, pytest.mark.colcon]
 
@@ -173,7 +173,7 @@ def test_what_cmake_or_colcon_cannot_carry_is_refused_in_one_line(
         args += ["--toolchain", "cortex-m7"]
     if where == "--compiler-prefix":
         args += ["--compiler-prefix", value]
-    proc = run_uros(*args, check=False)
+    proc = run_uros_here(*args, check=False)  # in this process: it refuses any process started
     assert proc.returncode == 2, proc.stderr
     errors = [line for line in proc.stderr.splitlines() if line.startswith("error:")]
     assert len(errors) == 1 and expected in errors[0], proc.stderr

@@ -68,7 +68,7 @@ def test_firmware_is_the_default_elsewhere(tmp_path: Path) -> None:
     run_uros("add-package", str(pkg), cwd=tmp_path)
     assert (fw / "mcu_ws" / "extra_packages" / "my_msgs").is_dir()
     # create-firmware resolves the same way: here that is the existing ./firmware
-    proc = run_uros("create-firmware", cwd=tmp_path, check=False)
+    proc = run_uros_here("create-firmware", cwd=tmp_path, check=False)
     assert proc.returncode == 2 and f"{fw}: already exists" in proc.stderr, proc.stderr
 
 
@@ -96,7 +96,7 @@ def test_several_targets_on_the_command_line_each_say_how_they_ended(tmp_path: P
     broken = tmp_path / "broken.cmake"
     broken.write_text("set(CMAKE_SYSTEM_NAME Generic)\nset(CMAKE_C_COMPILER /nonexistent/gcc)\n")
     meta = ["--meta", str(ws / "fixture.meta")]
-    typo = run_uros(
+    typo = run_uros_here(
         "build", "-w", str(ws), *meta, "--toolchain", "cortex-m7", "--toolchain", "cortex-m77", check=False
     )
     assert typo.returncode == 2 and "cortex-m77" in typo.stderr
@@ -118,7 +118,7 @@ def test_several_targets_on_the_command_line_each_say_how_they_ended(tmp_path: P
         assert (ws / "build" / key / "libmicroros.a").is_file(), key
     again = run_uros("build", "-w", str(ws), *meta, "--target", "cortex-m7", "--target", "cortex-m0plus")
     assert "cortex-m7: up to date" in again.stderr and "cortex-m0plus: up to date" in again.stderr
-    with_output = run_uros("build", "-w", str(ws), "--toolchain", "cortex-m7", "--toolchain", "cortex-m0plus",
+    with_output = run_uros_here("build", "-w", str(ws), "--toolchain", "cortex-m7", "--toolchain", "cortex-m0plus",
                            "--output", str(tmp_path / "o"), check=False)  # fmt: skip
     assert with_output.returncode == 2 and "--output with 2 targets" in with_output.stderr
 
@@ -132,7 +132,7 @@ def test_a_uros_yaml_without_a_distro_builds_and_update_asks_for_one(m7_build: P
     assert "target cortex-m7" in proc.stderr, proc.stderr
     assert (ws / "build" / "cortex-m7" / "libmicroros.a").is_file()
     (ws / "uros.lock").write_text('{"repositories": {}}\n')  # as if create-firmware had cloned
-    update = run_uros("update", cwd=ws, check=False)
+    update = run_uros_here("update", cwd=ws, check=False)
     assert update.returncode == 2, update.stderr
     assert "uros.yaml: distro: is required by `uros update` but missing" in update.stderr
     assert (ws / "uros.yaml").read_text() == "target: cortex-m7\n"
@@ -162,5 +162,7 @@ def test_a_profile_file_named_in_uros_yaml_is_a_profile(tmp_path: Path) -> None:
     )
     again = run_uros("build", cwd=ws)  # uros.yaml changed: a build, of the same target
     assert "target my-board" in again.stderr and "built " in again.stderr, again.stderr
-    missing = run_uros("build", "-w", str(ws), "--toolchain", str(ws / "boards" / "none.yaml"), check=False)
+    missing = run_uros_here(
+        "build", "-w", str(ws), "--toolchain", str(ws / "boards" / "none.yaml"), check=False
+    )
     assert missing.returncode == 2 and "none.yaml: no such profile file" in missing.stderr, missing.stderr
