@@ -119,8 +119,17 @@ def test_an_unusable_entry_is_never_used(seed: Path, tmp_path: Path) -> None:
     out = seed / "build" / "cortex-m7"
     store = tmp_path / "c"
     store.mkdir()
-    ws = _fresh_copy(seed, tmp_path / "ws")
+    library = _library(seed)
     good, manifest = _entry_from(out, key, tmp_path)
+    # a library of Cortex-M0 objects in an entry that says cortex-m7, every checksum consistent
+    (tmp_path / "m0.c").write_text("int m0(int x) { return x + 1; }\n")
+    subprocess.run(["arm-none-eabi-gcc", "-mcpu=cortex-m0", "-mthumb", "-c", str(tmp_path / "m0.c"),
+                    "-o", str(tmp_path / "m0.o")], check=True)  # fmt: skip
+    subprocess.run(["arm-none-eabi-ar", "rcs", str(tmp_path / "m0.a"), str(tmp_path / "m0.o")], check=True)
+    wrong = _entry_from(out, key, tmp_path, {"libmicroros.a": (tmp_path / "m0.a").read_bytes()})
+    # the seed itself with no output asks the cache each time, and builds here from its own trees
+    # when refused (a fresh checkout's cold build would add nothing to what is checked)
+    ws = seed
 
     def attempt(tarball: bytes, manifest: bytes) -> str:
         (store / f"{key}.tar.gz").write_bytes(tarball)
@@ -130,7 +139,7 @@ def test_an_unusable_entry_is_never_used(seed: Path, tmp_path: Path) -> None:
 
     said = attempt(good[: len(good) // 2], manifest)  # cut short in transit
     assert "cut short or replaced" in said and "building instead" in said
-    assert _library(ws) == _library(seed)  # built here, and right
+    assert _library(ws) == library  # built here, and right
 
     flipped = bytearray(good)
     flipped[len(flipped) // 2] ^= 0xFF
@@ -142,17 +151,11 @@ def test_an_unusable_entry_is_never_used(seed: Path, tmp_path: Path) -> None:
         good, json.dumps(headers).encode()
     )
 
-    # a library of Cortex-M0 objects in an entry that says cortex-m7, every checksum consistent
-    (tmp_path / "m0.c").write_text("int m0(int x) { return x + 1; }\n")
-    subprocess.run(["arm-none-eabi-gcc", "-mcpu=cortex-m0", "-mthumb", "-c", str(tmp_path / "m0.c"),
-                    "-o", str(tmp_path / "m0.o")], check=True)  # fmt: skip
-    subprocess.run(["arm-none-eabi-ar", "rcs", str(tmp_path / "m0.a"), str(tmp_path / "m0.o")], check=True)
-    wrong = _entry_from(out, key, tmp_path, {"libmicroros.a": (tmp_path / "m0.a").read_bytes()})
     assert "fails the ABI check" in attempt(*wrong)
-    assert _library(ws) == _library(seed)
+    assert _library(ws) == library
 
     assert "from the cache" in attempt(good, manifest)  # and the good entry is taken
-    assert _library(ws) == _library(seed)
+    assert _library(ws) == library
 
 
 def _free_port() -> int:
@@ -478,16 +481,18 @@ def test_credentials_never_follow_a_redirect_to_another_host_and_a_token_is_neve
     )
     assert "from the cache" in took.stderr, took.stderr
     assert ("GET", f"/files/{_key(seed)}.json", f"Bearer {token}") in cache_server.seen
-    # a token no header can carry: one warning that does not print it, and a local build
-    ws = _fresh_copy(seed, tmp_path / "bad")
+    # a token no header can carry: one warning that does not print it, and a local build (the seed
+    # with no output: it asks the cache, then builds here from its own trees)
+    library = _library(seed)
+    shutil.rmtree(seed / "build" / "cortex-m7")
     bad = build_fixture(
-        ws,
+        seed,
         "--cache",
         f"{cache_server.url}/same/",
         env={**os.environ, "UROS_CACHE_TOKEN": "tok 123\x01secret"},
     )
     assert "UROS_CACHE_TOKEN" in bad.stderr and "building instead" in bad.stderr
-    assert "secret" not in bad.stderr + _all_logs(ws) and _library(ws) == _library(seed)
+    assert "secret" not in bad.stderr + _all_logs(seed) and _library(seed) == library
 
 
 def _build_within(ws: Path, seconds: float, *more: str, env: dict[str, str] | None = None) -> str:
@@ -547,14 +552,17 @@ def test_a_hostile_file_cache_entry_is_one_warning_and_a_local_build(
         (store / f"{key}.tar.gz").symlink_to("/dev/zero")
     else:
         (store / f"{key}.tar.gz").write_bytes(data)
-    ws = _fresh_copy(seed, tmp_path / "ws")
-    said = _build_within(ws, 300, "--cache", store.as_uri())
+    # the seed with no output asks the cache and, refused, builds here from its own trees (a fresh
+    # checkout's cold build would add nothing to what is checked: the refusal and a local build)
+    library = _library(seed)
+    shutil.rmtree(out)
+    said = _build_within(seed, 300, "--cache", store.as_uri())
     expected = "other headers outside the workspace" if case.endswith("-header") else "building instead"
     if case == "poisoned-header":  # one line, no download of the tarball
         expected = "'s include/fx_core/core.h is not the workspace's header of that name: building instead"
     assert expected in said and said.count("warning:") <= 1, said
-    assert "==> built " in said and _library(ws) == _library(seed)
-    assert not (ws / "build" / "cortex-m7" / "include" / "huge.h").exists()
+    assert "==> built " in said and _library(seed) == library
+    assert not (out / "include" / "huge.h").exists()
 
 
 def _answer(
@@ -627,13 +635,15 @@ def test_a_hostile_http_cache_is_one_warning_and_a_local_build(
         "/ipv6/": _redirect("http://[::1/x/"),
     })  # fmt: skip
     env = {**os.environ, "UROS_CACHE_TIMEOUT": "2"}
+    library = _library(seed)
     for case in cases:
         says = HOSTILE_HTTP[case]
-        ws = _fresh_copy(seed, tmp_path / case)
+        # the seed with no output asks the cache and, refused, builds here from its own trees
+        shutil.rmtree(seed / "build" / "cortex-m7")
         started = time.monotonic()
-        said = _build_within(ws, 300, "--cache", f"{server.url}/{case}/", env=env)
+        said = _build_within(seed, 300, "--cache", f"{server.url}/{case}/", env=env)
         assert says in said and said.count("warning:") == 1 and "==> built " in said, (case, said)
-        assert _library(ws) == _library(seed)
+        assert _library(seed) == library
         assert case != "trickle" or time.monotonic() - started < 120
 
 
