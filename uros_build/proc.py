@@ -20,7 +20,6 @@ subprocesses and log locations, everything else builds argv lists as data.
 from __future__ import annotations
 
 import contextlib
-import ctypes
 import os
 import shlex
 import shutil
@@ -385,6 +384,8 @@ def _dies_with(parent: int) -> Callable[[], None] | None:
     started the child, and clones run in worker threads."""
     if not sys.platform.startswith("linux") or threading.current_thread() is not threading.main_thread():
         return None
+    import ctypes  # here: a start that runs no tool does not pay for it (start-up cost)
+
     try:
         prctl = ctypes.CDLL(None, use_errno=True).prctl
     except (OSError, AttributeError):

@@ -22,6 +22,7 @@ from uros_build.config.buildargs import BuildArgs
 from uros_build.config.buildplan import BuildPlan
 from uros_build.config.plan import plan_build
 from uros_build.errors import StepFailed
+from uros_build.output import folders as outputs
 from uros_build.output.archive import MergeReport
 from uros_build.steps import (
     colcon_run,
@@ -265,7 +266,7 @@ def test_deliver_assembles_swaps_in_and_records_the_state(
     assert info.build_key == found.key and info.packages == ("app",) and info.toolchain_file
     assert info.abi_check["checked"] is False and assembled.merge_key
     assert (assembled.folder / "include" / "app" / "app.h").is_file()
-    assert deliver.entries_of(assembled.folder) == sorted(
+    assert outputs.entries_of(assembled.folder) == sorted(
         {p.name for p in assembled.folder.iterdir()} | {"build-info.json"}
     )
     assert deliver.swap_in(ctx, found, assembled) == []
@@ -273,7 +274,7 @@ def test_deliver_assembles_swaps_in_and_records_the_state(
     assert not assembled.folder.exists()
     assert inputs.up_to_date(ctx, inputs.resolve(ctx, toolchain, setup, sources, "outside"), False)
     deliver.say_done(ctx, assembled, [], 0.0, "")
-    team_cache.upload_if_asked(ctx, found.key, deliver.entries_of(plan.output))  # no cache: nothing
+    team_cache.upload_if_asked(ctx, found.key, outputs.entries_of(plan.output))  # no cache: nothing
     assert team_cache.take(ctx, found.key, {}) is None
 
 

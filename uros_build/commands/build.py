@@ -24,11 +24,9 @@ from uros_build.errors import (
     UrosError,
 )
 from uros_build.files import locked
+from uros_build.output import folders as outputs
 from uros_build.steps import (
-    colcon_run,
     colcon_setup,
-    deliver,
-    host_stage,
     inputs,
     prepare,
     start,
@@ -99,8 +97,12 @@ def build(plan: BuildPlan) -> Outcome:
         outside = prepare.drop_readers_of_changed_headers(ctx)
         found = inputs.resolve(ctx, toolchain, setup, sources, outside)
         if inputs.up_to_date(ctx, found, repaired):
-            team_cache.upload_if_asked(ctx, found.key, deliver.entries_of(plan.output))
+            team_cache.upload_if_asked(ctx, found.key, outputs.entries_of(plan.output))
             return Outcome(plan.target.key, plan.output, "up to date")
+        # the steps that build and deliver, imported here: an up-to-date build (a daily one, most of
+        # the test suite's) never needs them (start-up cost)
+        from uros_build.steps import colcon_run, deliver, host_stage
+
         # From here the trees change: until this build succeeds, no state vouches for the output.
         fp.forget_state(found.state_path)
         hit = team_cache.take(ctx, found.key, sources)
@@ -116,7 +118,7 @@ def build(plan: BuildPlan) -> Outcome:
         compiled = colcon_run.compile_packages(ctx, setup, found)
         found = inputs.with_outside_headers(found, compiled.outside_headers)
         assembled = deliver.assemble(ctx, found, setup, compiled)
-        entries = deliver.entries_of(assembled.folder)
+        entries = outputs.entries_of(assembled.folder)
         left = deliver.swap_in(ctx, found, assembled)
     deliver.say_done(ctx, assembled, left, started, "")
     team_cache.upload_if_asked(ctx, found.key, entries)

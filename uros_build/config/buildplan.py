@@ -5,17 +5,20 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from uros_build.config.platform import Platform
 from uros_build.config.resolver import Resolved
 from uros_build.config.targets import Target
 from uros_build.output.team_cache import CacheSettings
-from uros_build.sources import firmware_scan
 from uros_build.sources import meta as meta_mod
 from uros_build.sources.distros import Distro
 from uros_build.sources.packages import PackageInfo
 from uros_build.sources.workspace import Workspace
 from uros_build.sources.wsfiles import WorkspaceConfig
+
+if TYPE_CHECKING:  # a type only: the scan is imported by --for-firmware (start-up cost)
+    from uros_build.sources import firmware_scan
 
 # ---------------------------------------------------------------------------------------------
 # uros build

@@ -36,7 +36,6 @@ from uros_build.output.exports import refuse_package_folder
 from uros_build.output.folders import check_output_dir, check_output_owner
 from uros_build.output.team_cache import CacheSettings
 from uros_build.sources import distros as distros_mod
-from uros_build.sources import firmware_scan
 from uros_build.sources import meta as meta_mod
 from uros_build.sources import options as options_mod
 from uros_build.sources import packages as packages_mod
@@ -99,6 +98,8 @@ def _select(
             raise ConfigError(
                 f"--for-firmware {folder}: no such folder", "pass your firmware's source folder"
             )
+        from uros_build.sources import firmware_scan  # --for-firmware only (start-up cost)
+
         use = firmware_scan.scan_folder(folder.resolve())
         if not use.packages:
             raise ConfigError(

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from uros_build.config import settings as rows
 from uros_build.config.colconmeta import meta_option
@@ -16,10 +16,11 @@ from uros_build.config.targets import ProfileTarget, Target, target_profile
 from uros_build.errors import ConfigError
 from uros_build.sources import meta as meta_mod
 from uros_build.sources.wsfiles import CONFIG
-from uros_build.target import espidf
-from uros_build.target.espidf import IdfProject
 from uros_build.target.ipstack import IpStackHeaders, read_ip_stack
 from uros_build.target.rtos import RtosHeaders, read_freertos
+
+if TYPE_CHECKING:  # at run time imported for an ESP-IDF project only (start-up cost)
+    from uros_build.target.espidf import IdfProject
 
 
 @dataclass(frozen=True)
@@ -45,6 +46,8 @@ def idf_project(chosen: Chosen[Path | None], target: Target) -> IdfProject | Non
             f"--idf-build with your own toolchain file {target.key}: uros knows no ESP-IDF target for it",
             "build for a target (uros build --toolchain esp32s3 --idf-build DIR) or a profile (--profile)",
         )
+    from uros_build.target import espidf  # an ESP-IDF project only (start-up cost)
+
     return espidf.read_idf_build(folder, profile.idf_target, profile.name, flag)
 
 

@@ -75,6 +75,12 @@ def _entry_name(name: object) -> bool:
     return isinstance(name, str) and name not in ("", ".", "..") and "/" not in name and "\0" not in name
 
 
+def entries_of(folder: Path) -> list[str]:
+    """What uros writes into an output (build-info.json's folder, or an assembled one, into which the
+    delivery writes build-info.json later: it is named either way), its marker left out."""
+    return sorted({p.name for p in folder.iterdir() if p.name != MARKER} | {BUILD_INFO})
+
+
 def owned_entries(out: Path) -> frozenset[str] | None:
     """The entries of ``out`` that uros wrote, or None when ``out`` is not a uros output.
 

@@ -20,12 +20,10 @@ the reason a build fails.
 
 from __future__ import annotations
 
-import gzip
 import hashlib
 import io
 import json
 import os
-import tarfile
 import urllib.parse
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
@@ -264,6 +262,9 @@ def pack_entry(folder: Path, names: Iterable[str]) -> tuple[bytes, dict[str, tup
     gzipped tar whose bytes depend only on the files' names, contents and executable bits (sorted,
     no times, owners or modes beyond that), so that two machines that build the same output upload
     the same bytes; and every file's size and sha256, for the manifest."""
+    import gzip  # here and in unpack: every build imports this module, few pack or unpack (start-up cost)
+    import tarfile
+
     files: dict[str, tuple[int, str]] = {}
     buffer = io.BytesIO()
     with (
@@ -346,6 +347,9 @@ def unpack(data: bytes, manifest: Manifest, dest: Path | None) -> list[str]:
     regular files and folders an entry may hold (:func:`may_hold`) are accepted: a tarball is
     input from a server, and no entry may write outside ``dest`` or beside a user's files. Any
     trouble is CacheUnusable. Returns the top-level names."""
+    import gzip  # here and in pack_entry: start-up cost
+    import tarfile
+
     check_archive(data, manifest)
     key = manifest.key[:16]
     tops: set[str] = set()

@@ -58,12 +58,6 @@ class Assembled:
     merge_key: str = ""  # what its library was merged from ("" for a team cache entry's)
 
 
-def entries_of(folder: Path) -> list[str]:
-    """What uros writes into an output (build-info.json's folder, or an assembled one, into which the
-    delivery writes build-info.json later: it is named either way), its marker left out."""
-    return sorted({p.name for p in folder.iterdir() if p.name != outputs.MARKER} | {BUILD_INFO})
-
-
 def _put_in_place(plan: BuildPlan, assembled: Assembled) -> list[str]:
     """build-info.json and the marker into the assembled folder, then the swap: the assembled folder
     becomes the output (removed if anything fails first). Returns what of the previous output

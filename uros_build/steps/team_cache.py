@@ -8,6 +8,7 @@ import dataclasses
 import hashlib
 from collections.abc import Mapping
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from uros_build import console
 from uros_build.colcon import depfiles
@@ -30,7 +31,9 @@ from uros_build.output.buildinfo import (
 from uros_build.output.exports import cmake as cmake_export
 from uros_build.output.team_cache import CacheSettings, CacheUnusable
 from uros_build.steps.context import Context
-from uros_build.steps.deliver import Assembled
+
+if TYPE_CHECKING:  # at run time imported where an entry is taken: an up-to-date build asks for none
+    from uros_build.steps.deliver import Assembled
 
 
 def _from_cache(
@@ -75,6 +78,8 @@ def _from_cache(
         cache_mod.unpack(data, manifest, staging)
         info = _check_cached(ctx, staging, key)
         origin = {"url": shown, "key": key, "archive_sha256": manifest.archive_sha256}
+        from uros_build.steps.deliver import Assembled  # here: start-up cost (see the top)
+
         return Assembled(staging, dataclasses.replace(info, from_cache=origin))
     except CacheUnusable as exc:
         _drop(staging)

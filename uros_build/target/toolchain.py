@@ -5,12 +5,15 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from uros_build import __version__, templating
-from uros_build.target.espidf import IdfProject
 from uros_build.target.ipstack import IpStackHeaders
 from uros_build.target.profiles import TargetProfile
 from uros_build.target.rtos import RtosHeaders
+
+if TYPE_CHECKING:  # a type only: ESP-IDF's module is imported for an ESP-IDF project (start-up cost)
+    from uros_build.target.espidf import IdfProject
 
 CLOCK_HEADER_NAME = "uros_clock_gettime.h"
 CXX_WRAPPERS_DIR = "cxx-wrappers"
