@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -122,12 +123,27 @@ def _cmake_package(ws: Path, name: str, cmake: str, files: dict[str, str] | None
     return pkg
 
 
-def test_a_build_writes_the_interpreters_answers_into_its_shim_and_cmake_takes_them(tmp_path: Path) -> None:
+@pytest.fixture(scope="module")
+def built_once(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """One build this module's tests read (each of them built its own before, the same way): the
+    fixture with fx_py (FindPython), fx_templates (an ament templates call) and fx_gen (a generator
+    and a templates call) for cortex-m7, in ws/, with its own generation cache, gen-cache/, and
+    PYTHONDONTWRITEBYTECODE=1 (set on some CI images). The folder holding both."""
     need("arm-none-eabi-gcc", "cmake", "arm-none-eabi-strings")
-    ws = make_fixture_workspace(tmp_path / "ws")
+    root = tmp_path_factory.mktemp("built-once")
+    ws = _gen_workspace(root / "ws")
     _cmake_package(ws, "fx_py", PY_CMAKE)
-    run_uros("build", "--toolchain", "cortex-m7", "-w", str(ws), "--meta", str(ws / "fixture.meta"))
+    _cmake_package(
+        ws, "fx_templates", TEMPLATES_CMAKE, {"package_templates/templates_2_cmake.py": TEMPLATES_PY}
+    )
+    env = {**os.environ, "PYTHONDONTWRITEBYTECODE": "1", "UROS_GEN_CACHE_DIR": str(root / "gen-cache")}
+    run_uros("build", "--toolchain", "cortex-m7", "-w", str(ws), "--meta", str(ws / "fixture.meta"), env=env)
+    assert {"Int32", "Word1"} <= set(_strings(ws).split())
+    return root
 
+
+def test_a_build_writes_the_interpreters_answers_into_its_shim_and_cmake_takes_them(built_once: Path) -> None:
+    ws = built_once / "ws"
     shim = ws / ".uros" / "targets" / "cortex-m7" / "uros-python"
     text = shim.read_text()
     python = text.rstrip().splitlines()[-1].split()[1]  # exec PYTHON "$@": the interpreter it stands for
@@ -172,18 +188,14 @@ with open(sys.argv[1], "w") as f:
 """
 
 
-def test_uros_calls_keep_compiled_modules_in_the_cache_even_without_bytecode_writing(tmp_path: Path) -> None:
+def test_uros_calls_keep_compiled_modules_in_the_cache_even_without_bytecode_writing(
+    built_once: Path,
+) -> None:
     """PYTHONDONTWRITEBYTECODE (set on some CI images) made every call through uros's caches compile
     uros's modules again; they are kept in the generation cache's pycache folder, not beside any
-    sources."""
-    need("arm-none-eabi-gcc", "cmake")
-    ws = make_fixture_workspace(tmp_path / "ws")
-    pkg = _cmake_package(
-        ws, "fx_templates", TEMPLATES_CMAKE, {"package_templates/templates_2_cmake.py": TEMPLATES_PY}
-    )
-    cache = tmp_path / "gen-cache"
-    env = {**os.environ, "PYTHONDONTWRITEBYTECODE": "1", "UROS_GEN_CACHE_DIR": str(cache)}
-    run_uros("build", "--toolchain", "cortex-m7", "-w", str(ws), "--meta", str(ws / "fixture.meta"), env=env)
+    sources (the module's build ran with it set)."""
+    ws, cache = built_once / "ws", built_once / "gen-cache"
+    pkg = ws / "mcu_ws" / "src" / "fx_templates"
     runs = (ws / ".uros" / "targets" / "cortex-m7" / pyshim.RUNS).read_text()
     assert "templates_2_cmake.py" in runs  # the call went through uros
     compiled = {p.name.split(".")[0] for p in (cache / "pycache").rglob("*.pyc")}
@@ -242,24 +254,18 @@ def _strings(ws: Path) -> str:
     ).stdout  # fmt: skip
 
 
-def _built_with_gen_cache(tmp_path: Path) -> tuple[Path, dict[str, str]]:
-    """The fx_gen workspace built once with its own generation cache: (the cache, the env)."""
-    need("arm-none-eabi-gcc", "cmake", "arm-none-eabi-strings")
-    cache = tmp_path / "gen-cache"
-    env = {**os.environ, "UROS_GEN_CACHE_DIR": str(cache)}
-    one = _gen_workspace(tmp_path / "one")
-    run_uros(
-        "build", "--toolchain", "cortex-m7", "-w", str(one), "--meta", str(one / "fixture.meta"), env=env
-    )
-    assert {"Int32", "Word1"} <= set(_strings(one).split())
-    return cache, env
+def _built_with_gen_cache(built_once: Path, tmp_path: Path) -> tuple[Path, dict[str, str]]:
+    """A copy of the generation cache the module's build filled (built_once: the fx_gen workspace
+    built with it), this test's own: (the cache, the env a build with it runs in)."""
+    cache = Path(shutil.copytree(built_once / "gen-cache", tmp_path / "gen-cache", symlinks=True))
+    return cache, {**os.environ, "UROS_GEN_CACHE_DIR": str(cache)}
 
 
-def test_a_byte_changed_in_a_cached_file_never_reaches_the_library(tmp_path: Path) -> None:
+def test_a_byte_changed_in_a_cached_file_never_reaches_the_library(built_once: Path, tmp_path: Path) -> None:
     """A same-size change in a generation-cache entry ("Int32" -> "Int3X") ended up in
     libmicroros.a with exit 0, as did one in a configure call's entry: every cached file carries
     its sha256, a mismatch is a miss, and the entry is written again."""
-    cache, env = _built_with_gen_cache(tmp_path)
+    cache, env = _built_with_gen_cache(built_once, tmp_path)
     changed = []
     for entry in cache.rglob("*.entry"):
         data = entry.read_bytes()
@@ -280,12 +286,14 @@ def test_a_byte_changed_in_a_cached_file_never_reaches_the_library(tmp_path: Pat
         assert entry.read_bytes() == data  # written again whole
 
 
-def test_a_compiled_module_cut_by_a_full_disk_is_dropped_and_the_build_goes_on(tmp_path: Path) -> None:
+def test_a_compiled_module_cut_by_a_full_disk_is_dropped_and_the_build_goes_on(
+    built_once: Path, tmp_path: Path
+) -> None:
     """A full generation-cache disk left cut .pyc files in its pycache folder (Python does not
     check the write), and every later build failed in the first configure that called uros
     ("marshal data too short") even after space returned. A call that fails has the folder checked,
     what does not load dropped, and runs once more."""
-    cache, env = _built_with_gen_cache(tmp_path)
+    cache, env = _built_with_gen_cache(built_once, tmp_path)
     compiled = sorted((cache / "pycache").rglob("*.pyc"))
     assert {"pyshim", "callcache", "gencache"} <= {p.name.split(".")[0] for p in compiled}
     for pyc in compiled:  # as a full disk leaves them: the header whole, the code cut
