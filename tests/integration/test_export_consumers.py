@@ -10,9 +10,10 @@ import shlex
 import shutil
 import subprocess
 from pathlib import Path
+from typing import Any
 
 import pytest
-from uros_helpers import need, run_uros
+from uros_helpers import need, run_uros, run_uros_here
 
 pytestmark = pytest.mark.integration
 
@@ -24,11 +25,22 @@ def _calls_the_library(elf: Path) -> None:
     assert " T fx_core_add" in nm, nm
 
 
-@pytest.fixture()
-def exported(m7_build: Path, tmp_path: Path) -> Path:
-    out = tmp_path / "micro ros"  # a space: the paths must survive make, pkg-config and meson
+@pytest.fixture(scope="module")
+def m7_output(fixture_builds: Any, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A copy of the cortex-m7 output of the built fixture (conftest's m7 variant), made once for
+    this module: the tests that only read it (they export from it, or link against it)."""
+    source = fixture_builds.snapshot("m7") / "build" / "cortex-m7"
+    return Path(shutil.copytree(source, tmp_path_factory.mktemp("m7-output") / "cortex-m7", symlinks=True))
+
+
+@pytest.fixture(scope="module")
+def exported(m7_output: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The make, pkg-config and meson exports of it in one folder, made once for this module (its
+    tests only read them and build beside them)."""
+    # a space: the paths must survive make, pkg-config and meson
+    out = tmp_path_factory.mktemp("exported") / "micro ros"
     for kind in ("make", "pkg-config", "meson"):
-        run_uros("export", kind, "--from", str(m7_build / "build" / "cortex-m7"), "--output", str(out))
+        run_uros("export", kind, "--from", str(m7_output), "--output", str(out))
     return out
 
 
@@ -112,12 +124,12 @@ set(CMAKE_EXE_LINKER_FLAGS_INIT "--specs=nosys.specs")
 
 @pytest.mark.parametrize("how", ["toolchain", "add_compile_options"])
 def test_the_cmake_package_refuses_a_firmware_for_another_core(
-    m7_build: Path, tmp_path: Path, how: str
+    m7_output: Path, tmp_path: Path, how: str
 ) -> None:
     """Issue 34, item 6: find_package(microros) of the M7 library in an M4F firmware stops at
     configure time with one line naming the flag (it linked silently); the M7 firmware links."""
     need("cmake", "ninja", "arm-none-eabi-gcc")
-    out = m7_build / "build" / "cortex-m7"
+    out = m7_output
     for core, flags in (("m4f", _M4F), ("m7", _M7)):
         proj = tmp_path / core
         proj.mkdir()
@@ -224,12 +236,12 @@ def test_one_arduino_library_for_two_boards(m7_build: Path, tmp_path: Path) -> N
     assert not (tmp_path / "x").exists()
 
 
-def test_platformio_reads_the_library_manifest(m7_build: Path, tmp_path: Path) -> None:
+def test_platformio_reads_the_library_manifest(m7_output: Path, tmp_path: Path) -> None:
     """Issue 20, item 1: library.json validated by PlatformIO's own manifest schema (platformio from
     pyproject's test extra; test_platformio.py builds the export with `pio run`)."""
     need("pio")
     out = tmp_path / "pio-lib"
-    run_uros("export", "platformio", "--from", str(m7_build / "build" / "cortex-m7"), "--output", str(out))
+    run_uros("export", "platformio", "--from", str(m7_output), "--output", str(out))
     venv_bin = Path(shutil.which("pio") or "pio").resolve().parent
     check = (
         "import json, sys\n"
@@ -258,9 +270,9 @@ def test_platformio_reads_the_library_manifest(m7_build: Path, tmp_path: Path) -
     _calls_the_library(elf)
 
 
-def test_the_zephyr_module_is_written_beside_the_library(m7_build: Path, tmp_path: Path) -> None:
+def test_the_zephyr_module_is_written_beside_the_library(m7_output: Path, tmp_path: Path) -> None:
     out = tmp_path / "zephyr-module"
-    run_uros("export", "zephyr", "--from", str(m7_build / "build" / "cortex-m7"), "--output", str(out))
+    run_uros("export", "zephyr", "--from", str(m7_output), "--output", str(out))
     assert (out / "zephyr/module.yml").is_file() and (out / "Kconfig").is_file()
     assert (out / "CMakeLists.txt").is_file() and (out / "libmicroros.a").is_file()
     owned = json.loads((out / ".uros-output").read_text())["files"]
@@ -319,13 +331,13 @@ def _consume(kind: str, folder: Path, work: Path) -> None:
 
 @pytest.mark.parametrize("char", ["$", "'", '"', "(", ";", "\\", "é"])
 def test_export_folders_with_special_characters_work_or_are_refused(
-    m7_build: Path, tmp_path: Path, char: str
+    m7_output: Path, tmp_path: Path, char: str
 ) -> None:
     """Issue 34, item 7: an export folder holding one of these was accepted, and pkg-config, Meson or
     CMake then failed on it. Each format's export either works in its real consumer or is refused
     before anything is written, with one line naming the character and the format."""
     need("cmake", "ninja", "make", "pkg-config", "meson", "arm-none-eabi-gcc")
-    source = m7_build / "build" / "cortex-m7"
+    source = m7_output
     refuses = {
         # '"': CMake's Makefiles generator writes it unescaped (a Ninja build works; one rule for both)
         "cmake": char in ';\\"',
@@ -335,7 +347,8 @@ def test_export_folders_with_special_characters_work_or_are_refused(
     }
     for kind, refused in refuses.items():
         folder = tmp_path / kind / f"micro{char}ros"
-        proc = run_uros("export", kind, "--from", str(source), "--output", str(folder), check=False)
+        run = run_uros_here if refused else run_uros  # a refusal starts no process: in process
+        proc = run("export", kind, "--from", str(source), "--output", str(folder), check=False)
         if refused:
             fmt = {"meson": "Meson", "cmake": "CMake"}.get(kind, kind)
             assert proc.returncode == 2, (kind, proc.stderr)
@@ -401,13 +414,13 @@ int clock_gettime(clockid_t id, struct timespec *tp) {
 """
 
 
-def test_the_zephyr_module_links_only_what_the_firmware_uses(m7_build: Path, tmp_path: Path) -> None:
+def test_the_zephyr_module_links_only_what_the_firmware_uses(m7_output: Path, tmp_path: Path) -> None:
     """Issue 34, item 4: by Zephyr's link rules (above), the module's library is an ordinary archive
     (zephyr_library_import made it whole-archive: every member in every firmware), and micro-ROS's
     clock_gettime(0, ...) reaches the module's clock shim, not Zephyr's clock (EINVAL for 0)."""
     need("cmake", "ninja", "arm-none-eabi-gcc")
     module = tmp_path / "zephyr-module"
-    run_uros("export", "zephyr", "--from", str(m7_build / "build" / "cortex-m7"), "--output", str(module))
+    run_uros("export", "zephyr", "--from", str(m7_output), "--output", str(module))
     app = tmp_path / "app"
     (app / "kernel_include/zephyr").mkdir(parents=True)
     (app / "kernel_include/zephyr/kernel.h").write_text(
@@ -451,17 +464,19 @@ def test_the_zephyr_module_links_only_what_the_firmware_uses(m7_build: Path, tmp
 
 
 @pytest.mark.parametrize("flag", ["-DBOARD=$HOME", "-DNOTE=a#b", "-DF=(x)"])
-def test_pkg_config_refuses_flags_it_cannot_pass_on(m7_build: Path, tmp_path: Path, flag: str) -> None:
+def test_pkg_config_refuses_flags_it_cannot_pass_on(m7_output: Path, tmp_path: Path, flag: str) -> None:
     """Issue 34, item 7: pkgconf prints '$' and '(' bare into the compile line a shell reads, and
     '#' in a variable's line is a comment (measured: --cflags printed nothing); the '$$' escape
     uros wrote stayed two. A CPU flag pkg-config cannot carry is refused, one line naming it."""
     need("pkg-config")
     src = tmp_path / "out"
-    shutil.copytree(m7_build / "build" / "cortex-m7", src)
+    shutil.copytree(m7_output, src)
     info = json.loads((src / "build-info.json").read_text())
     info["flags"]["cpu"].append(flag)
     (src / "build-info.json").write_text(json.dumps(info))
-    proc = run_uros("export", "pkg-config", "--from", str(src), "--output", str(tmp_path / "pc"), check=False)
+    proc = run_uros_here(  # refused before any process starts
+        "export", "pkg-config", "--from", str(src), "--output", str(tmp_path / "pc"), check=False
+    )
     assert proc.returncode == 2, proc.stderr
     assert proc.stderr.splitlines()[0].startswith(f"error: flag {flag!r}: holds "), proc.stderr
     assert "which pkg-config cannot pass on" in proc.stderr
