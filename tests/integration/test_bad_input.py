@@ -385,10 +385,8 @@ def test_toolchain_render_into_a_folder_writes_nothing_beside_it(tmp_path: Path)
 # -- the first error of a failed build -------------------------------------------------------
 
 
-@pytest.mark.colcon
-def test_cmake_error_shows_the_package_and_the_message(tmp_path: Path) -> None:
-    need("arm-none-eabi-gcc", "cmake")
-    ws = _ws(tmp_path)
+def test_cmake_error_shows_the_package_and_the_message(m7_build: Path) -> None:
+    ws = m7_build
     cmake = ws / "mcu_ws/src/fx_dup/CMakeLists.txt"
     cmake.write_text(
         cmake.read_text().replace(
@@ -418,10 +416,8 @@ def test_compile_error_names_the_package_among_parallel_ones(m7_build: Path) -> 
     assert line.startswith("error: colcon build failed in package fx_dup: ") and "b/common.c:1:" in line, line
 
 
-@pytest.mark.colcon
-def test_duplicate_package_names_name_both_folders(tmp_path: Path) -> None:
-    need("arm-none-eabi-gcc", "cmake")
-    ws = _ws(tmp_path)
+def test_duplicate_package_names_name_both_folders(m7_build: Path) -> None:
+    ws = m7_build
     shutil.copytree(ws / "mcu_ws/src/fx_dup", ws / "mcu_ws/src/fx_dup_copy")
     proc = run_uros("build", "--toolchain", "cortex-m7", "--workspace", str(ws), check=False)
     assert proc.returncode == 4
@@ -430,10 +426,10 @@ def test_duplicate_package_names_name_both_folders(tmp_path: Path) -> None:
     assert "mcu_ws/src/fx_dup " in line + " " and "mcu_ws/src/fx_dup_copy" in line
 
 
-@pytest.mark.colcon
-def test_set_and_meta_naming_no_package_warn_with_the_closest_names(tmp_path: Path) -> None:
-    need("arm-none-eabi-gcc", "cmake")
-    ws = _ws(tmp_path)
+def test_set_and_meta_naming_no_package_warn_with_the_closest_names(
+    built: Callable[[str], Path], tmp_path: Path
+) -> None:
+    ws = built("core")
     typo = _file(tmp_path, "typo.meta", '{"names": {"fx_tme": {"cmake-args": ["-DFX_TIME_ENABLE=ON"]}}}')
     proc = run_uros(
         "build", "--toolchain", "cortex-m7", "--workspace", str(ws), "--packages-up-to", "fx_core",
