@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 from fixture_ws import add_plain_package, fixture_build_args, make_fixture_workspace
-from uros_helpers import need, run_uros
+from uros_helpers import need, run_uros, run_uros_here
 
 from uros_build.run.report import REPORT, probe_base, probe_work
 
@@ -110,8 +110,9 @@ def test_an_option_cost_is_measured_from_the_library_built_twice(pools_ws: Path,
 @pytest.mark.parametrize("flag", ["--ram", "--flash"])
 @pytest.mark.parametrize("value", ["12X", "0", "1.5M", "-4K", "5000M", "9" * 5000])
 def test_a_bad_size_is_refused_in_one_line_naming_the_flag(flag: str, value: str, tmp_path: Path) -> None:
-    """5000 digits were an internal error (round 5): at most 12 digits and 4 GB, said in one line."""
-    proc = run_uros("size", str(tmp_path / "libmicroros.a"), flag, value, check=False)
+    """5000 digits were an internal error (round 5): at most 12 digits and 4 GB, said in one line
+    (before any process starts: in process)."""
+    proc = run_uros_here("size", str(tmp_path / "libmicroros.a"), flag, value, check=False)
     assert proc.returncode == 2
     shown = value if len(value) < 24 else "99999999999999999999... (5,000 characters)"
     assert proc.stderr.splitlines() == [

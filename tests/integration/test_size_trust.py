@@ -183,8 +183,8 @@ def test_elf_takes_only_a_linked_firmware_of_the_librarys_target(ws: Path, tmp_p
         riscv: "a firmware for RISC-V (ELF32), not for the library's ARM (ELF32)",
         _link(tmp_path, "-mcpu=cortex-m0plus", "-mthumb"): "its float ABI is soft-float, the library's is hard-float: another target's firmware",
     }  # fmt: skip
-    for elf, why in cases.items():
-        done = run_uros("size", str(_out(ws)), "--elf", str(elf), "--map", str(map_file), check=False)
+    for elf, why in cases.items():  # refused before any process starts: in process
+        done = run_uros_here("size", str(_out(ws)), "--elf", str(elf), "--map", str(map_file), check=False)
         assert done.returncode == 2, done.stderr
         assert done.stderr.splitlines()[0] == f"error: --elf {elf}: {why}", done.stderr
     # a FIFO or /dev/zero as --map or --elf: one line, never read
@@ -194,7 +194,7 @@ def test_elf_takes_only_a_linked_firmware_of_the_librarys_target(ws: Path, tmp_p
     for flag, path in (("--map", fifo), ("--map", tmp_path / "zero.map"), ("--elf", fifo)):
         other = str(riscv if flag == "--map" else map_file)
         argv = ["size", str(_out(ws)), flag, str(path), "--elf" if flag == "--map" else "--map", other]
-        done = run_uros(*argv, check=False)
+        done = run_uros_here(*argv, check=False)
         assert (
             done.returncode == 2
             and done.stderr.splitlines()[0] == f"error: {flag} {path}: not a regular file"
