@@ -147,7 +147,9 @@ def test_colcons_command_and_the_host_stages_packages_skipped(tmp_path: Path) ->
     ctx = _ctx(_plan(tmp_path, "app", "rosidl_typesupport_interface"))
     _, setup, _ = _setup(ctx)
     assert (ctx.plan.target_dir / "colcon.meta").is_file()
-    assert (ctx.plan.target_dir / "uros-python").is_file()  # the generation cache's shim
+    shim = ctx.plan.target_dir / "uros-python"  # the generation cache's shim: colcon's Python
+    assert f"-DPython3_EXECUTABLE={shim}" in setup.argv and not shim.exists()  # named, not written yet
+    assert colcon_setup.python_shim(ctx.plan, ctx.runner, ctx.plan.target_dir) == shim and shim.is_file()
     assert setup.building == {"app", "rosidl_typesupport_interface"}
     assert setup.stage is not None and setup.stage.packages == ("rosidl_typesupport_interface",)
     # never built: every package the stage will build is skipped by the target's colcon

@@ -4,8 +4,8 @@ A target's build is the sequence of steps in uros_build/steps/, each over one fr
 run opened, host facts, extra packages and dev_ws; then under the target's lock the trees prepared,
 the toolchain file, the sources scanned, colcon's environment, the seeded toolchain, colcon's
 command, readers of changed headers dropped, the inputs (up to date: done), the team cache asked,
-packages the workspace lost dropped, the host stage readied, colcon, merge and verify, the swap,
-the upload.
+packages the workspace lost dropped, colcon's Python shim written, the host stage readied, colcon,
+merge and verify, the swap, the upload.
 """
 
 from __future__ import annotations
@@ -113,6 +113,7 @@ def build(plan: BuildPlan) -> Outcome:
             deliver.say_done(ctx, hit, left, started, origin)
             return Outcome(plan.target.key, plan.output, "from the cache")
         prepare.drop_removed_packages(ctx)
+        colcon_setup.python_shim(plan, ctx.runner, plan.target_dir)  # colcon's Python, asked and written
         setup = colcon_setup.sharing(ctx, setup, host_stage.ready(ctx, setup))
         found = inputs.with_colcon(ctx, found, setup)
         compiled = colcon_run.compile_packages(ctx, setup, found)

@@ -76,9 +76,10 @@ def meta_text(plan: BuildPlan) -> str:
 def colcon_setup(
     ctx: Context, environment: Environment, toolchain_file: Path, records: Mapping[str, fp.FileRecord]
 ) -> ColconSetup:
-    """colcon's command for this target (with ``toolchain_file``, the seeded one): colcon.meta and
-    the Python shim written (when they change), the host stage chosen from the sources ``records``
-    and what it is expected to share skipped."""
+    """colcon's command for this target (with ``toolchain_file``, the seeded one): colcon.meta
+    written (when it changes), the Python shim named (:func:`python_shim` writes it when colcon is
+    to run), the host stage chosen from the sources ``records`` and what it is expected to share
+    skipped."""
     plan, env = ctx.plan, environment.env
     ws = plan.workspace
     meta_path = plan.target_dir / "colcon.meta"
@@ -95,7 +96,7 @@ def colcon_setup(
         log_base=plan.target_dir / "log",
         metas=(meta_path,),
         toolchain_file=toolchain_file,
-        python=str(python_shim(plan, ctx.runner, plan.target_dir)),
+        python=str(shim_path(plan, plan.target_dir)),
         generator=colcon.generator(env),
         verbose=plan.verbose,
         packages_up_to=plan.packages_up_to,
@@ -190,14 +191,24 @@ def _ccache(plan: BuildPlan, allowed: bool, env: Mapping[str, str], runner: Runn
     return found
 
 
-def python_shim(plan: BuildPlan, runner: Runner, folder: Path) -> Path:
-    """The Python of the CMake builds of a target (or of the host stage: ``folder``): the real one,
-    with rosidl's generator runs and the configures' Python calls going through the workspace's
-    caches (shared by every target: pyshim.py), and FindPython's questions about the interpreter
-    answered as it answered them once for this build."""
+def shim_path(plan: BuildPlan, folder: Path) -> Path:
+    """The Python colcon's CMake builds are given (``Python3_EXECUTABLE``): the shim in ``folder``
+    that :func:`python_shim` writes, or the real interpreter with UROS_GEN_CACHE=off. Named in
+    colcon's command (an input of the build) without asking the interpreter anything."""
     if not plan.gen_cache:  # UROS_GEN_CACHE=off (config/settings.py)
         return Path(colcon.host_python())
-    shim = folder / "uros-python"
+    return folder / "uros-python"
+
+
+def python_shim(plan: BuildPlan, runner: Runner, folder: Path) -> Path:
+    """The Python of the CMake builds of a target (or of the host stage: ``folder``), written before
+    its colcon runs (an up-to-date build, which runs none, starts no interpreter for it): the real
+    one, with rosidl's generator runs and the configures' Python calls going through the
+    workspace's caches (shared by every target: pyshim.py), and FindPython's questions about the
+    interpreter answered as it answered them once for this build. Returns :func:`shim_path`."""
+    shim = shim_path(plan, folder)
+    if not plan.gen_cache:
+        return shim
     python, code_dir = colcon.host_python(), Path(uros_build.__file__).resolve().parent.parent
     try:
         answers, has_distutils = pyshim.parse_answers(

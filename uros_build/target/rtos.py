@@ -27,11 +27,13 @@ import hashlib
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from uros_build import loader, resources
 from uros_build.errors import ConfigError
-from uros_build.target.profiles import TargetProfile
+
+if TYPE_CHECKING:  # a type only: the exports read this module at every start (start-up cost)
+    from uros_build.target.profiles import TargetProfile
 
 NAMES = ("freertos",)  # the RTOSes uros knows (--rtos)
 FREERTOS = "freertos"

@@ -7,12 +7,14 @@ several outputs and has a command of its own: exports/arduino.py.)"""
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from uros_build.errors import ConfigError
-from uros_build.output import folders
-from uros_build.output.buildinfo import BuildInfo
 from uros_build.output.exports import cmake, espidf, make, meson, pkgconfig, platformio, zephyr
 from uros_build.output.exports.base import ExportFormat, rule_refusal
+
+if TYPE_CHECKING:
+    from uros_build.output.buildinfo import BuildInfo
 
 FORMATS: tuple[ExportFormat, ...] = (
     cmake.FORMAT,
@@ -54,6 +56,8 @@ def carry_over(out: Path, staging: Path, info: BuildInfo) -> list[str]:
     """The exports an earlier `uros export KIND --output OUT` wrote into the output ``out`` (its
     marker names them), written again into the next build's ``staging`` for its library, so that
     the build's swap does not drop them. Returns the kinds carried over."""
+    from uros_build.output import folders  # after a build only: every start reads FORMATS (start-up cost)
+
     owned = folders.owned_entries(out) or frozenset()
 
     def present(fmt: ExportFormat) -> bool:

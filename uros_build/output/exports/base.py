@@ -8,9 +8,12 @@ import shutil
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from uros_build.defaults import BUILD_INFO
-from uros_build.output.buildinfo import BuildInfo
+
+if TYPE_CHECKING:  # types only: every start reads the formats (start-up cost)
+    from uros_build.output.buildinfo import BuildInfo
 
 
 @dataclass(frozen=True)

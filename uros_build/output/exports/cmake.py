@@ -3,11 +3,14 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from uros_build import __version__, templating
-from uros_build.output.buildinfo import BuildInfo, RtosInfo
 from uros_build.output.exports.base import ExportFormat, abi_flags, plain, write_files
 from uros_build.target import rtos as rtos_mod
+
+if TYPE_CHECKING:  # types only: every start reads the formats (start-up cost)
+    from uros_build.output.buildinfo import BuildInfo, RtosInfo
 
 CMAKE_FILES = ("microrosConfig.cmake", "microrosConfigVersion.cmake", "microros.cmake")
 

@@ -4,11 +4,14 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from uros_build import __version__, templating
 from uros_build.errors import ConfigError
-from uros_build.output.buildinfo import BuildInfo
 from uros_build.output.exports.base import ExportFormat, write_files
+
+if TYPE_CHECKING:  # types only: every start reads the formats (start-up cost)
+    from uros_build.output.buildinfo import BuildInfo
 
 ESP_IDF_COMPONENT_FILE = "CMakeLists.txt"
 IDF_MANIFEST_FILE = "idf_component.yml"

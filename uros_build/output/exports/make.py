@@ -4,10 +4,13 @@ firmware."""
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from uros_build import __version__, templating
-from uros_build.output.buildinfo import BuildInfo
 from uros_build.output.exports.base import ExportFormat, plain, write_files
+
+if TYPE_CHECKING:  # types only: every start reads the formats (start-up cost)
+    from uros_build.output.buildinfo import BuildInfo
 
 MAKE_FILE = "microros.mk"
 

@@ -4,12 +4,15 @@ dependency('microros')."""
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from uros_build import __version__, templating
 from uros_build.errors import ConfigError
-from uros_build.output.buildinfo import BuildInfo
 from uros_build.output.exports.base import ExportFormat, plain, write_files
 from uros_build.output.exports.pkgconfig import PC_FILE, check_pkg_config, pkg_config_file
+
+if TYPE_CHECKING:  # types only: every start reads the formats (start-up cost)
+    from uros_build.output.buildinfo import BuildInfo
 
 MESON_FILE = "microros-cross.ini"
 

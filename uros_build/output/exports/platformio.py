@@ -5,10 +5,13 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from uros_build import __version__, templating
-from uros_build.output.buildinfo import BuildInfo
 from uros_build.output.exports.base import ExportFormat, abi_flags, plain, write_files
+
+if TYPE_CHECKING:  # types only: every start reads the formats (start-up cost)
+    from uros_build.output.buildinfo import BuildInfo
 
 LIBRARY_NAME = "micro_ros_uros"  # the name the library goes by (PlatformIO, Arduino, Zephyr)
 PLATFORMIO_FILE = "library.json"

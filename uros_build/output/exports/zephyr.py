@@ -5,12 +5,15 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from uros_build import __version__, templating
 from uros_build.errors import ConfigError
-from uros_build.output.buildinfo import BuildInfo
 from uros_build.output.exports.base import ExportFormat, abi_flags, write_files
 from uros_build.output.exports.platformio import LIBRARY_NAME
+
+if TYPE_CHECKING:  # types only: every start reads the formats (start-up cost)
+    from uros_build.output.buildinfo import BuildInfo
 
 ZEPHYR_FILES = ("zephyr/module.yml", "CMakeLists.txt", "Kconfig", "zephyr/uros_clock.c")
 
