@@ -41,7 +41,10 @@ FX_LANG_XML = """<?xml version="1.0"?>
 
 
 def _workspace(root: Path) -> Path:
-    ws = make_fixture_workspace(root)
+    return _add_lang(make_fixture_workspace(root))
+
+
+def _add_lang(ws: Path) -> Path:
     lang = ws / "mcu_ws" / "src" / "fx_lang"
     lang.mkdir()
     (lang / "CMakeLists.txt").write_text(FX_LANG_CMAKE)
@@ -66,9 +69,13 @@ def _configured(ws: Path) -> dict[str, str]:
     return out
 
 
-def test_compilers_are_found_once_per_target_and_the_bytes_do_not_change(tmp_path: Path) -> None:
+def test_compilers_are_found_once_per_target_and_the_bytes_do_not_change(
+    tmp_path: Path, m7_build: Path
+) -> None:
     need("arm-none-eabi-gcc", "cmake")
-    seeded = _workspace(tmp_path / "seeded")
+    # seeded: the built fixture (its five packages configured in its first build, seeded as every
+    # build is) with fx_lang added, configured now; plain: all six configured cold, without the seed
+    seeded = _add_lang(m7_build)
     plain = _workspace(tmp_path / "plain")
     args = ["build", "--toolchain", "cortex-m7", "--meta"]
     run_uros(*args, str(seeded / "fixture.meta"), "-w", str(seeded))
