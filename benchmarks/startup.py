@@ -15,7 +15,9 @@ what uros starts: the shim's answers, ccache, ...):
 * `uros --version`;
 * `uros build` of the fixture, up to date (the run fails unless it says so);
 * `uros info OUTPUT`;
-* `uros export pkg-config --from OUTPUT -o DIR`.
+* `uros export pkg-config --from OUTPUT -o DIR`;
+* `uros size OUTPUT` and `uros check OUTPUT/libmicroros.a --toolchain cortex-m7` (with the tools they
+  run: size, nm, readelf).
 
 Prints a Markdown table: the median CPU and the median wall of each command for each checkout, and
 after/before of the medians. Each command's output must be the same for both checkouts (the
@@ -109,6 +111,8 @@ def main() -> int:
                 "-o",
                 str(root / name / "pc"),
             ],
+            "uros size OUTPUT": [*uros, "size", str(out)],
+            "uros check LIBRARY": [*uros, "check", str(out / "libmicroros.a"), "--toolchain", "cortex-m7"],
         }
         cpu, wall, text, code = timed(commands["uros build (up to date)"], env, root)
         if code != 0:

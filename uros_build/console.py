@@ -13,11 +13,14 @@ import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from rich.console import Console
-from rich.live import Live
 from rich.markup import escape
 from rich.text import Text
+
+if TYPE_CHECKING:
+    from rich.live import Live
 
 _err = Console(stderr=True, highlight=False, soft_wrap=True)
 # The run's log also gets every status line, so that it says what uros decided (what changed, what
@@ -141,6 +144,8 @@ class ProgressView:
         self.progress = Progress(0, total, (), time.monotonic())
         self.live: Live | None = None
         if _err.is_terminal and not plain:
+            from rich.live import Live  # a terminal's live view only (start-up cost)
+
             self.live = Live(
                 _LiveRenderable(self),
                 console=_err,
