@@ -22,7 +22,7 @@ from pathlib import Path
 
 import pytest
 from fixture_ws import fixture_build_args
-from uros_helpers import build_fixture, need, run_uros
+from uros_helpers import build_fixture, need, run_uros, run_uros_here
 
 from uros_build.output import team_cache as cache
 
@@ -259,9 +259,13 @@ def test_the_workspace_names_its_cache_and_the_command_line_wins(seed: Path, tmp
     without any cache is a one-line error naming the flag and the fix, and nothing is written."""
     store = tmp_path / "store"
     _upload_from(seed, store.as_uri())
-    ws = _fresh_copy(seed, tmp_path / "ws")
+    library = _library(seed)
+    # the seed itself with no output: a build asks the cache, and with --cache none builds here
+    # from its own trees (no fresh checkout's cold build)
+    ws = seed
+    shutil.rmtree(ws / "build")
     (ws / "uros.yaml").write_text("distro: humble\ntarget: cortex-m7\n")
-    refused = run_uros(
+    refused = run_uros_here(  # refused before any process starts
         "build", "-w", str(ws), "--meta", str(ws / "fixture.meta"), "--cache-upload", check=False
     )
     assert refused.returncode == 2 and not (ws / "build").exists()
@@ -272,7 +276,7 @@ def test_the_workspace_names_its_cache_and_the_command_line_wins(seed: Path, tmp
     shutil.rmtree(ws / "build")
     plain = run_uros("build", "-w", str(ws), "--meta", str(ws / "fixture.meta"), "--cache", "none").stderr
     assert store.as_uri() not in plain and "\ncache: " not in f"\n{plain}" and "==> built " in plain
-    assert _library(ws) == _library(seed)
+    assert _library(ws) == library
 
 
 # ---------------------------------------------------------------------------------------------
