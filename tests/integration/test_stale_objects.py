@@ -125,13 +125,13 @@ def _add_failing_package(ws: Path) -> None:
     )
 
 
-def test_a_failed_package_is_in_no_library_and_no_build_info(tmp_path: Path) -> None:
-    need("arm-none-eabi-gcc", "cmake")
-    ws = make_fixture_workspace(tmp_path / "ws")
+def test_a_failed_package_is_in_no_library_and_no_build_info(m7_build: Path) -> None:
+    ws = m7_build  # the fixture's trees built; no output yet
+    out = ws / "build" / "cortex-m7"
+    shutil.rmtree(out)
     _add_failing_package(ws)
     proc = build_fixture(ws, check=False)
     assert proc.returncode == 4 and "fx_bad" in proc.stderr
-    out = ws / "build" / "cortex-m7"
     assert not out.exists()  # no library, no build-info.json
     installed = ws / ".uros" / "targets" / "cortex-m7" / "install" / "lib" / "libfx_bad.a"
     assert installed.is_file()  # what the failed install step left behind ...
