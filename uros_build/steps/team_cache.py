@@ -21,7 +21,6 @@ from uros_build.errors import (
     interrupted,
 )
 from uros_build.files import remove_tree
-from uros_build.output import cache_store
 from uros_build.output import folders as outputs
 from uros_build.output import team_cache as cache_mod
 from uros_build.output.buildinfo import (
@@ -32,7 +31,8 @@ from uros_build.output.exports import cmake as cmake_export
 from uros_build.output.team_cache import CacheSettings, CacheUnusable
 from uros_build.steps.context import Context
 
-if TYPE_CHECKING:  # at run time imported where an entry is taken: an up-to-date build asks for none
+if TYPE_CHECKING:  # at run time imported where an entry is taken or uploaded: most builds use no cache
+    from uros_build.output import cache_store
     from uros_build.steps.deliver import Assembled
 
 
@@ -45,6 +45,9 @@ def _from_cache(
     toolchain.cmake are what this uros writes, every header the workspace's sources hold is theirs:
     ``sources``, path -> sha256); None, with a line saying why, when there is none or it cannot be
     used."""
+    from uros_build.output import cache_store  # with a cache only (start-up cost: see the top)
+    from uros_build.steps.deliver import Assembled
+
     plan, shown = ctx.plan, settings.url.shown
     staging = outputs.staging_dir(plan.output)
     try:
@@ -78,8 +81,6 @@ def _from_cache(
         cache_mod.unpack(data, manifest, staging)
         info = _check_cached(ctx, staging, key)
         origin = {"url": shown, "key": key, "archive_sha256": manifest.archive_sha256}
-        from uros_build.steps.deliver import Assembled  # here: start-up cost (see the top)
-
         return Assembled(staging, dataclasses.replace(info, from_cache=origin))
     except CacheUnusable as exc:
         _drop(staging)
@@ -152,6 +153,8 @@ def _upload(plan: BuildPlan, key: str, entries: list[str]) -> None:
     it already, whole. Only what uros wrote there (the output's marker names it) and an entry may
     hold is packed: never the user's own files beside it. A failure is a warning: the build itself
     succeeded."""
+    from uros_build.output import cache_store  # with a cache only (start-up cost: see the top)
+
     assert plan.cache is not None
     shown = plan.cache.url.shown
     try:
