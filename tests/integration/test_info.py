@@ -8,7 +8,7 @@ import shutil
 from pathlib import Path
 
 import pytest
-from uros_helpers import run_uros
+from uros_helpers import run_uros, run_uros_here
 
 pytestmark = pytest.mark.integration
 
@@ -36,7 +36,7 @@ def test_info_on_the_fixture_build(m7_build: Path, tmp_path: Path) -> None:
     assert "rmw_microxrcedds: " in text and "RMW_UXRCE_MAX_NODES=1," in text and "  fx_msgs/msg/UInt8" in text
     assert "types (1):" in text and "packages (5):" in text
 
-    none = run_uros("info", str(ws / "mcu_ws"), check=False)
+    none = run_uros_here("info", str(ws / "mcu_ws"), check=False)  # refused before any process starts
     assert none.returncode == 2 and "not a uros build output" in none.stderr
 
 

@@ -14,7 +14,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 import pytest
-from fixture_ws import UP_TO_CORE, make_fixture_workspace
+from fixture_ws import UP_TO_CORE, fixture_build_args, make_fixture_workspace
 from uros_helpers import (
     REPO,
     build_fixture,
@@ -52,6 +52,11 @@ def _sha(path: Path) -> str:
 
 def _build(ws: Path, *more: str, check: bool = True) -> subprocess.CompletedProcess[str]:
     return build_fixture(ws, *UP_TO_CORE, *more, check=check)
+
+
+def _refused_build(ws: Path, *more: str) -> subprocess.CompletedProcess[str]:
+    """:func:`_build` of a case refused before any process starts: in process (run_uros_here)."""
+    return run_uros_here(*fixture_build_args(ws, *UP_TO_CORE, *more), check=False)
 
 
 @pytest.mark.parametrize("name", ["..", ".", "a/.."])
@@ -95,7 +100,7 @@ def test_build_into_a_users_folder_keeps_its_files(built: Callable[[str], Path],
     (proj / "build-info.json").write_text("{}\n")
     before = _listing(proj)
 
-    refused = _build(ws, "--output", str(proj), check=False)
+    refused = _refused_build(ws, "--output", str(proj))
     assert refused.returncode == 2, refused.stderr
     (error,) = _errors(refused)
     assert "holds files uros did not write (CMakeLists.txt, build-info.json, src)" in error
@@ -127,7 +132,7 @@ def test_force_never_takes_the_workspace_or_other_outputs(
 ) -> None:
     ws = built("core")
     before = _listing(ws)
-    proc = _build(ws, "--output", str(ws / where), "--force", check=False)
+    proc = _refused_build(ws, "--output", str(ws / where), "--force")
     assert proc.returncode == 2, proc.stderr
     (error,) = _errors(proc)
     assert message in error
@@ -258,7 +263,7 @@ def test_an_output_belongs_to_one_target(m7_build: Path) -> None:
     base = ["build", "--workspace", str(ws), "--meta", str(ws / "fixture.meta")]
     m7 = ws / "build" / "cortex-m7"
     good = _lib_sha(m7)
-    proc = run_uros(*base, "--toolchain", "cortex-m4", "--output", str(m7), check=False)
+    proc = run_uros_here(*base, "--toolchain", "cortex-m4", "--output", str(m7), check=False)  # in process
     assert proc.returncode == 2, proc.stderr
     line = next(x for x in proc.stderr.splitlines() if x.startswith("error:"))
     assert f"--output {m7}: is the output of target cortex-m7, not cortex-m4" in line
