@@ -60,6 +60,15 @@ def build_fixture(
     return run_uros(*fixture_build_args(ws, *more, meta=meta, toolchain=toolchain), check=check, env=env)
 
 
+def once_then_restored(snapshot: Path, live: Path) -> Path:
+    """A fresh copy of ``snapshot`` at ``live`` (removed first), where the snapshot was made from:
+    a module's build made once, restored for each test that changes it. copytree keeps every
+    mtime, and the paths are the built ones, so its next build of the same inputs is up to date."""
+    if live.exists():
+        shutil.rmtree(live)
+    return Path(shutil.copytree(snapshot, live, symlinks=True))
+
+
 def run_uros_here(
     *args: str, cwd: Path | None = None, check: bool = True, env: dict[str, str | None] | None = None
 ) -> subprocess.CompletedProcess[str]:

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import subprocess
 from pathlib import Path
 
@@ -23,7 +24,7 @@ import pytest
 from fixture_lwip import make_standin_freertos_tcp, make_standin_lwip, write_lwip_config, write_tcp_config
 from fixture_rtos import make_standin_kernel, write_config
 from fixture_ws import add_plain_package
-from uros_helpers import need, run_uros, run_uros_here
+from uros_helpers import need, once_then_restored, run_uros, run_uros_here
 
 pytestmark = [pytest.mark.integration, pytest.mark.colcon]
 
@@ -69,13 +70,33 @@ def _symbols(lib: Path) -> str:
     ).stdout  # fmt: skip
 
 
-def test_lwip_headers_and_platform_reach_the_micro_ros_compile_only(tmp_path: Path) -> None:
+@pytest.fixture(scope="module")
+def _built_once(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, list[str], str]:
     need("arm-none-eabi-gcc", "cmake", "ninja")
-    ws, flags = _setup(tmp_path)
-    lwip, lwip_config = tmp_path / "lwip", tmp_path / "app" / "lwip"
+    root = tmp_path_factory.mktemp("lwip")
+    ws, flags = _setup(root / "live")
+    done = run_uros("build", "--toolchain", "cortex-m7", "-w", str(ws), *flags)
+    shutil.copytree(root / "live", root / "snapshot", symlinks=True)
+    return root, flags, done.stderr
+
+
+@pytest.fixture
+def built_once(_built_once: tuple[Path, list[str], str]) -> tuple[Path, list[str], str]:
+    """The _setup workspace built with the flags of an lwIP build, once for this module, restored
+    for this test at the path it was built in (it changes lwipopts.h): (that folder, the flags, the
+    first build's stderr)."""
+    root, flags, stderr = _built_once
+    return once_then_restored(root / "snapshot", root / "live"), flags, stderr
+
+
+def test_lwip_headers_and_platform_reach_the_micro_ros_compile_only(
+    built_once: tuple[Path, list[str], str],
+) -> None:
+    live, flags, first_stderr = built_once  # the first build: the module's, done the same way
+    ws = live / "ws"
+    lwip, lwip_config = live / "lwip", live / "app" / "lwip"
     build = ["build", "--toolchain", "cortex-m7", "-w", str(ws), *flags]
-    done = run_uros(*build)
-    assert f"IP stack lwip (PLATFORM_NAME LwIP): {lwip}, config {lwip_config}" in done.stderr
+    assert f"IP stack lwip (PLATFORM_NAME LwIP): {lwip}, config {lwip_config}" in first_stderr
     out = ws / "build" / "cortex-m7"
     symbols = _symbols(out / "libmicroros.a")
     assert "T fx_net_mem_1600" in symbols and "T fx_net_platform_LwIP" in symbols
@@ -109,18 +130,20 @@ def test_lwip_headers_and_platform_reach_the_micro_ros_compile_only(tmp_path: Pa
     )
 
 
-def test_uros_yaml_names_the_ip_stack(tmp_path: Path) -> None:
-    """The same keys in uros.yaml, folders relative to the workspace."""
-    need("arm-none-eabi-gcc", "cmake", "ninja")
-    ws, _ = _setup(tmp_path)
+def test_uros_yaml_names_the_ip_stack(built_once: tuple[Path, list[str], str]) -> None:
+    """The same keys in uros.yaml, folders relative to the workspace (built here after the module's
+    build with the flags: uros.yaml is a changed input, so built again from it)."""
+    live, _, _ = built_once
+    ws = live / "ws"
     (ws / "uros.yaml").write_text(
         "target: cortex-m7\ntransport: udp\nrtos: freertos\nrtos_dir: ../FreeRTOS-Kernel\n"
         "rtos_config: ../app/Core/Inc\nip_stack: lwip\nip_stack_dir: ../lwip\nip_stack_config: ../app/lwip\n"
     )
-    run_uros("build", "-w", str(ws))
+    again = run_uros("build", "-w", str(ws))
+    assert "changed since the last build:" in again.stderr and "workspace settings" in again.stderr
     out = ws / "build" / "cortex-m7"
     stack = json.loads((out / "build-info.json").read_text())["ip_stack"]
-    assert (stack["dir"], stack["config"]) == (str(tmp_path / "lwip"), str(tmp_path / "app" / "lwip"))
+    assert (stack["dir"], stack["config"]) == (str(live / "lwip"), str(live / "app" / "lwip"))
     assert "T fx_net_platform_LwIP" in _symbols(out / "libmicroros.a")
 
 

@@ -25,7 +25,7 @@ from pathlib import Path
 import pytest
 from fixture_rtos import FREERTOS_CONFIG_H, make_standin_kernel, write_config
 from fixture_ws import add_plain_package
-from uros_helpers import need, run_uros, run_uros_here
+from uros_helpers import need, once_then_restored, run_uros, run_uros_here
 
 pytestmark = [pytest.mark.integration, pytest.mark.colcon]
 
@@ -96,13 +96,37 @@ def _firmware(
     return subprocess.run(["cmake", "--build", str(build)], capture_output=True, text=True)
 
 
-def test_freertos_headers_reach_the_micro_ros_compile_only(tmp_path: Path) -> None:
+def _rtos_build(ws: Path, kernel: Path, config: Path) -> list[str]:
+    return ["build", "--toolchain", "cortex-m7", "-w", str(ws), "--rtos", "freertos",
+            "--rtos-dir", str(kernel), "--rtos-config", str(config)]  # fmt: skip
+
+
+@pytest.fixture(scope="module")
+def _built_once(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, str]:
     need("arm-none-eabi-gcc", "cmake", "ninja")
-    ws, kernel, config = _setup(tmp_path)
-    rtos = ["--rtos", "freertos", "--rtos-dir", str(kernel), "--rtos-config", str(config)]
-    build = ["build", "--toolchain", "cortex-m7", "-w", str(ws), *rtos]
-    done = run_uros(*build)
-    assert f"RTOS freertos: kernel {kernel}, port {PORT}, config {config}" in done.stderr
+    root = tmp_path_factory.mktemp("rtos")
+    ws, kernel, config = _setup(root / "live")
+    done = run_uros(*_rtos_build(ws, kernel, config))
+    shutil.copytree(root / "live", root / "snapshot", symlinks=True)
+    return root, done.stderr
+
+
+@pytest.fixture
+def built_once(_built_once: tuple[Path, str]) -> tuple[Path, str]:
+    """The _setup workspace built with the flags of an RTOS build, once for this module, restored
+    for this test at the path it was built in (it changes the config): (that folder, the first
+    build's stderr)."""
+    root, stderr = _built_once
+    return once_then_restored(root / "snapshot", root / "live"), stderr
+
+
+def test_freertos_headers_reach_the_micro_ros_compile_only(
+    built_once: tuple[Path, str], tmp_path: Path
+) -> None:
+    live, first_stderr = built_once  # the first build: the module's, done the same way
+    ws, kernel, config = live / "ws", live / "FreeRTOS-Kernel", live / "app" / "Core" / "Inc"
+    build = _rtos_build(ws, kernel, config)
+    assert f"RTOS freertos: kernel {kernel}, port {PORT}, config {config}" in first_stderr
     out = ws / "build" / "cortex-m7"
     assert "T fx_rtos_tick_1000" in _symbols(out / "libmicroros.a")
 
@@ -151,14 +175,16 @@ def test_freertos_headers_reach_the_micro_ros_compile_only(tmp_path: Path) -> No
     assert 'set(MICROROS_RTOS "freertos")' in text
 
 
-def test_uros_yaml_names_the_rtos(tmp_path: Path) -> None:
-    """The same keys in uros.yaml, folders relative to the workspace."""
-    need("arm-none-eabi-gcc", "cmake", "ninja")
-    ws, kernel, config = _setup(tmp_path)
+def test_uros_yaml_names_the_rtos(built_once: tuple[Path, str]) -> None:
+    """The same keys in uros.yaml, folders relative to the workspace (built here after the module's
+    build with the flags: uros.yaml is a changed input, so built again from it)."""
+    live, _ = built_once
+    ws, kernel, config = live / "ws", live / "FreeRTOS-Kernel", live / "app" / "Core" / "Inc"
     (ws / "uros.yaml").write_text(
         "target: cortex-m7\nrtos: freertos\nrtos_dir: ../FreeRTOS-Kernel\nrtos_config: ../app/Core/Inc\n"
     )
-    run_uros("build", "-w", str(ws))
+    again = run_uros("build", "-w", str(ws))
+    assert "changed since the last build:" in again.stderr and "workspace settings" in again.stderr
     out = ws / "build" / "cortex-m7"
     rtos = json.loads((out / "build-info.json").read_text())["rtos"]
     assert (rtos["kernel"], rtos["config"]) == (str(kernel), str(config))
