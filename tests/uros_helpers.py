@@ -263,7 +263,8 @@ def fake_upstream(root: Path, distro_names: tuple[str, ...]) -> Path:
             path = root / key.replace("/", "+")
             if not path.exists():
                 path.mkdir()
-                git_out("init", "-q", "-b", repo.version, cwd=path)
+                # no sample hooks: fewer files to copy for each test
+                git_out("init", "-q", "--template=", "-b", repo.version, cwd=path)
                 (path / "README").write_text(f"fake {key}\n")
                 git_commit(path, "initial")
             elif repo.version not in git_out("branch", "--format=%(refname:short)", cwd=path).split():

@@ -95,6 +95,13 @@ def upstream(_upstream_snapshot: Path, tmp_path: Path) -> Path:
     return Path(shutil.copytree(_upstream_snapshot, tmp_path / "upstream", symlinks=True))
 
 
+@pytest.fixture
+def upstream_to_read(_upstream_snapshot: Path) -> Path:
+    """The fake upstream of :func:`upstream` itself, not a copy: for a test that only clones and
+    fetches from it (a commit or a branch changed there would reach this worker's later tests)."""
+    return _upstream_snapshot
+
+
 @pytest.fixture(scope="session")
 def spanish_env(tmp_path_factory: pytest.TempPathFactory) -> dict[str, str]:
     """The environment of a Spanish-speaking user (es_ES.UTF-8): the installed locale, or one

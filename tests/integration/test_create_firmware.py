@@ -15,20 +15,29 @@ from uros_helpers import git_commit, git_out, need, run_uros, run_uros_here, ups
 pytestmark = pytest.mark.integration
 
 
-def _interface_pkg(tmp_path: Path) -> Path:
-    msg = tmp_path / "CmdVel.msg"
+@pytest.fixture(scope="module")
+def _interface_made(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The interface package `uros interface new` makes, once for this module."""
+    folder = tmp_path_factory.mktemp("interface")
+    msg = folder / "CmdVel.msg"
     msg.write_text("int32 left_rpm\nint32 right_rpm\n")
-    srv = tmp_path / "GetTime.srv"
+    srv = folder / "GetTime.srv"
     srv.write_text("int64 time_ms_req\n---\nint64 time_ms_res\n")
-    out = tmp_path / "eic_demo_interface"
+    out = folder / "eic_demo_interface"
     run_uros(
         "interface", "new", "eic_demo_interface", "--msg", str(msg), "--srv", str(srv), "--output", str(out)
     )
     return out
 
 
-def test_create_lock_force_and_locked(upstream: Path, tmp_path: Path) -> None:
-    pkg = _interface_pkg(tmp_path)
+@pytest.fixture
+def interface_pkg(_interface_made: Path, tmp_path: Path) -> Path:
+    """A copy of that package of this test's own (tests edit it): tmp_path/eic_demo_interface."""
+    return Path(shutil.copytree(_interface_made, tmp_path / "eic_demo_interface"))
+
+
+def test_create_lock_force_and_locked(upstream: Path, tmp_path: Path, interface_pkg: Path) -> None:
+    pkg = interface_pkg
     fw = tmp_path / "firmware"
     base = [
         "create-firmware",
@@ -55,7 +64,7 @@ def test_create_lock_force_and_locked(upstream: Path, tmp_path: Path) -> None:
 
     # an existing workspace is an error naming --force; nothing changes
     (fw / "colcon.meta").write_text('{"names": {"rcl": {"cmake-args": ["-DMINE=1"]}}}\n')
-    proc = run_uros(*base, check=False)
+    proc = run_uros_here(*base, check=False)  # refused before any process starts
     assert proc.returncode == 2 and "--force" in proc.stderr
 
     # upstream moves on; --force re-creates at the new commit and keeps the user's meta and extras
@@ -73,9 +82,9 @@ def test_create_lock_force_and_locked(upstream: Path, tmp_path: Path) -> None:
     assert head == rcl["commit"] != new_head
 
 
-def test_missing_branch_names_repo_and_cleans_up(upstream: Path, tmp_path: Path) -> None:
+def test_missing_branch_names_repo_and_cleans_up(upstream_to_read: Path, tmp_path: Path) -> None:
     fw = tmp_path / "fw"
-    args = ["create-firmware", "--workspace", str(fw), "--no-dev-build", *upstream_mirror(upstream)]
+    args = ["create-firmware", "--workspace", str(fw), "--no-dev-build", *upstream_mirror(upstream_to_read)]
     args += ["--mirror-override", "uros/rclc=@no-such-branch"]
     proc = run_uros(*args, check=False)
     assert proc.returncode == 4, proc.stderr
@@ -87,13 +96,15 @@ def test_missing_branch_names_repo_and_cleans_up(upstream: Path, tmp_path: Path)
     assert proc.returncode == 4 and fw.is_dir()
 
 
-def test_a_source_git_cannot_read_says_so_not_a_missing_branch(upstream: Path, tmp_path: Path) -> None:
+def test_a_source_git_cannot_read_says_so_not_a_missing_branch(
+    upstream_to_read: Path, tmp_path: Path
+) -> None:
     """git's failure is classified once (sources/clones.py): a folder that is no repository is a
     source that cannot be reached, so the hint does not send the user looking for a branch."""
     empty = tmp_path / "not-a-repo"
     empty.mkdir()
     fw = tmp_path / "fw"
-    args = ["create-firmware", "--workspace", str(fw), "--no-dev-build", *upstream_mirror(upstream)]
+    args = ["create-firmware", "--workspace", str(fw), "--no-dev-build", *upstream_mirror(upstream_to_read)]
     proc = run_uros(*args, "--mirror-override", f"uros/rclc={empty}@humble", check=False)
     assert proc.returncode == 4, proc.stderr
     line = next(x for x in proc.stderr.splitlines() if x.startswith("error:"))
@@ -124,10 +135,10 @@ def test_bad_input(tmp_path: Path, args: list[str], expected: str) -> None:
     assert not fw.exists()
 
 
-def test_add_package_keeps_in_sync(upstream: Path, tmp_path: Path) -> None:
+def test_add_package_keeps_in_sync(upstream_to_read: Path, tmp_path: Path, interface_pkg: Path) -> None:
     fw = tmp_path / "firmware"
-    run_uros("create-firmware", "--workspace", str(fw), "--no-dev-build", *upstream_mirror(upstream))
-    pkg = _interface_pkg(tmp_path)
+    run_uros("create-firmware", "--workspace", str(fw), "--no-dev-build", *upstream_mirror(upstream_to_read))
+    pkg = interface_pkg
     run_uros("add-package", str(pkg), "--workspace", str(fw))
     copy = fw / "mcu_ws/extra_packages/eic_demo_interface"
     assert (copy / "srv/GetTime.srv").is_file()
@@ -137,18 +148,20 @@ def test_add_package_keeps_in_sync(upstream: Path, tmp_path: Path) -> None:
     ws, cfg = Workspace.open_firmware(fw)
     ws.sync_extra_packages(cfg)  # what `uros build` does first
     assert "lift" in (copy / "msg/CmdVel.msg").read_text()
-    proc = run_uros("add-package", str(tmp_path), "--workspace", str(fw), check=False)
+    proc = run_uros_here("add-package", str(tmp_path), "--workspace", str(fw), check=False)  # refused
     assert proc.returncode == 2 and "no package.xml" in proc.stderr
 
 
-def test_add_package_keeps_comments_and_refuses_duplicates(upstream: Path, tmp_path: Path) -> None:
+def test_add_package_keeps_comments_and_refuses_duplicates(
+    upstream_to_read: Path, tmp_path: Path, interface_pkg: Path
+) -> None:
     """Issue 16, item 8: add-package rewrote uros.yaml (the user's comments gone) and took a second
     folder with a package name the workspace already had (colcon: duplicate package names)."""
     fw = tmp_path / "firmware"
-    run_uros("create-firmware", "--workspace", str(fw), "--no-dev-build", *upstream_mirror(upstream))
+    run_uros("create-firmware", "--workspace", str(fw), "--no-dev-build", *upstream_mirror(upstream_to_read))
     config = fw / "uros.yaml"
     config.write_text("# our board: keep this note\n" + config.read_text() + "target: cortex-m7  # the H7\n")
-    pkg = _interface_pkg(tmp_path)
+    pkg = interface_pkg
     run_uros("add-package", str(pkg), "--workspace", str(fw))
     text = config.read_text()
     assert text.startswith("# our board: keep this note\n") and "target: cortex-m7  # the H7" in text
@@ -157,7 +170,7 @@ def test_add_package_keeps_comments_and_refuses_duplicates(upstream: Path, tmp_p
     assert "already in uros.yaml" in again.stderr and config.read_text() == text
     twin = tmp_path / "elsewhere" / "eic_demo_interface"
     shutil.copytree(pkg, twin)
-    proc = run_uros("add-package", str(twin), "--workspace", str(fw), check=False)
+    proc = run_uros_here("add-package", str(twin), "--workspace", str(fw), check=False)  # refused
     assert proc.returncode == 2, proc.stderr
     assert "the workspace already has a package named eic_demo_interface" in proc.stderr
     assert config.read_text() == text
@@ -166,7 +179,7 @@ def test_add_package_keeps_comments_and_refuses_duplicates(upstream: Path, tmp_p
     rclc.mkdir()
     (rclc / "package.xml").write_text(_pkg_xml("rclc"))
     (fw / "mcu_ws/uros/rclc/package.xml").write_text(_pkg_xml("rclc"))
-    proc = run_uros("add-package", str(rclc), "--workspace", str(fw), check=False)
+    proc = run_uros_here("add-package", str(rclc), "--workspace", str(fw), check=False)  # refused
     assert proc.returncode == 2 and "already has a package named rclc (" in proc.stderr
     assert config.read_text() == text and not (fw / "mcu_ws/extra_packages/rclc").exists()
 
@@ -180,19 +193,19 @@ def _pkg_xml(name: str) -> str:
     )
 
 
-def test_target_prerequisites_are_checked_before_cloning(upstream: Path, tmp_path: Path) -> None:
+def test_target_prerequisites_are_checked_before_cloning(upstream_to_read: Path, tmp_path: Path) -> None:
     fw = tmp_path / "fw"
     # esp32s3's compiler is not packaged: exit 3 with the install hint, nothing cloned or left behind
-    env = {k: v for k, v in __import__("os").environ.items() if k not in ("IDF_PATH", "IDF_TOOLS_PATH")}
-    env["IDF_TOOLS_PATH"] = str(tmp_path / "no-idf")
-    proc = run_uros(
+    # (refused before any process starts: in process)
+    env: dict[str, str | None] = {"IDF_PATH": None, "IDF_TOOLS_PATH": str(tmp_path / "no-idf")}
+    proc = run_uros_here(
         "create-firmware",
         "--workspace",
         str(fw),
         "--no-dev-build",
         "--toolchain",
         "esp32s3",
-        *upstream_mirror(upstream),
+        *upstream_mirror(upstream_to_read),
         check=False,
         env=env,
     )
@@ -207,13 +220,13 @@ def test_target_prerequisites_are_checked_before_cloning(upstream: Path, tmp_pat
         "--no-dev-build",
         "--toolchain",
         "cortex-m7",
-        *upstream_mirror(upstream),
+        *upstream_mirror(upstream_to_read),
     )
     assert (fw / "uros.lock").is_file()
 
 
 @pytest.mark.colcon
-def test_firmware_workspace_builds_end_to_end(upstream: Path, tmp_path: Path) -> None:
+def test_firmware_workspace_builds_end_to_end(upstream_to_read: Path, tmp_path: Path) -> None:
     """create-firmware + uros build through the firmware-workspace path (dev_ws, workspace meta,
     extra packages) with the real colcon and arm-none-eabi-gcc; the upstreams hold fixture packages."""
     from fixture_ws import make_fixture_workspace
@@ -221,7 +234,7 @@ def test_firmware_workspace_builds_end_to_end(upstream: Path, tmp_path: Path) ->
     need("arm-none-eabi-gcc")
     # A host tool in the dev workspace: an MCU package finds it through dev_ws/install.
     host = tmp_path / "up" / "ament+ament_cmake"
-    shutil.copytree(upstream / "ament+ament_cmake", host)
+    shutil.copytree(upstream_to_read / "ament+ament_cmake", host)
     (host / "host_tool").mkdir()
     (host / "host_tool/package.xml").write_text(
         "<package format='3'><name>host_tool</name><version>0.1.0</version><description>d</description>"
@@ -248,7 +261,7 @@ def test_firmware_workspace_builds_end_to_end(upstream: Path, tmp_path: Path) ->
     git_commit(host, "host tool")
     # The MCU sources: the fixture packages inside the micro-ROS rclc repository.
     mcu = tmp_path / "up" / "ros2+rclc"
-    shutil.copytree(upstream / "ros2+rclc", mcu)
+    shutil.copytree(upstream_to_read / "ros2+rclc", mcu)
     fixture = make_fixture_workspace(tmp_path / "fixture")
     for pkg in (fixture / "mcu_ws" / "src").iterdir():
         if pkg.name != "fx_skip_cpp":
@@ -278,7 +291,7 @@ def test_firmware_workspace_builds_end_to_end(upstream: Path, tmp_path: Path) ->
         "cortex-m7",
         "--extra-package",
         str(extra),
-        *upstream_mirror(upstream),
+        *upstream_mirror(upstream_to_read),
         "--mirror-override",
         f"ament/ament_cmake={host}",
         "--mirror-override",
@@ -327,19 +340,16 @@ def test_firmware_workspace_builds_end_to_end(upstream: Path, tmp_path: Path) ->
     assert rows["fx_extra"]["commit"] is None  # an extra package: no lock entry
     # a key uros does not know is an error naming file and line, before anything runs
     (fw / "uros.yaml").write_text(yaml.safe_dump(cfg) + "tragets: [rp2040]\n")
-    proc = run_uros("build", cwd=fw, check=False)
+    proc = run_uros_here("build", cwd=fw, check=False)  # refused before any process starts
     lines = len(yaml.safe_dump(cfg).splitlines())
     assert proc.returncode == 2 and f"uros.yaml:{lines + 1}: tragets: unknown key" in proc.stderr, proc.stderr
 
 
-def test_add_package_from_a_git_url(upstream: Path, tmp_path: Path) -> None:
+def test_add_package_from_a_git_url(upstream_to_read: Path, tmp_path: Path, interface_pkg: Path) -> None:
     fw = tmp_path / "firmware"
-    run_uros("create-firmware", "--workspace", str(fw), "--no-dev-build", *upstream_mirror(upstream))
+    run_uros("create-firmware", "--workspace", str(fw), "--no-dev-build", *upstream_mirror(upstream_to_read))
     repo = tmp_path / "my_msgs_repo"
-    pkg = _interface_pkg(tmp_path)
-    import shutil
-
-    shutil.copytree(pkg, repo / "eic_demo_interface")
+    shutil.copytree(interface_pkg, repo / "eic_demo_interface")
     git_out("init", "-q", "-b", "main", cwd=repo)
     git_commit(repo, "interfaces")
     run_uros("add-package", f"file://{repo}", "--version", "main", "--workspace", str(fw))
@@ -369,12 +379,12 @@ def test_distros_and_interface_checks_through_the_cli(tmp_path: Path) -> None:
 
 @pytest.mark.colcon
 def test_clone_error_is_in_english_in_a_spanish_locale(
-    upstream: Path, tmp_path: Path, spanish_env: dict[str, str]
+    upstream_to_read: Path, tmp_path: Path, spanish_env: dict[str, str]
 ) -> None:
     """git speaks Spanish there ("Rama remota ... no encontrada"); uros's error line quotes git, so
     the tools it runs print their messages in English (LC_MESSAGES=C)."""
     fw = tmp_path / "fw"
-    args = ["create-firmware", "--workspace", str(fw), "--no-dev-build", *upstream_mirror(upstream)]
+    args = ["create-firmware", "--workspace", str(fw), "--no-dev-build", *upstream_mirror(upstream_to_read)]
     proc = run_uros(*args, "--mirror-override", "uros/rclc=@no-such-branch", check=False, env=spanish_env)
     assert proc.returncode == 4, proc.stderr
     line = next(x for x in proc.stderr.splitlines() if x.startswith("error:"))
@@ -426,9 +436,9 @@ def test_force_replaces_only_what_uros_cloned(upstream: Path, tmp_path: Path) ->
     assert (fw / "mcu_ws/notes.txt").is_file() and not (fw / "mcu_ws/uros/rcl").exists()
 
 
-def test_force_keeps_a_clone_with_local_commits(upstream: Path, tmp_path: Path) -> None:
+def test_force_keeps_a_clone_with_local_commits(upstream_to_read: Path, tmp_path: Path) -> None:
     fw = tmp_path / "firmware"
-    base = ["create-firmware", "--workspace", str(fw), "--no-dev-build", *upstream_mirror(upstream)]
+    base = ["create-firmware", "--workspace", str(fw), "--no-dev-build", *upstream_mirror(upstream_to_read)]
     run_uros(*base)
     mine = git_commit(fw / "mcu_ws/uros/rclc", "my fix")
     before = _tree(fw)
@@ -451,7 +461,7 @@ def test_force_keeps_a_clone_with_local_commits(upstream: Path, tmp_path: Path) 
     ],
 )
 def test_force_refuses_folders_uros_did_not_make(
-    upstream: Path, tmp_path: Path, setup: str, expected: str
+    upstream_to_read: Path, tmp_path: Path, setup: str, expected: str
 ) -> None:
     fw = tmp_path / "firmware"
     _pkg(fw / "mcu_ws/uros/rclc", "my_rclc")
@@ -461,13 +471,13 @@ def test_force_refuses_folders_uros_did_not_make(
     if setup == "crafted-lock":
         (fw / "uros.lock").write_text(json.dumps({"repositories": {"../mine": {"commit": "c" * 40}}}))
     before = _tree(tmp_path)
-    proc = run_uros(
+    proc = run_uros_here(  # refused before any process starts
         "create-firmware",
         "--workspace",
         str(fw),
         "--no-dev-build",
         "--force",
-        *upstream_mirror(upstream),
+        *upstream_mirror(upstream_to_read),
         check=False,
     )
     assert proc.returncode == 2, proc.stderr

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 import yaml
-from uros_helpers import fake_upstream, git_commit, git_out, run_uros, run_uros_here, upstream_mirror
+from uros_helpers import git_commit, git_out, run_uros, run_uros_here, upstream_mirror
 
 pytestmark = pytest.mark.integration
 
@@ -98,8 +98,8 @@ def test_a_failed_fetch_changes_nothing(upstream: Path, tmp_path: Path) -> None:
     assert (fw / "uros.lock").read_text() == before and _heads(fw) == heads
 
 
-def test_update_to_another_distro_keeps_the_users_config(upstream: Path, tmp_path: Path) -> None:
-    fw = _workspace(upstream, tmp_path / "fw")
+def test_update_to_another_distro_keeps_the_users_config(upstream_to_read: Path, tmp_path: Path) -> None:
+    fw = _workspace(upstream_to_read, tmp_path / "fw")
     proc = run_uros("update", "-w", str(fw), "--distro", "iron")
     lock = json.loads((fw / "uros.lock").read_text())
     assert lock["distro"] == "iron" and len(lock["repositories"]) == 34
@@ -126,11 +126,12 @@ def test_update_outside_a_workspace_is_one_line(tmp_path: Path) -> None:
     assert f"--workspace {tmp_path}: not a firmware workspace (no uros.yaml)" in proc.stderr
 
 
-def test_a_colcon_ignore_the_repository_starts_tracking_is_no_obstacle(tmp_path: Path) -> None:
+def test_a_colcon_ignore_the_repository_starts_tracking_is_no_obstacle(
+    upstream: Path, tmp_path: Path
+) -> None:
     """micro-ROS/rcl tracks rcl_yaml_param_parser/COLCON_IGNORE on some branches, where humble's
     table asks uros to ignore that folder: uros's own untracked marker must neither block the
     checkout nor count as the user's change."""
-    upstream = fake_upstream(tmp_path / "upstream", ("humble",))
     fw = _workspace(upstream, tmp_path / "fw")
     rcl = upstream / "micro-ROS+rcl"
     (rcl / "rcl_yaml_param_parser").mkdir()
@@ -149,8 +150,8 @@ def test_a_colcon_ignore_the_repository_starts_tracking_is_no_obstacle(tmp_path:
     assert git_out("status", "--porcelain", cwd=fw / "mcu_ws/uros/rcl") == ""
 
 
-def test_before_a_day_with_no_commits_changes_nothing(upstream: Path, tmp_path: Path) -> None:
-    fw = _workspace(upstream, tmp_path / "fw")
+def test_before_a_day_with_no_commits_changes_nothing(upstream_to_read: Path, tmp_path: Path) -> None:
+    fw = _workspace(upstream_to_read, tmp_path / "fw")
     before = (fw / "uros.lock").read_text()
     proc = run_uros("update", "-w", str(fw), "--before", "2001-01-01", check=False)
     assert proc.returncode == 2, proc.stderr
