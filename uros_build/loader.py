@@ -5,12 +5,11 @@ use to turn the parsed data into frozen dataclasses. Nothing past a loader sees 
 
 from __future__ import annotations
 
+import functools
 import json
 from collections.abc import Mapping
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
-
-import yaml
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 from uros_build import resources
 from uros_build.errors import ConfigError, did_you_mean
@@ -47,32 +46,27 @@ class LineDict(dict[Any, Any]):
     key_lines: dict[str, int]
 
 
-class DuplicateKey(yaml.MarkedYAMLError):
-    """A key given twice in one mapping: YAML's own rule (keys are unique), which PyYAML does not
-    enforce (https://github.com/yaml/pyyaml/issues/165): the last one would silently win."""
+if TYPE_CHECKING:
+    import yaml
 
-    def __init__(self, key: str, first: int, mark: yaml.Mark) -> None:
-        super().__init__(problem=f"{key}: given twice (first on line {first})", problem_mark=mark)
-        self.key = key
-
-
-if TYPE_CHECKING:  # what the mixin below extends, to the type checker (its stubs take loaders only)
-    _Constructor = yaml.SafeLoader
+    _Constructor = yaml.SafeLoader  # what the mixin below extends, to the type checker
 else:
-    _Constructor = yaml.constructor.SafeConstructor
+    _Constructor = object  # at run time: the loader it is mixed into (PyYAML is imported on first use)
 
 
 class _LineMappings(_Constructor):
-    """Mappings as :class:`LineDict`, a key given twice refused (:class:`DuplicateKey`)."""
+    """Mappings as :class:`LineDict`, a key given twice refused (``DuplicateKey``)."""
 
     def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict[Any, Any]:
+        import yaml
+
         seen: dict[tuple[str, str], int] = {}
         for key_node, _value in node.value:
             # a merge key (<<) may bring keys that the mapping itself then overrides: YAML allows that
             if isinstance(key_node, yaml.ScalarNode) and key_node.tag != "tag:yaml.org,2002:merge":
                 ident = (key_node.tag, key_node.value)
                 if ident in seen:
-                    raise DuplicateKey(str(key_node.value), seen[ident], key_node.start_mark)
+                    raise _loaders().duplicate(str(key_node.value), seen[ident], key_node.start_mark)
                 seen[ident] = key_node.start_mark.line + 1
         out = LineDict()
         out.update(super().construct_mapping(node, deep=deep))
@@ -80,50 +74,72 @@ class _LineMappings(_Constructor):
         return out
 
 
-class _LineLoader(_LineMappings, yaml.SafeLoader):
-    """PyYAML's pure-Python SafeLoader: the reference, and the one whose error messages uros prints."""
+class _Loaders(NamedTuple):
+    pure: type[Any]  # PyYAML's pure-Python SafeLoader: the reference, whose error messages uros prints
+    libyaml: type[Any] | None  # the same over libyaml's parser (None: PyYAML without it)
+    duplicate: type[Any]  # the error of a key given twice
 
 
-_LineLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _LineLoader.construct_mapping)
+@functools.cache
+def _loaders() -> _Loaders:
+    """The loaders, made on the first YAML file read: a command that reads none (`uros info`,
+    `uros export`, `--version`) does not import PyYAML (start-up cost, ~0.012 s).
 
-# The same over libyaml's parser when PyYAML has it (yaml.__with_libyaml__), for the data files uros
-# ships only (toolchains/, meta/: every `uros build` reads three, ~0.02 s of its start through the
-# pure-Python scanner and parser, ~10x less through libyaml). Scalars are resolved and constructed
-# by the same Python classes (SafeConstructor, Resolver); the two parsers differ only on text that
-# PyYAML refuses and libyaml takes (a tab in some places, `|#`, ...), which a user's file could hold
-# and the shipped ones do not: tests/unit/test_loader.py checks that every shipped file gives the
-# same data and key lines both ways. A user's file always gets _LineLoader's verdict and message.
-_CLineLoader: type[_LineMappings] | None = None
-if getattr(yaml, "__with_libyaml__", False):
+    libyaml's is for the data files uros ships only (toolchains/, meta/: every `uros build` reads
+    three, ~0.02 s of its start through the pure-Python scanner and parser, ~10x less through
+    libyaml). Scalars are resolved and constructed by the same Python classes (SafeConstructor,
+    Resolver); the two parsers differ only on text that PyYAML refuses and libyaml takes (a tab in
+    some places, `|#`, ...), which a user's file could hold and the shipped ones do not:
+    tests/unit/test_loader.py checks that every shipped file gives the same data and key lines both
+    ways. A user's file always gets the pure-Python loader's verdict and message."""
+    import yaml
 
-    class _CLine(_LineMappings, yaml.CSafeLoader):
-        """_LineLoader over libyaml's parser."""
+    class DuplicateKey(yaml.MarkedYAMLError):
+        """A key given twice in one mapping: YAML's own rule (keys are unique), which PyYAML does not
+        enforce (https://github.com/yaml/pyyaml/issues/165): the last one would silently win."""
 
-    _CLine.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _CLine.construct_mapping)
-    _CLineLoader = _CLine
+        def __init__(self, key: str, first: int, mark: yaml.Mark) -> None:
+            super().__init__(problem=f"{key}: given twice (first on line {first})", problem_mark=mark)
+            self.key = key
+
+    class LineLoader(_LineMappings, yaml.SafeLoader):
+        pass
+
+    LineLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, LineLoader.construct_mapping)
+    if not getattr(yaml, "__with_libyaml__", False):
+        return _Loaders(LineLoader, None, DuplicateKey)
+
+    class CLineLoader(_LineMappings, yaml.CSafeLoader):
+        pass
+
+    CLineLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, CLineLoader.construct_mapping)
+    return _Loaders(LineLoader, CLineLoader, DuplicateKey)
 
 
-def _loader_for(path: Path) -> type[_LineMappings]:
+def _loader_for(path: Path) -> type[Any]:
     """libyaml's loader for a data file uros ships (under its toolchains/ or meta/ folder), when
     PyYAML has it; else the pure-Python one."""
-    if _CLineLoader is None:
-        return _LineLoader
+    found = _loaders()
+    if found.libyaml is None:
+        return found.pure
     where = path.resolve()
     for name in ("toolchains", "meta"):
         try:
             if where.is_relative_to(resources.data_dir(name)):
-                return _CLineLoader
+                return found.libyaml
         except FileNotFoundError:  # not in this installation: nothing of it is read
             pass
-    return _LineLoader
+    return found.pure
 
 
 def load_yaml(path: Path, flag: str = "", hint: str | None = None) -> Any:
     """Parsed YAML whose mappings know their keys' lines (:class:`LineDict`)."""
+    import yaml
+
     text = read_text(path, flag, hint)
     try:
         return yaml.load(text, Loader=_loader_for(path))  # a SafeLoader: plain data types only
-    except DuplicateKey as exc:
+    except _loaders().duplicate as exc:
         prefix = f"{flag} " if flag else ""
         line = exc.problem_mark.line + 1 if exc.problem_mark is not None else 0
         raise ConfigError(

@@ -186,17 +186,17 @@ def _with_lines(data: Any) -> Any:
     return data
 
 
-@pytest.mark.skipif(loader._CLineLoader is None, reason="PyYAML without libyaml")
+@pytest.mark.skipif(loader._loaders().libyaml is None, reason="PyYAML without libyaml")
 def test_shipped_files_parse_the_same_with_libyaml() -> None:
     """The data files uros ships are read through libyaml (start-up cost): each gives the same data,
     and the same key lines, as through PyYAML's pure-Python loader (the one user files get)."""
-    files = _shipped_yaml()
+    files, found = _shipped_yaml(), loader._loaders()
     assert len(files) > 30
     for path in files:
-        assert loader._loader_for(path) is loader._CLineLoader, path
+        assert loader._loader_for(path) is found.libyaml, path
         text = path.read_text(encoding="utf-8")
-        pure = yaml.load(text, Loader=loader._LineLoader)
-        assert _with_lines(yaml.load(text, Loader=loader._CLineLoader)) == _with_lines(pure), path
+        pure = yaml.load(text, Loader=found.pure)
+        assert _with_lines(yaml.load(text, Loader=found.libyaml)) == _with_lines(pure), path
         assert loader.load_yaml(path) == pure
 
 
@@ -205,6 +205,6 @@ def test_user_files_get_the_pure_python_loader(tmp_path: Path) -> None:
     prints: libyaml takes some text it refuses (a block scalar's header followed by `#`)."""
     path = tmp_path / "profile.yaml"
     path.write_text("name: |#x\n", encoding="utf-8")
-    assert loader._loader_for(path) is loader._LineLoader
+    assert loader._loader_for(path) is loader._loaders().pure
     err = _error(loader.load_yaml, path)
     assert err.message.startswith(f"{path}:1:8: not valid YAML: expected ")

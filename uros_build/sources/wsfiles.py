@@ -13,8 +13,6 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
-import yaml
-
 from uros_build import __version__, defaults, loader
 from uros_build.errors import ConfigError, did_you_mean
 from uros_build.files import write_if_changed
@@ -164,6 +162,8 @@ def config_text(cfg: WorkspaceConfig) -> str:
     lists = {"targets": cfg.targets, "set": cfg.set, "packages": cfg.packages}
     data.update({k: list(v) for k, v in lists.items() if v})
     header = f"# Written by uros {__version__} create-firmware; edit freely (uros build reads it).\n"
+    import yaml  # here and in the edits below: most starts write no uros.yaml (start-up cost)
+
     return header + yaml.safe_dump(data, sort_keys=True)
 
 
@@ -175,6 +175,8 @@ def with_distro(text: str, distro: str, source: str) -> str:
     """uros.yaml's text with its top-level ``distro:`` line set to ``distro``, everything else (the
     user's comments, order, other keys) as it was (pure). A file whose distro is not on one plain
     line is refused rather than rewritten; a file without one (a build needs none) gets one at its end."""
+    import yaml
+
     pattern = re.compile(r"^distro:[ \t]*([^#\n]*?)[ \t]*(#.*)?$", re.MULTILINE)
     found = list(pattern.finditer(text))
     if not found and not parse_config(yaml.safe_load(text) or {}, source).distro:
@@ -192,6 +194,8 @@ def with_distro(text: str, distro: str, source: str) -> str:
 
 
 def _checked_distro(edited: str, distro: str, source: str) -> str:
+    import yaml
+
     if parse_config(yaml.safe_load(edited), source).distro != distro:
         raise ConfigError(f"{source}: could not set 'distro: {distro}'", "set it in the file yourself")
     return edited
@@ -202,6 +206,8 @@ def with_extra_package(text: str, entry: str, source: str) -> str:
     other line (the user's comments, order, keys) as it was (pure). The value is written as a JSON
     string, which YAML reads as the same string whatever it holds. A list uros cannot extend by a
     line edit is refused rather than the file rewritten."""
+    import yaml
+
     value = json.dumps(entry)
     before = parse_config(yaml.safe_load(text) or {}, source).extra_packages
     lines = text.splitlines(keepends=True)
