@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 from fixture_ws import make_fixture_workspace
-from uros_helpers import need, run_uros, run_uros_here
+from uros_helpers import need, once_then_restored, run_uros, run_uros_here
 
 pytestmark = [pytest.mark.integration, pytest.mark.colcon]
 
@@ -91,12 +91,7 @@ def _board_built(tmp_path_factory: pytest.TempPathFactory) -> Path:
 def board_ws(_board_built: Path) -> Path:
     """The built 'board' workspace, a fresh copy for this test restored where it was built
     (copytree keeps every mtime: the next build of the same command is up to date)."""
-    import shutil
-
-    folder = _board_built / "board"
-    shutil.rmtree(folder)
-    shutil.copytree(_board_built / "snapshot", folder, symlinks=True)
-    return folder / "ws"
+    return once_then_restored(_board_built / "snapshot", _board_built / "board") / "ws"
 
 
 def _board_args(ws: Path, *more: str) -> list[str]:

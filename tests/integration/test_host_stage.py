@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 from fixture_ws import add_vendor_package, make_fixture_workspace
-from uros_helpers import build_fixture, need, run_uros
+from uros_helpers import build_fixture, need, once_then_restored, run_uros
 
 pytestmark = [pytest.mark.integration, pytest.mark.colcon]
 
@@ -110,11 +110,7 @@ def first_build(_first_build: tuple[Path, str]) -> tuple[Path, str]:
     """The module's first build, restored for this test where it was built (copytree keeps every
     mtime: its next build is up to date): (the workspace, that first build's output lines)."""
     snapshot, out = _first_build
-    ws = snapshot.with_name("ws")
-    if ws.exists():
-        shutil.rmtree(ws)
-    shutil.copytree(snapshot, ws, symlinks=True)
-    return ws, out
+    return once_then_restored(snapshot, snapshot.with_name("ws")), out
 
 
 def test_packages_that_compile_nothing_are_built_once_and_the_library_is_unchanged(
