@@ -7,7 +7,11 @@ When stderr is not a terminal (CI, pipes), rich prints plain lines without colou
 
 from __future__ import annotations
 
+import builtins
+import functools
 import json
+import os
+import re
 import sys
 import threading
 import time
@@ -15,14 +19,72 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from rich.console import Console
-from rich.markup import escape
-from rich.text import Text
-
 if TYPE_CHECKING:
+    from rich.console import Console
     from rich.live import Live
+    from rich.text import Text
 
-_err = Console(stderr=True, highlight=False, soft_wrap=True)
+_plain_lock = threading.Lock()
+# What rich's emoji codes look like (``:name:``, rich.emoji's pattern without its variants): a line
+# with one goes through rich, which may replace it.
+_EMOJI_LIKE = re.compile(r":\S*?:")
+
+
+@functools.cache
+def _rich() -> Console:
+    """rich's console for stderr, made on the first line that needs it: importing rich is ~0.05 s
+    of CPU, a seventh of a command's start, and a command whose stderr is a pipe (CI, the tests,
+    scripts) prints only lines :func:`_plain` writes as rich would."""
+    from rich.console import Console
+
+    return Console(stderr=True, highlight=False, soft_wrap=True)
+
+
+def _is_terminal() -> bool:
+    """What rich's Console.is_terminal answers for our console (rich 13-15: TTY_COMPATIBLE, then
+    FORCE_COLOR, then isatty), True where it could be (Jupyter), so that a line rich would
+    colour or render differently always goes through rich."""
+    if hasattr(builtins, "get_ipython"):
+        return True
+    tty_compatible = os.environ.get("TTY_COMPATIBLE", "")
+    if tty_compatible in ("0", "1"):
+        return tty_compatible == "1"
+    force_color = os.environ.get("FORCE_COLOR")
+    if force_color is not None:
+        return force_color != ""
+    try:
+        return sys.stderr.isatty()
+    except (AttributeError, ValueError):
+        return False
+
+
+def _plain(text: str) -> bool:
+    """``text`` (plain, no markup) written as its line if that is exactly what rich would print
+    (no terminal: no colour; printable characters only, so no tab to expand or control code to
+    drop; no trailing whitespace, which rich crops past the width; nothing like an emoji code; no
+    backslash, which rich's markup reads as an escape). False: the caller prints through rich."""
+    if (
+        not text.isprintable()
+        or text != text.rstrip()
+        or "\\" in text
+        or _EMOJI_LIKE.search(text)
+        or _is_terminal()
+    ):
+        return False
+    with _plain_lock:
+        sys.stderr.write(text + "\n")
+        sys.stderr.flush()
+    return True
+
+
+def _print(prefix: str, markup: str, text: str, style: str | None = None) -> None:
+    """A status line: ``prefix`` (plain) then ``text``, as rich prints ``markup`` + ``text``."""
+    if not _plain(prefix + text):
+        from rich.markup import escape
+
+        _rich().print(markup + escape(text), style=style)
+
+
 # The run's log also gets every status line, so that it says what uros decided (what changed, what
 # was pruned, where the output came from, the final error) between the tools' output, as
 # colcon-core's add_file_handler puts its own logger's lines in its per-run log.
@@ -61,29 +123,29 @@ def logged(text: str) -> None:
 
 def step(text: str) -> None:
     _recorded(f"==> {text}")
-    _err.print(f"[bold cyan]==>[/] {escape(text)}")
+    _print("==> ", "[bold cyan]==>[/] ", text)
 
 
 def info(text: str) -> None:
     _recorded(text)
-    _err.print(escape(text))
+    _print("", "", text)
 
 
 def tool_line(text: str) -> None:
     """A line of an external tool's output, shown with --verbose."""
-    _err.print(escape(text), style="dim")
+    _print("", "", text, style="dim")
 
 
 def warn(text: str) -> None:
     _recorded(f"warning: {text}")
-    _err.print(f"[yellow]warning:[/] {escape(text)}")
+    _print("warning: ", "[yellow]warning:[/] ", text)
 
 
 def error(text: str, hint: str | None) -> None:
     _recorded(f"error: {text}" + (f" (hint: {hint})" if hint else ""))
-    _err.print(f"[bold red]error:[/] {escape(text)}")
+    _print("error: ", "[bold red]error:[/] ", text)
     if hint:
-        _err.print(f"[bold]hint:[/] {escape(hint)}")
+        _print("hint: ", "[bold]hint:[/] ", hint)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -105,6 +167,8 @@ class Progress:
 def progress_text(progress: Progress, now: float, width: int = 100) -> Text:
     """The live view's text (pure): a bar, done/total, elapsed time, the packages building now
     with how long each has been at it, longest first."""
+    from rich.text import Text
+
     total = max(progress.total, progress.done + len(progress.running), 1)
     cells = 24
     filled = min(cells, round(cells * progress.done / total))
@@ -132,7 +196,7 @@ class _LiveRenderable:
         self.view = view
 
     def __rich__(self) -> Text:
-        return progress_text(self.view.progress, time.monotonic(), _err.width)
+        return progress_text(self.view.progress, time.monotonic(), _rich().width)
 
 
 class ProgressView:
@@ -143,12 +207,12 @@ class ProgressView:
     def __init__(self, total: int, plain: bool = False) -> None:
         self.progress = Progress(0, total, (), time.monotonic())
         self.live: Live | None = None
-        if _err.is_terminal and not plain:
+        if _is_terminal() and _rich().is_terminal and not plain:
             from rich.live import Live  # a terminal's live view only (start-up cost)
 
             self.live = Live(
                 _LiveRenderable(self),
-                console=_err,
+                console=_rich(),
                 refresh_per_second=4,
                 transient=True,
                 redirect_stderr=False,
@@ -161,7 +225,7 @@ class ProgressView:
         if self.live is None and finished is not None:
             what, package, seconds = finished
             total = max(progress.total, progress.done + len(progress.running))
-            _err.print(escape(f"[{progress.done}/{total}] {what} {package} ({seconds:.1f} s)"))
+            _print("", "", f"[{progress.done}/{total}] {what} {package} ({seconds:.1f} s)")
 
     def stop(self) -> None:
         if self.live is not None:

@@ -25,6 +25,7 @@ TYPE_CHECKING = False
 if TYPE_CHECKING:
     from collections.abc import Callable, Iterator
     from contextlib import AbstractContextManager
+    from pathlib import Path
     from typing import Any, TypeAlias
 
     StrPath: TypeAlias = "str | os.PathLike[str]"
@@ -239,12 +240,36 @@ def locked(folder: StrPath, what: str, command: str = "uros build") -> AbstractC
     return contextlib.contextmanager(_held)(folder, what, command)
 
 
+def _flock_free(lock_path: str) -> int | None:
+    """The lock taken with one flock on the lock file that a run before made, when it is free and
+    nothing about it is unusual: a regular file of this user's, opened without following a link.
+    None (nothing held): filelock takes it, with all its care (creating the file, a symlink, another
+    user's file, a file system without flock, waiting). Both flock the same file, so a run that
+    takes it here and one that takes it through filelock exclude each other; this spares the
+    common case importing filelock (~0.03 s of CPU, a tenth of a command's start)."""
+    if sys.platform == "win32":
+        return None
+    import fcntl
+    import stat
+
+    try:
+        fd = os.open(lock_path, os.O_RDWR | os.O_NOFOLLOW | os.O_NONBLOCK | os.O_CLOEXEC)
+    except OSError:
+        return None
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        found = os.fstat(fd)
+        if stat.S_ISREG(found.st_mode) and found.st_nlink > 0 and found.st_uid == os.geteuid():
+            return fd
+    except OSError:
+        pass
+    os.close(fd)  # closing the file releases a flock it holds
+    return None
+
+
 def _held(folder: StrPath, what: str, command: str) -> Iterator[None]:
     from pathlib import Path
 
-    import filelock
-
-    from uros_build import console
     from uros_build.errors import ConfigError
 
     base = Path(folder)
@@ -255,8 +280,24 @@ def _held(folder: StrPath, what: str, command: str) -> Iterator[None]:
             f"{lock_path}: is a folder, where uros keeps the lock file of {what}",
             "move it away (uros does not remove what it did not write), then run the command again",
         )
-    lock = filelock.FileLock(str(lock_path))
     owner = base / LOCK_OWNER
+    fd = _flock_free(str(lock_path))
+    if fd is not None:
+        try:
+            owner.write_text(f"{os.getpid()}\n", encoding="utf-8")
+            yield
+        finally:
+            os.close(fd)  # the flock goes with the file's last descriptor
+        return
+    yield from _held_by_filelock(lock_path, owner, what, command)
+
+
+def _held_by_filelock(lock_path: Path, owner: Path, what: str, command: str) -> Iterator[None]:
+    import filelock
+
+    from uros_build import console
+
+    lock = filelock.FileLock(str(lock_path))
     try:
         lock.acquire(timeout=0)
     except filelock.Timeout:

@@ -121,6 +121,36 @@ def test_locked_makes_the_folder_and_names_its_holder(tmp_path: Path) -> None:
         assert (folder / files.LOCK_FILE).exists()
 
 
+@pytest.mark.skipif(os.name != "posix", reason="flock")
+def test_a_lock_taken_again_without_filelock_still_excludes_filelock_and_itself(tmp_path: Path) -> None:
+    """The second take of a lock (its file made by the first) is one flock, without importing
+    filelock; it and filelock's lock on the same file exclude each other both ways."""
+    import filelock
+
+    with files.locked(tmp_path, "cortex-m7"):  # the file made (through filelock)
+        assert files._flock_free(str(tmp_path / files.LOCK_FILE)) is None  # held: not taken twice
+    fd = files._flock_free(str(tmp_path / files.LOCK_FILE))
+    assert fd is not None
+    try:
+        with pytest.raises(filelock.Timeout):
+            filelock.FileLock(str(tmp_path / files.LOCK_FILE)).acquire(timeout=0)
+        assert files._flock_free(str(tmp_path / files.LOCK_FILE)) is None
+    finally:
+        os.close(fd)
+    with files.locked(tmp_path, "cortex-m7"):  # the fast way, released at the end
+        assert files.lock_holder((tmp_path / files.LOCK_OWNER).read_text(encoding="utf-8")) == os.getpid()
+    lock = filelock.FileLock(str(tmp_path / files.LOCK_FILE))
+    lock.acquire(timeout=0)
+    lock.release()
+
+
+@pytest.mark.skipif(os.name != "posix", reason="symlinks and flock")
+def test_a_lock_file_that_is_a_link_is_left_to_filelock(tmp_path: Path) -> None:
+    (tmp_path / "elsewhere").write_text("", encoding="utf-8")
+    (tmp_path / files.LOCK_FILE).symlink_to(tmp_path / "elsewhere")
+    assert files._flock_free(str(tmp_path / files.LOCK_FILE)) is None
+
+
 def test_a_folder_where_the_lock_file_goes_is_refused(tmp_path: Path) -> None:
     (tmp_path / files.LOCK_FILE).mkdir()
     refused = pytest.raises(
