@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
+import contextlib
 import difflib
 import os
 import re
 import xml.etree.ElementTree as ET
-from collections.abc import Iterable
+from collections.abc import Collection, Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -171,3 +172,38 @@ def host_only(packages: list[PackageInfo]) -> list[str]:
         if name in by_name:
             todo.extend(by_name[name].build_deps)
     return sorted(python - needed)
+
+
+# Build types colcon builds through CMake (colcon-ros's ros.cmake and ros.ament_cmake, colcon-cmake's
+# cmake): any other one (ament_python, or one uros does not know) may need colcon's Python extensions.
+CMAKE_BUILD_TYPES = frozenset({"cmake", "ament_cmake"})
+# The files colcon's Python package identification reads (setup.py; setup.cfg beside it)
+# https://github.com/colcon/colcon-core/blob/master/colcon_core/package_identification/python.py
+# https://github.com/colcon/colcon-python-setup-py/blob/master/colcon_python_setup_py/package_identification/python_setup_py.py
+PYTHON_PACKAGE_FILES = frozenset({"setup.py", "setup.cfg"})
+
+
+def builds_python(packages: Iterable[PackageInfo], built: Collection[str]) -> list[str]:
+    """The packages of ``built`` (the names colcon builds) whose package.xml names a build type
+    other than CMake's (pure); a name without a package.xml is a plain CMake package."""
+    return sorted(p.name for p in packages if p.name in built and p.build_type not in CMAKE_BUILD_TYPES)
+
+
+def python_outside_packages(
+    packages: Iterable[PackageInfo], source_dir: Path, files: Iterable[str]
+) -> list[str]:
+    """The setup.py and setup.cfg among ``files`` (paths relative to ``source_dir``, '/'-separated:
+    the workspace's scan, which leaves out COLCON_IGNORE folders as colcon does) that are not in the
+    folder of a package.xml package (pure): colcon would identify a Python package there that uros
+    does not list (one nested in a package's folder, where colcon does not look, is counted too)."""
+    folders = set()
+    for p in packages:
+        with contextlib.suppress(ValueError):
+            rel = p.path.relative_to(source_dir).as_posix()
+            folders.add("" if rel == "." else rel)
+    found = []
+    for path in files:
+        folder, _, name = path.rpartition("/")
+        if name in PYTHON_PACKAGE_FILES and folder not in folders:
+            found.append(path)
+    return sorted(found)

@@ -177,7 +177,7 @@ def _run_colcon(
             # colcon's build, install and log folders: a full disk that colcon reports without a
             # path ("Exception in shell extension 'sh': [Errno 28] ...") is theirs, not the workspace's
             writes_to=plan.target_dir,
-            env=setup.env,
+            env=setup.colcon_env,  # without the extensions this target's colcon never uses
             hint=f"the full output is in {runner.log_path}",
             on_line=on_line,
             quiet=not plan.verbose,  # the command is in the log; the progress says the rest

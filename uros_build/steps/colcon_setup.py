@@ -58,6 +58,16 @@ class ColconSetup:
     building: frozenset[str]  # what colcon builds or skips (building_names)
     stage: hoststage.Stage | None = None  # the host stage this build takes packages from
     shared: tuple[str, ...] = ()  # the packages it takes from there (colcon skips them)
+    # a setup.py or setup.cfg in the sources outside every package.xml folder (colcon would find a
+    # Python package there that uros does not list)
+    loose_python: bool = True
+    blocked: tuple[str, ...] = ()  # extensions this target's colcon runs without (python_blocked)
+
+    @property
+    def colcon_env(self) -> dict[str, str]:
+        """The environment of this target's colcon run: :attr:`env` (which the host stage's colcon
+        also runs in) with :attr:`blocked` added to colcon's blocklist."""
+        return colcon.with_blocked(self.env, self.blocked)
 
     @property
     def build_base(self) -> Path:
@@ -106,7 +116,9 @@ def colcon_setup(
     building = frozenset(building_names(plan, colcon_plan))
     stage = _stage_for(ctx, building, records, env)
     argv = tuple(colcon.colcon_argv(colcon_plan, ctx.facts.colcon))
-    setup = ColconSetup(colcon_plan, argv, env, skipped, building, stage)
+    loose = bool(packages_mod.python_outside_packages(plan.workspace_packages, ws.source_dir, records))
+    blocked = python_blocked(plan, colcon_plan, loose)
+    setup = ColconSetup(colcon_plan, argv, env, skipped, building, stage, loose_python=loose, blocked=blocked)
     # what the stage shares, as its marker says (or, not built yet, every package it will build):
     # built only when colcon is about to run (host_stage.ready), after the team cache was asked
     return sharing(ctx, setup, _expected_shares(plan, stage) if stage is not None else ())
@@ -119,7 +131,21 @@ def sharing(ctx: Context, setup: ColconSetup, shared: tuple[str, ...]) -> Colcon
         return setup
     colcon_plan = dataclasses.replace(setup.plan, packages_skip=shared)
     argv = tuple(colcon.colcon_argv(colcon_plan, ctx.facts.colcon))
-    return dataclasses.replace(setup, plan=colcon_plan, argv=argv, shared=shared)
+    blocked = python_blocked(ctx.plan, colcon_plan, setup.loose_python)
+    return dataclasses.replace(setup, plan=colcon_plan, argv=argv, shared=shared, blocked=blocked)
+
+
+def python_blocked(plan: BuildPlan, colcon_plan: colcon.ColconPlan, loose_python: bool) -> tuple[str, ...]:
+    """colcon's Python package extensions (colcon.PYTHON_EXTENSIONS), blocked for this target's
+    colcon run when it builds no package of another build type than CMake's and the sources hold no
+    ``loose_python`` (pure); () otherwise. What colcon builds is counted from above: every
+    package.xml package its ignores keep, less those it skips (the host stage's), whatever
+    --packages-up-to leaves out."""
+    names = {p.name for p in plan.workspace_packages}
+    built = colcon.kept_by_ignores(colcon_plan, names) - set(colcon_plan.packages_skip)
+    if loose_python or packages_mod.builds_python(plan.workspace_packages, built):
+        return ()
+    return colcon.PYTHON_EXTENSIONS
 
 
 def building_names(plan: BuildPlan, colcon_plan: colcon.ColconPlan) -> set[str]:
