@@ -183,3 +183,27 @@ def test_a_compiler_seed_is_one_language_and_leaves_binutils_to_cmake() -> None:
         assert f'set(CMAKE_{lang}_ARCHIVE_APPEND "<CMAKE_AR> --plugin {plugin} qs <TARGET>' in with_plugin
         assert f'set(CMAKE_{lang}_ARCHIVE_FINISH "")' in with_plugin  # qcs wrote the index: no ranlib
     assert with_plugin.index("include(") < with_plugin.index("ARCHIVE_CREATE")  # after the toolchain's
+
+
+def test_a_kept_render_is_the_render_and_anything_off_renders_again(tmp_path: Path) -> None:
+    """An up-to-date build takes its toolchain texts from the target's toolchain-renders.json (no
+    jinja2): the same request gives the text render_toolchain gives; another request, a changed
+    key or a text that no longer matches its digest gives a fresh render."""
+    import json
+
+    from uros_build.steps.target_kind import RENDERS, rendered_toolchain
+
+    m7 = find_profile("cortex-m7")
+    req = ToolchainRequest(m7, micro_ros=True, command="uros build --toolchain cortex-m7")
+    assert rendered_toolchain(tmp_path, "toolchain.cmake", req) == render_toolchain(req)
+    kept = json.loads((tmp_path / RENDERS).read_text(encoding="utf-8"))
+    kept["toolchain.cmake"]["text"] += "# tampered\n"
+    (tmp_path / RENDERS).write_text(json.dumps(kept), encoding="utf-8")
+    assert rendered_toolchain(tmp_path, "toolchain.cmake", req) == render_toolchain(req)
+    other = replace(req, command="uros build --toolchain cortex-m7 --other")
+    assert rendered_toolchain(tmp_path, "toolchain.cmake", other) == render_toolchain(other)
+    assert rendered_toolchain(tmp_path, "portable", req) == render_toolchain(req)
+    kept = json.loads((tmp_path / RENDERS).read_text(encoding="utf-8"))
+    assert sorted(kept) == ["portable", "toolchain.cmake"]  # one entry each, the other kept
+    (tmp_path / RENDERS).write_text("not json", encoding="utf-8")
+    assert rendered_toolchain(tmp_path, "portable", req) == render_toolchain(req)

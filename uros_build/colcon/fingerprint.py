@@ -18,6 +18,7 @@ Reads and writes files; starts no process.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import os
@@ -64,6 +65,30 @@ def file_sha256(path: Path) -> str:
         for chunk in iter(lambda: handle.read(1 << 20), b""):
             h.update(chunk)
     return h.hexdigest()
+
+
+def program_sha256(path: Path) -> str:
+    """A program's sha256 (the compiler driver's: a build asks four times), hashed once a run for
+    the same file: the cache is keyed by the file's full stat (a write changes its ctime), and
+    lives only as long as the run."""
+    st = os.stat(path)
+    return _program_sha256(str(path), st.st_size, st.st_mtime_ns, st.st_ino, st.st_ctime_ns)
+
+
+@functools.cache
+def _program_sha256(path: str, size: int, mtime: int, inode: int, ctime: int) -> str:
+    return file_sha256(Path(path))
+
+
+@functools.cache
+def uros_code_digest() -> str:
+    """uros's own code by content: its version and every module's bytes (a development checkout
+    changes without a version). Read once a run: the build key and the toolchain's render both
+    ask."""
+    import uros_build
+
+    code = Path(uros_build.__file__).parent
+    return digest(uros_build.__version__, *(p.read_bytes() for p in sorted(code.rglob("*.py"))))
 
 
 def stat_key(path: Path) -> str:

@@ -46,10 +46,9 @@ def build_key(ctx: Context, toolchain_file: Path, parts: Mapping[str, str]) -> s
         Path(profile.source).read_bytes() if profile is not None and Path(profile.source).is_file() else b""
     )
     try:
-        driver = fp.file_sha256(Path(os.path.realpath(facts.gcc))) if facts.gcc else ""
+        driver = fp.program_sha256(Path(os.path.realpath(facts.gcc))) if facts.gcc else ""
     except OSError:
         driver = ""
-    code = Path(uros_build.__file__).parent
     return fp.digest_json(
         {
             "sources": parts["sources"],
@@ -62,7 +61,7 @@ def build_key(ctx: Context, toolchain_file: Path, parts: Mapping[str, str]) -> s
             "rtos": fp.digest_json([rtos.name, list(rtos.port), rtos.headers_sha256] if rtos else None),
             # the IP stack's headers (lwIP's, its port's, lwipopts.h and arch/cc.h) by content
             "ip_stack": fp.digest_json([stack.name, stack.headers_sha256] if stack else None),
-            "uros": fp.digest(__version__, *(p.read_bytes() for p in sorted(code.rglob("*.py")))),
+            "uros": fp.uros_code_digest(),
         }
     )
 

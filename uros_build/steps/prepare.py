@@ -28,7 +28,7 @@ def compiler_identity(facts: HostFacts) -> str:
         return fp.digest("")
     real = Path(os.path.realpath(facts.gcc))
     try:
-        content = fp.file_sha256(real)
+        content = fp.program_sha256(real)
     except OSError:
         content = ""
     return fp.digest(facts.gcc, str(real), facts.gcc_version, content)
