@@ -228,6 +228,10 @@ def fixture_build_args(
 
 # `uros build` of fx_core alone (and what it needs: nothing), the quickest real build
 UP_TO_CORE = ("--packages-up-to", "fx_core")
+# `uros build` of fx_time and fx_core (the C library's micro-ROS-only flags reach fx_time's
+# clock_gettime): the quickest build that needs those flags; its library's members
+UP_TO_TIME = ("--packages-up-to", "fx_time")
+TIME_MEMBERS = 3  # core.c, util.c | time.c
 
 # The built fixture variants of the integration tests (their conftest's `built`), by the arguments
 # of build_fixture that build them: each is made and built once per worker, by the first test that

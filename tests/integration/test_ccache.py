@@ -15,7 +15,7 @@ import sys
 from pathlib import Path
 
 import pytest
-from fixture_ws import make_fixture_workspace
+from fixture_ws import UP_TO_CORE, fixture_build_args, make_fixture_workspace
 from uros_helpers import REPO, build_fixture, env_without, need, run_uros
 
 pytestmark = [pytest.mark.integration, pytest.mark.colcon]
@@ -124,7 +124,8 @@ def test_a_compiler_replaced_with_the_same_size_and_mtime_never_gets_the_old_obj
     """Issue 34, item 7: ccache's default compiler check is the driver's size and mtime, so a
     compiler replaced by one with the same size and mtime got the old compiler's objects back
     (uros saw the change and rebuilt every package, and ccache served each compile). uros sets
-    ccache's compiler check to the driver's content."""
+    ccache's compiler check to the driver's content. fx_mark alone: its object is the one that
+    shows which compiler made it (the fixture's packages added only their fixed cost)."""
     need("arm-none-eabi-gcc", "cmake", "ccache", "arm-none-eabi-strings")
     env = {**os.environ, "CCACHE_DIR": str(tmp_path / "ccache")}
     ws = make_fixture_workspace(tmp_path / "ws")
@@ -135,10 +136,11 @@ def test_a_compiler_replaced_with_the_same_size_and_mtime_never_gets_the_old_obj
     (pkg / "mark.c").write_text("const char *fx_mark(void) { return FX_MARK; }\n")
     prefix = _compiler_folder(tmp_path / "bin", "compiler-one")
     lib = ws / "build" / "cortex-m7-custom" / "libmicroros.a"  # a derived target's folder
-    _build(ws, env, "--compiler-prefix", str(prefix), "--ccache")
+    mark = ("--packages-up-to", "fx_mark", "--compiler-prefix", str(prefix), "--ccache")
+    _build(ws, env, *mark)
     assert b"compiler-one" in lib.read_bytes()
     _compiler_folder(tmp_path / "bin", "compiler-two")
-    second = _build(ws, env, "--compiler-prefix", str(prefix), "--ccache").stderr
+    second = _build(ws, env, *mark).stderr
     assert "the compiler changed" in second, second
     data = lib.read_bytes()
     assert b"compiler-two" in data and b"compiler-one" not in data
@@ -152,7 +154,9 @@ def test_ccache_trouble_falls_back_to_compiling_without_it(tmp_path: Path) -> No
     """Issue 34, item 7: with ccache uninstalled every build failed `[code=126]` (each package's
     CMakeCache.txt held the launcher's path), `--no-ccache` included, until `--rebuild`; an
     unusable CCACHE_DIR (a regular file, a read-only mount) failed the build. Each now compiles
-    without ccache, with one warning where ccache was wanted, and the library is the same bytes."""
+    without ccache, with one warning where ccache was wanted, and the library is the same bytes.
+    fx_core alone (UP_TO_CORE): its CMakeCache.txt holds the launcher's path as every package's
+    does, and the other packages added only their fixed cost to each of the six builds."""
     need("arm-none-eabi-gcc", "cmake", "ccache")
     ws = make_fixture_workspace(tmp_path / "ws")
     tools = tmp_path / "tools"  # the ccache this build finds, and the user then uninstalls
@@ -162,7 +166,13 @@ def test_ccache_trouble_falls_back_to_compiling_without_it(tmp_path: Path) -> No
     env["PATH"] = f"{tools}{os.pathsep}{env['PATH']}"
     env["CCACHE_DIR"] = str(tmp_path / "ccache")
     lib = ws / "build" / "cortex-m7" / "libmicroros.a"
-    assert "ccache: 0 of" in _build(ws, env).stderr
+
+    def build(
+        ws: Path, env: dict[str, str], *more: str, check: bool = True
+    ) -> subprocess.CompletedProcess[str]:
+        return build_fixture(ws, *UP_TO_CORE, *more, env=env, check=check)
+
+    assert "ccache: 0 of" in build(ws, env).stderr
     built = lib.read_bytes()
     source = ws / "mcu_ws" / "src" / "fx_core" / "src" / "core.c"
 
@@ -172,17 +182,17 @@ def test_ccache_trouble_falls_back_to_compiling_without_it(tmp_path: Path) -> No
     (tools / "ccache").unlink()  # uninstalled: its path stays in every package's CMakeCache.txt
     for more in (("--no-ccache",), ()):
         edit()
-        done = _build(ws, env, *more, check=False)
+        done = build(ws, env, *more, check=False)
         assert done.returncode == 0, done.stderr
         assert "ccache:" not in done.stderr and not _ccache_warnings(done.stderr)
         assert lib.read_bytes() == built
 
     (tools / "ccache").symlink_to(shutil.which("ccache", path=os.environ["PATH"]) or "/usr/bin/ccache")
-    assert "ccache: " in _build(ws, env).stderr
+    assert "ccache: " in build(ws, env).stderr
     not_a_folder = tmp_path / "ccache-file"
     not_a_folder.write_text("a file where ccache keeps its cache\n")
     edit()
-    done = _build(ws, {**env, "CCACHE_DIR": str(not_a_folder)}, check=False)
+    done = build(ws, {**env, "CCACHE_DIR": str(not_a_folder)}, check=False)
     assert done.returncode == 0, done.stderr
     (warning,) = _ccache_warnings(done.stderr)
     assert str(not_a_folder) in warning and "compiling without it" in warning, warning
@@ -195,8 +205,7 @@ def test_ccache_trouble_falls_back_to_compiling_without_it(tmp_path: Path) -> No
     read_only = tmp_path / "ccache-ro"
     read_only.mkdir()
     out = tmp_path / "ro"
-    argv = [sys.executable, "-m", "uros_build", "build", "--toolchain", "cortex-m7", "-w", str(ws)]
-    argv += ["--meta", str(ws / "fixture.meta")]
+    argv = [sys.executable, "-m", "uros_build", *fixture_build_args(ws, *UP_TO_CORE)]
     script = (
         f"mount --bind {read_only} {read_only} && mount -o remount,ro,bind {read_only} || exit 99\n"
         f"{shlex.join(argv)} >{out}.out 2>{out}.err; echo $? >{out}.rc\n"
