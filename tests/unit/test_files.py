@@ -122,12 +122,13 @@ def test_locked_makes_the_folder_and_names_its_holder(tmp_path: Path) -> None:
 
 
 @pytest.mark.skipif(os.name != "posix", reason="flock")
-def test_a_lock_taken_again_without_filelock_still_excludes_filelock_and_itself(tmp_path: Path) -> None:
-    """The second take of a lock (its file made by the first) is one flock, without importing
-    filelock; it and filelock's lock on the same file exclude each other both ways."""
+def test_a_lock_taken_without_filelock_still_excludes_filelock_and_itself(tmp_path: Path) -> None:
+    """A lock is one flock, without importing filelock (the file made the first time); it and
+    filelock's lock on the same file exclude each other both ways."""
     import filelock
 
-    with files.locked(tmp_path, "cortex-m7"):  # the file made (through filelock)
+    with files.locked(tmp_path, "cortex-m7"):  # the file made
+        assert (tmp_path / files.LOCK_FILE).is_file()
         assert files._flock_free(str(tmp_path / files.LOCK_FILE)) is None  # held: not taken twice
     fd = files._flock_free(str(tmp_path / files.LOCK_FILE))
     assert fd is not None
@@ -140,7 +141,8 @@ def test_a_lock_taken_again_without_filelock_still_excludes_filelock_and_itself(
     with files.locked(tmp_path, "cortex-m7"):  # the fast way, released at the end
         assert files.lock_holder((tmp_path / files.LOCK_OWNER).read_text(encoding="utf-8")) == os.getpid()
     lock = filelock.FileLock(str(tmp_path / files.LOCK_FILE))
-    lock.acquire(timeout=0)
+    lock.acquire(timeout=0)  # free again, and filelock's hold keeps the fast way out
+    assert files._flock_free(str(tmp_path / files.LOCK_FILE)) is None
     lock.release()
 
 
