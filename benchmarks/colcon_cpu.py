@@ -34,6 +34,8 @@ import sys
 import tempfile
 from pathlib import Path
 
+from startup import run_env  # the checkout first on PYTHONPATH, its own pycache prefix
+
 # run as `python - ARGS...`: colcon_core's main with its own CPU and its children's reported last
 WRAPPER = """
 import atexit, resource, sys
@@ -45,14 +47,6 @@ from colcon_core.command import main
 sys.argv = ["colcon", *sys.argv[1:]]
 sys.exit(main())
 """
-
-
-def run_env(checkout: Path, pycache: Path) -> dict[str, str]:
-    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
-    env["PYTHONPATH"] = str(checkout)
-    env["PYTHONPYCACHEPREFIX"] = str(pycache)
-    env["NO_COLOR"] = "1"
-    return env
 
 
 def children_cpu() -> float:
