@@ -1,5 +1,6 @@
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import stat
@@ -8,7 +9,7 @@ from pathlib import Path
 
 import pytest
 from fixture_ws import VARIANTS, make_fixture_workspace
-from uros_helpers import build_fixture, fake_upstream, need
+from uros_helpers import build_fixture, fake_upstream, git_out, need, run_uros, upstream_mirror
 
 pytestmark = pytest.mark.integration
 
@@ -100,6 +101,33 @@ def upstream_to_read(_upstream_snapshot: Path) -> Path:
     """The fake upstream of :func:`upstream` itself, not a copy: for a test that only clones and
     fetches from it (a commit or a branch changed there would reach this worker's later tests)."""
     return _upstream_snapshot
+
+
+@pytest.fixture(scope="session")
+def _created_snapshot(_upstream_snapshot: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    fw = tmp_path_factory.mktemp("created") / "firmware"
+    run_uros(
+        "create-firmware", "--workspace", str(fw), "--no-dev-build", *upstream_mirror(_upstream_snapshot)
+    )
+    return fw
+
+
+def _copy_created(snapshot: Path, fw: Path) -> Path:
+    """A copy of the created workspace ``snapshot`` at ``fw``, each clone's index refreshed as git
+    would at its first look (a copy's files have new inodes and ctimes, which git's stat cache
+    records): the clones are then byte for byte as create-firmware left them."""
+    shutil.copytree(snapshot, fw, symlinks=True)
+    for clone in json.loads((fw / "uros.lock").read_text())["repositories"]:
+        git_out("update-index", "-q", "--refresh", cwd=fw / clone)
+    return fw
+
+
+@pytest.fixture
+def created(_created_snapshot: Path, tmp_path: Path) -> Path:
+    """``uros create-firmware --workspace W --no-dev-build`` (humble) from :func:`upstream_to_read`,
+    made once per worker: a copy of this test's own at tmp_path/firmware (a created workspace names
+    its own folder nowhere; its clones fetch from that upstream, which the test must not change)."""
+    return _copy_created(_created_snapshot, tmp_path / "firmware")
 
 
 @pytest.fixture(scope="session")

@@ -135,9 +135,8 @@ def test_bad_input(tmp_path: Path, args: list[str], expected: str) -> None:
     assert not fw.exists()
 
 
-def test_add_package_keeps_in_sync(upstream_to_read: Path, tmp_path: Path, interface_pkg: Path) -> None:
-    fw = tmp_path / "firmware"
-    run_uros("create-firmware", "--workspace", str(fw), "--no-dev-build", *upstream_mirror(upstream_to_read))
+def test_add_package_keeps_in_sync(created: Path, tmp_path: Path, interface_pkg: Path) -> None:
+    fw = created  # create-firmware's workspace, made once per worker (conftest): a copy
     pkg = interface_pkg
     run_uros("add-package", str(pkg), "--workspace", str(fw))
     copy = fw / "mcu_ws/extra_packages/eic_demo_interface"
@@ -153,12 +152,11 @@ def test_add_package_keeps_in_sync(upstream_to_read: Path, tmp_path: Path, inter
 
 
 def test_add_package_keeps_comments_and_refuses_duplicates(
-    upstream_to_read: Path, tmp_path: Path, interface_pkg: Path
+    created: Path, tmp_path: Path, interface_pkg: Path
 ) -> None:
     """Issue 16, item 8: add-package rewrote uros.yaml (the user's comments gone) and took a second
     folder with a package name the workspace already had (colcon: duplicate package names)."""
-    fw = tmp_path / "firmware"
-    run_uros("create-firmware", "--workspace", str(fw), "--no-dev-build", *upstream_mirror(upstream_to_read))
+    fw = created  # create-firmware's workspace, made once per worker (conftest): a copy
     config = fw / "uros.yaml"
     config.write_text("# our board: keep this note\n" + config.read_text() + "target: cortex-m7  # the H7\n")
     pkg = interface_pkg
@@ -345,9 +343,8 @@ def test_firmware_workspace_builds_end_to_end(upstream_to_read: Path, tmp_path: 
     assert proc.returncode == 2 and f"uros.yaml:{lines + 1}: tragets: unknown key" in proc.stderr, proc.stderr
 
 
-def test_add_package_from_a_git_url(upstream_to_read: Path, tmp_path: Path, interface_pkg: Path) -> None:
-    fw = tmp_path / "firmware"
-    run_uros("create-firmware", "--workspace", str(fw), "--no-dev-build", *upstream_mirror(upstream_to_read))
+def test_add_package_from_a_git_url(created: Path, tmp_path: Path, interface_pkg: Path) -> None:
+    fw = created  # create-firmware's workspace, made once per worker (conftest): a copy
     repo = tmp_path / "my_msgs_repo"
     shutil.copytree(interface_pkg, repo / "eic_demo_interface")
     git_out("init", "-q", "-b", "main", cwd=repo)
@@ -436,10 +433,9 @@ def test_force_replaces_only_what_uros_cloned(upstream: Path, tmp_path: Path) ->
     assert (fw / "mcu_ws/notes.txt").is_file() and not (fw / "mcu_ws/uros/rcl").exists()
 
 
-def test_force_keeps_a_clone_with_local_commits(upstream_to_read: Path, tmp_path: Path) -> None:
-    fw = tmp_path / "firmware"
+def test_force_keeps_a_clone_with_local_commits(upstream_to_read: Path, created: Path) -> None:
+    fw = created  # the workspace `base` creates, made once per worker (conftest): a copy
     base = ["create-firmware", "--workspace", str(fw), "--no-dev-build", *upstream_mirror(upstream_to_read)]
-    run_uros(*base)
     mine = git_commit(fw / "mcu_ws/uros/rclc", "my fix")
     before = _tree(fw)
     proc = run_uros(*base, "--force", check=False)

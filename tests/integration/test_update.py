@@ -20,6 +20,11 @@ def _workspace(upstream: Path, fw: Path) -> Path:
     run_uros(
         "create-firmware", "--distro", "humble", "-w", str(fw), "--no-dev-build", *upstream_mirror(upstream)
     )
+    return _users_config(fw)
+
+
+def _users_config(fw: Path) -> Path:
+    """The user's own lines in the uros.yaml of ``fw``, a workspace create-firmware made for humble."""
     config = fw / "uros.yaml"
     config.write_text(
         _USER_YAML_LINE + config.read_text().replace("distro: humble", "distro: humble  # pinned")
@@ -98,8 +103,8 @@ def test_a_failed_fetch_changes_nothing(upstream: Path, tmp_path: Path) -> None:
     assert (fw / "uros.lock").read_text() == before and _heads(fw) == heads
 
 
-def test_update_to_another_distro_keeps_the_users_config(upstream_to_read: Path, tmp_path: Path) -> None:
-    fw = _workspace(upstream_to_read, tmp_path / "fw")
+def test_update_to_another_distro_keeps_the_users_config(created: Path) -> None:
+    fw = _users_config(created)  # create-firmware's workspace, made once per worker (conftest): a copy
     proc = run_uros("update", "-w", str(fw), "--distro", "iron")
     lock = json.loads((fw / "uros.lock").read_text())
     assert lock["distro"] == "iron" and len(lock["repositories"]) == 34
@@ -150,8 +155,8 @@ def test_a_colcon_ignore_the_repository_starts_tracking_is_no_obstacle(
     assert git_out("status", "--porcelain", cwd=fw / "mcu_ws/uros/rcl") == ""
 
 
-def test_before_a_day_with_no_commits_changes_nothing(upstream_to_read: Path, tmp_path: Path) -> None:
-    fw = _workspace(upstream_to_read, tmp_path / "fw")
+def test_before_a_day_with_no_commits_changes_nothing(created: Path) -> None:
+    fw = _users_config(created)  # create-firmware's workspace, made once per worker (conftest): a copy
     before = (fw / "uros.lock").read_text()
     proc = run_uros("update", "-w", str(fw), "--before", "2001-01-01", check=False)
     assert proc.returncode == 2, proc.stderr
