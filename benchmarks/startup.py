@@ -80,16 +80,19 @@ def normalised(text: str, ws: Path, tmp: Path) -> str:
     return re.sub(r"\(\d+(\.\d+)? s\)", "(T s)", text)
 
 
-def main() -> int:
-    parser = argparse.ArgumentParser(
-        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
-    )
+def side_by_side_args(doc: str | None, rounds: int, prefix: str) -> tuple[argparse.Namespace, Path]:
+    """The command line of a two-checkout comparison (this one, cold_build.py) and its folder."""
+    parser = argparse.ArgumentParser(description=doc, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("before", type=Path, help="the checkout measured first (e.g. /work/main)")
     parser.add_argument("after", type=Path, help="the checkout compared with it")
-    parser.add_argument("-n", type=int, default=20, help="rounds (default 20)")
+    parser.add_argument("-n", type=int, default=rounds, help=f"rounds (default {rounds})")
     parser.add_argument("--dir", type=Path, help="where the workspaces go (default: a temporary folder)")
     args = parser.parse_args()
-    root = args.dir or Path(tempfile.mkdtemp(prefix="uros-startup-"))
+    return args, args.dir or Path(tempfile.mkdtemp(prefix=prefix))
+
+
+def main() -> int:
+    args, root = side_by_side_args(__doc__, 20, "uros-startup-")
     checkouts = {"before": args.before.resolve(), "after": args.after.resolve()}
     setups = {}
     for name, checkout in checkouts.items():

@@ -7,7 +7,6 @@ call uros can tell a bad flag (2) from a missing compiler (3) from a failed buil
 
 from __future__ import annotations
 
-import difflib
 import io
 import shutil
 import signal
@@ -184,6 +183,8 @@ def interrupted(cause: BaseException | None, what: str, hint: str) -> Interrupte
 
 def did_you_mean(name: str, choices: Iterable[str]) -> str:
     """`` (did you mean X or Y?)`` for the names closest to a typo, else ``""``."""
+    import difflib  # on a typo only: every start imports this module (start-up cost)
+
     near = difflib.get_close_matches(name, list(choices), n=3, cutoff=0.6)
     if not near:
         return ""

@@ -13,7 +13,6 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
-import uros_build
 from uros_build import __version__, console
 from uros_build.colcon import command as colcon
 from uros_build.colcon import fingerprint as fp
@@ -64,12 +63,6 @@ def build_key(ctx: Context, toolchain_file: Path, parts: Mapping[str, str]) -> s
             "uros": fp.uros_code_digest(),
         }
     )
-
-
-def _uros_code() -> str:
-    """uros's own code, by file identity (a development checkout changes without a version)."""
-    root = Path(uros_build.__file__).parent
-    return fp.digest(*(fp.stat_key(p) for p in sorted(root.rglob("*.py"))))
 
 
 def _versions(*distributions: str) -> str:
@@ -174,7 +167,9 @@ def _input_parts(
             fp.stat_key(Path(ninja)) if ninja else "",
             sys.version,
             __version__,
-            _uros_code(),
+            # uros's own code by content (a development checkout changes without a version), read
+            # once a run for the build key too: its files' stat was another walk of them
+            fp.uros_code_digest(),
         ),
         "dev_ws": fp.digest(ws.dev_built_from(), fp.stat_key(ws.dev_marker)),
         **colcon_parts(facts, setup),
