@@ -84,6 +84,13 @@ def m7_build(fixture_builds: Built) -> Path:
 
 
 @pytest.fixture(scope="session")
+def m7_snapshot(fixture_builds: Built) -> Path:
+    """The snapshot of the m7 variant itself, not a copy (no restore): for a test or a module that
+    only reads it or copies from it, never one that changes it or builds in it."""
+    return fixture_builds.snapshot("m7")
+
+
+@pytest.fixture(scope="session")
 def _upstream_snapshot(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return fake_upstream(tmp_path_factory.mktemp("upstream-snapshot"), ("humble", "iron"))
 

@@ -323,9 +323,9 @@ BAD_BUILD_INFO: dict[str, tuple[Callable[[bytes], bytes], str]] = {
 
 
 @pytest.mark.parametrize("case", sorted(BAD_BUILD_INFO))
-def test_corrupt_build_info_in_export_cmake(m7_build: Path, tmp_path: Path, case: str) -> None:
+def test_corrupt_build_info_in_export_cmake(m7_snapshot: Path, tmp_path: Path, case: str) -> None:
     out = tmp_path / "out"
-    shutil.copytree(m7_build / "build" / "cortex-m7", out)
+    shutil.copytree(m7_snapshot / "build" / "cortex-m7", out)  # the built output, copied from the snapshot
     corrupt, expected = BAD_BUILD_INFO[case]
     (out / "build-info.json").write_bytes(corrupt((out / "build-info.json").read_bytes()))
     for args in (["--output", str(out)], ["--from", str(out), "--output", str(tmp_path / "copy")]):
@@ -363,11 +363,12 @@ def test_lock_hints_name_a_fix_that_works(tmp_path: Path) -> None:
     assert (ws / "uros.lock").read_text() == '{"repositories": {\n'
 
 
-def test_export_to_a_file_is_refused(m7_build: Path, tmp_path: Path) -> None:
+def test_export_to_a_file_is_refused(m7_snapshot: Path, tmp_path: Path) -> None:
     mine = _a_file(tmp_path)
-    proc = run_uros_here(
-        "export", "cmake", "--from", str(m7_build / "build" / "cortex-m7"), "--output", str(mine), check=False
-    )
+    built = (
+        m7_snapshot / "build" / "cortex-m7"
+    )  # refused before anything reads the output: the snapshot itself
+    proc = run_uros_here("export", "cmake", "--from", str(built), "--output", str(mine), check=False)
     assert proc.returncode == 2 and "notes.txt: is a file" in _one_error(proc)
     assert mine.read_text() == "mine\n"
 

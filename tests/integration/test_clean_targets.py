@@ -10,7 +10,8 @@ import shutil
 from pathlib import Path
 
 import pytest
-from uros_helpers import run_uros
+from fixture_ws import UP_TO_CORE
+from uros_helpers import run_uros, run_uros_here
 
 pytestmark = pytest.mark.integration
 
@@ -43,9 +44,12 @@ def _clean_removes_exactly(ws: Path, key: str, *args: str, cwd: Path | None = No
 def test_clean_a_shipped_target_and_a_profile_file(m7_build: Path, tmp_path: Path) -> None:
     ws = m7_build
     profile = tmp_path / "board.yaml"  # a profile whose name: is not its file name
-    shown = run_uros("targets", "show", "cortex-m7").stdout
+    shown = run_uros_here("targets", "show", "cortex-m7").stdout  # starts no process: in process
     profile.write_text(shown.replace("name: cortex-m7", "name: my-board", 1), encoding="utf-8")
-    run_uros("build", "--profile", str(profile), "-w", str(ws), "--meta", str(ws / "fixture.meta"))
+    # fx_core alone for the second target: what clean removes is the target's, however many packages
+    run_uros(
+        "build", "--profile", str(profile), "-w", str(ws), "--meta", str(ws / "fixture.meta"), *UP_TO_CORE
+    )
     assert (ws / "build" / "my-board" / "libmicroros.a").is_file()
 
     _clean_removes_exactly(ws, "my-board", "--profile", str(profile), "-w", str(ws))
@@ -56,12 +60,13 @@ def test_clean_a_shipped_target_and_a_profile_file(m7_build: Path, tmp_path: Pat
 def test_clean_a_toolchain_file_named_in_uros_yaml(m7_build: Path, tmp_path: Path) -> None:
     ws = m7_build
     (ws / "boards").mkdir()
-    run_uros(
+    run_uros_here(  # starts no process: in process
         "toolchain", "render", "cortex-m7", "--for", "micro-ros", "-o", str(ws / "boards" / "my-tc.cmake")
     )
     (ws / "uros.yaml").write_text("distro: humble\ntarget: boards/my-tc.cmake\n", encoding="utf-8")
     env = {**os.environ, "UROS_GEN_CACHE_DIR": str(tmp_path / "gen")}
-    built = run_uros("build", "-v", "--meta", str(ws / "fixture.meta"), cwd=ws, env=env).stderr
+    # fx_core alone for the second target (as above)
+    built = run_uros("build", "-v", "--meta", str(ws / "fixture.meta"), *UP_TO_CORE, cwd=ws, env=env).stderr
     # -v: the settings in force, one line each, with who chose them
     assert f"toolchains = boards/my-tc.cmake  ({ws}/uros.yaml: target)" in built, built
     assert f"metas = {ws / 'fixture.meta'}  (--meta)" in built

@@ -27,9 +27,9 @@ def _error_line(stderr: str) -> str:
 
 
 @pytest.mark.parametrize("missing", ["libmicroros.a", "include"])
-def test_export_from_an_incomplete_output(m7_build: Path, tmp_path: Path, missing: str) -> None:
+def test_export_from_an_incomplete_output(m7_snapshot: Path, tmp_path: Path, missing: str) -> None:
     out = tmp_path / "out"
-    shutil.copytree(m7_build / "build" / "cortex-m7", out)
+    shutil.copytree(m7_snapshot / "build" / "cortex-m7", out)  # the built output, copied from the snapshot
     victim = out / missing
     shutil.rmtree(victim) if victim.is_dir() else victim.unlink()
     proc = run_uros_here(
@@ -41,13 +41,12 @@ def test_export_from_an_incomplete_output(m7_build: Path, tmp_path: Path, missin
     assert "uros build --toolchain cortex-m7" in proc.stderr and not (tmp_path / "pkg").exists()
 
 
-def test_export_never_suggests_a_force_it_lacks(m7_build: Path, tmp_path: Path) -> None:
+def test_export_never_suggests_a_force_it_lacks(m7_snapshot: Path, tmp_path: Path) -> None:
     mine = tmp_path / "mine"
     mine.mkdir()
     (mine / "notes.txt").write_text("mine\n")
-    proc = run_uros_here(
-        "export", "cmake", "--from", str(m7_build / "build" / "cortex-m7"), "--output", str(mine), check=False
-    )
+    built = m7_snapshot / "build" / "cortex-m7"  # refused before anything is written: the snapshot itself
+    proc = run_uros_here("export", "cmake", "--from", str(built), "--output", str(mine), check=False)
     assert proc.returncode == 2 and "holds files uros did not write" in _error_line(proc.stderr)
     assert "--force" not in proc.stderr
     assert [p.name for p in mine.iterdir()] == ["notes.txt"]
@@ -91,7 +90,8 @@ def test_ctrl_c_while_starting_up_is_no_traceback() -> None:
 
 
 @pytest.mark.serial
-def test_a_killed_create_firmware_is_finished_by_force(upstream: Path, tmp_path: Path) -> None:
+def test_a_killed_create_firmware_is_finished_by_force(upstream_to_read: Path, tmp_path: Path) -> None:
+    upstream = upstream_to_read  # only cloned from: the worker's fake upstream itself, not a copy
     fw = tmp_path / "fw"
     args = [
         sys.executable,
@@ -122,7 +122,8 @@ def test_a_killed_create_firmware_is_finished_by_force(upstream: Path, tmp_path:
     assert not (fw / ".uros/create-firmware.pending").exists()
 
 
-def test_a_failed_clone_names_a_log_that_exists(upstream: Path, tmp_path: Path) -> None:
+def test_a_failed_clone_names_a_log_that_exists(upstream_to_read: Path, tmp_path: Path) -> None:
+    upstream = upstream_to_read  # only cloned from: the worker's fake upstream itself, not a copy
     fw = tmp_path / "fw"
     proc = run_uros(
         "create-firmware", "-w", str(fw), "--no-dev-build", *upstream_mirror(upstream),
@@ -134,7 +135,8 @@ def test_a_failed_clone_names_a_log_that_exists(upstream: Path, tmp_path: Path) 
 
 
 @pytest.mark.parametrize("case", ["another distro", "no repositories"])
-def test_a_lock_file_that_does_not_pin_this_distro(upstream: Path, tmp_path: Path, case: str) -> None:
+def test_a_lock_file_that_does_not_pin_this_distro(upstream_to_read: Path, tmp_path: Path, case: str) -> None:
+    upstream = upstream_to_read  # refused before anything reads it: the worker's fake upstream itself
     lock = tmp_path / "other.lock"
     if case == "another distro":
         lock.write_text(json.dumps({"distro": "iron", "repositories": {}}))

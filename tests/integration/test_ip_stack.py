@@ -18,12 +18,13 @@ import json
 import os
 import shutil
 import subprocess
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
 from fixture_lwip import make_standin_freertos_tcp, make_standin_lwip, write_lwip_config, write_tcp_config
 from fixture_rtos import make_standin_kernel, write_config
-from fixture_ws import add_plain_package
+from fixture_ws import UP_TO_CORE, add_plain_package, fixture_build_args
 from uros_helpers import need, once_then_restored, run_uros, run_uros_here
 
 pytestmark = [pytest.mark.integration, pytest.mark.colcon]
@@ -208,13 +209,12 @@ def test_bad_ip_stack_input_is_one_line_naming_the_flag(
     assert not (ws / "build").exists()
 
 
-def test_udp_on_bare_metal_without_a_stack_is_warned(tmp_path: Path) -> None:
+def test_udp_on_bare_metal_without_a_stack_is_warned(built: Callable[[str], Path]) -> None:
     """--transport udp on a Cortex-M without --ip-stack: the client would have no socket code; said
-    before the build (a warning: a firmware may bring its own PLATFORM_NAME in a toolchain file)."""
-    need("arm-none-eabi-gcc", "cmake", "ninja")
-    ws, _ = _setup(tmp_path)
-    (ws / "mcu_ws" / "src" / "fx_net" / "fx_net.c").write_text("int fx_net(void) { return 1; }\n")
-    done = run_uros("build", "--toolchain", "cortex-m7", "-w", str(ws), "--transport", "udp")
+    before the build (a warning: a firmware may bring its own PLATFORM_NAME in a toolchain file).
+    The restored fixture built with fx_core alone, built again with the transport (no socket code in it)."""
+    need("ninja")
+    done = run_uros(*fixture_build_args(built("core"), *UP_TO_CORE, "--transport", "udp"))
     assert "transport udp on cortex-m7 without an IP stack" in done.stderr, done.stderr
 
 

@@ -94,9 +94,19 @@ def test_a_replaced_library_is_not_judged_on_the_old_runs_figures(ws: Path) -> N
     )
 
 
-def test_a_freertos_run_never_stands_for_the_bare_metal_one(ws: Path) -> None:
+@pytest.fixture(scope="module")
+def reports_ws(m7_snapshot: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A copy of the built fixture workspace of this module's own (copied once: `uros size` only reads
+    it), for the cases that write nothing but a report into its probe folder (each its own: the
+    folder is emptied first)."""
+    return Path(shutil.copytree(m7_snapshot, tmp_path_factory.mktemp("reports") / "ws", symlinks=True))
+
+
+def test_a_freertos_run_never_stands_for_the_bare_metal_one(reports_ws: Path) -> None:
     """round 5, item 3: a --freertos probe of a bare-metal library overwrote its report.json, and
     `uros size` counted the FreeRTOS heap saying only "(uros probe)"."""
+    ws = reports_ws
+    shutil.rmtree(_work(ws))  # no report of another case: this test's alone
     work = _work(ws)
     # a report.json of a FreeRTOS run (as main's probe wrote it): not this library's variant
     (work / REPORT).write_text(json.dumps({**PASSED, "rtos": "freertos", "library_sha256": _sha(ws)}))
@@ -123,9 +133,11 @@ def test_a_freertos_run_never_stands_for_the_bare_metal_one(ws: Path) -> None:
 @pytest.mark.parametrize(
     "case", ["fifo", "dev-zero", "not-utf8", "negative-heap", "true-stack", "passed-string", "huge", "nested"]
 )
-def test_a_hostile_report_is_not_measured_in_one_line(ws: Path, case: str) -> None:
+def test_a_hostile_report_is_not_measured_in_one_line(reports_ws: Path, case: str) -> None:
     """round 5, item 4: a FIFO hung `uros size`, a link to /dev/zero grew to 11 GB, non-UTF-8 was
     an internal error, heap_bytes -100000 gave negative RAM, true counted as 1 B, "false" passed."""
+    ws = reports_ws
+    shutil.rmtree(_work(ws))  # the last case's report gone: this case's alone
     path = _work(ws) / REPORT
     good = {**PASSED, "library_sha256": _sha(ws)}
     if case == "fifo":
@@ -165,8 +177,9 @@ def _link(tmp: Path, *flags: str) -> Path:
     return elf
 
 
-def test_elf_takes_only_a_linked_firmware_of_the_librarys_target(ws: Path, tmp_path: Path) -> None:
+def test_elf_takes_only_a_linked_firmware_of_the_librarys_target(reports_ws: Path, tmp_path: Path) -> None:
     """round 5: `uros size --elf` accepted an archive or another target's firmware."""
+    ws = reports_ws  # only read here
     need("arm-none-eabi-gcc")
     map_file = tmp_path / "app.map"
     map_file.write_text("")
