@@ -366,7 +366,7 @@ def test_distros_and_interface_checks_through_the_cli(tmp_path: Path) -> None:
     assert {r["name"]: r["status"] for r in rows}["humble"] == "built-here"
     bad = tmp_path / "Wheel.msg"
     bad.write_text("int32 rpm 3.5\n")
-    proc = run_uros(
+    proc = run_uros_here(  # refused before any process starts: in process
         "interface", "new", "my_msgs", "--msg", str(bad), "--output", str(tmp_path / "my_msgs"), check=False
     )
     assert proc.returncode == 2

@@ -84,11 +84,18 @@ def _workspace(root: Path) -> Path:
 # a build of fx_user and what it needs: the host stage's packages and tracetools, which fx_user
 # depends on, without the fixture's five packages (they have no part in the stage)
 _UP_TO_USER = ("--packages-up-to", "fx_user")
+# and of the vendor package too (an ExternalProject): what the staged workspace's builds are about
+_UP_TO_STAGED = (*_UP_TO_USER, "--packages-up-to", "fx_vendor")
 
 
 def _build(ws: Path, target: str, *more: str, **env: str) -> str:
     proc = build_fixture(ws, *more, toolchain=target, env={**os.environ, **env})
     return proc.stdout + proc.stderr
+
+
+def _staged_build(ws: Path, *more: str, **env: str) -> str:
+    """The cortex-m7 build of :func:`_staged_workspace`: fx_user, fx_vendor and what they need."""
+    return _build(ws, "cortex-m7", *_UP_TO_STAGED, *more, **env)
 
 
 def _staged_workspace(root: Path) -> Path:
@@ -105,7 +112,7 @@ def _first_build(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, str]:
     need("cmake", "colcon", "arm-none-eabi-gcc", "gcc")
     top = tmp_path_factory.mktemp("host-stage")
     ws = _staged_workspace(top / "ws")
-    out = _build(ws, "cortex-m7")
+    out = _staged_build(ws)
     shutil.copytree(ws, top / "snapshot", symlinks=True)
     return top / "snapshot", out
 
@@ -149,7 +156,7 @@ def test_packages_that_compile_nothing_are_built_once_and_the_library_is_unchang
     # the same target without the stage: the same library and include tree, byte for byte
     staged = tmp_path / "staged"
     shutil.copytree(ws / "build" / "cortex-m7", staged)
-    out = _build(ws, "cortex-m7", UROS_HOST_STAGE="off")
+    out = _staged_build(ws, UROS_HOST_STAGE="off")
     assert "the host stage" not in out
     plain = ws / "build" / "cortex-m7"
     assert (plain / "libmicroros.a").read_bytes() == (staged / "libmicroros.a").read_bytes()
@@ -159,7 +166,7 @@ def test_packages_that_compile_nothing_are_built_once_and_the_library_is_unchang
     assert "host_stage_packages" not in json.loads((plain / "build-info.json").read_text())
 
     # and back: the stage's files replace what the target built itself
-    out = _build(ws, "cortex-m7")
+    out = _staged_build(ws)
     assert "from the host stage: 2 packages" in out, out
     assert (plain / "libmicroros.a").read_bytes() == (staged / "libmicroros.a").read_bytes()
 
@@ -205,9 +212,9 @@ def test_a_team_cache_hit_builds_no_host_stage(tmp_path: Path, first_build: tupl
     store.mkdir()
     first, said = first_build  # built (the host stage built in its first build), and up to date
     assert "the host stage" in said
-    assert "uploaded entry" in _build(first, "cortex-m7", "--cache", store.as_uri(), "--cache-upload")
+    assert "uploaded entry" in _staged_build(first, "--cache", store.as_uri(), "--cache-upload")
     fresh = _staged_workspace(tmp_path / "fresh")
-    out = _build(fresh, "cortex-m7", "--cache", store.as_uri())
+    out = _staged_build(fresh, "--cache", store.as_uri())
     assert "from the cache" in out and "host stage" not in out and "colcon build" not in out, out
     assert not (fresh / ".uros" / "shared").exists()
 
@@ -238,7 +245,7 @@ def test_a_moved_or_copied_workspace_builds_the_same_library(
     assert "libfx_upstream.a" in info["library"]["inputs"], info["library"]
 
     def builds_as_before(new: Path, how: str) -> None:
-        text = _build(new, "cortex-m7")
+        text = _staged_build(new)
         assert "(the workspace moved or was copied): configuring its" in text, (how, text)
         assert "the host stage failed" not in text and "from the host stage: 2 packages" in text, (how, text)
         built = new / "build" / "cortex-m7"
@@ -248,13 +255,13 @@ def test_a_moved_or_copied_workspace_builds_the_same_library(
         _no_path_of(ws, built)
         _no_path_of(ws, new / ".uros" / "targets" / "cortex-m7" / "install")
         # and the next build has nothing to redo
-        assert "up to date" in _build(new, "cortex-m7"), how
+        assert "up to date" in _staged_build(new), how
 
     copy = tmp_path / "copy"
     subprocess.run(["cp", "-a", str(ws), str(copy)], check=True)
     builds_as_before(copy, "cp -a")
     # the original is untouched by its copy's build
-    assert "up to date" in _build(ws, "cortex-m7")
+    assert "up to date" in _staged_build(ws)
     moved = tmp_path / "moved"
     ws.rename(moved)
     builds_as_before(moved, "mv")
