@@ -7,7 +7,6 @@ from typing import TYPE_CHECKING
 
 from uros_build import __version__, templating
 from uros_build.output.exports.base import ExportFormat, abi_flags, plain, write_files
-from uros_build.target import rtos as rtos_mod
 
 if TYPE_CHECKING:  # types only: every start reads the formats (start-up cost)
     from uros_build.output.buildinfo import BuildInfo, RtosInfo
@@ -20,6 +19,8 @@ def cmake_package_files(
 ) -> dict[str, str]:
     """File name -> text of the CMake package (pure). ``rtos``: the RTOS the library was compiled
     against, which the package asks the firmware for at configure time."""
+    from uros_build.target import rtos as rtos_mod  # when writing: every start reads FORMATS (start-up cost)
+
     ctx = {
         "version": __version__,
         "target": target,
