@@ -19,6 +19,7 @@ import time
 from collections.abc import Callable, Iterator
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from pathlib import Path
+from typing import Any
 
 import pytest
 from fixture_ws import fixture_build_args
@@ -58,6 +59,22 @@ def _upload_from(seed: Path, url: str, env: dict[str, str] | None = None) -> str
     return done.stderr
 
 
+@pytest.fixture(scope="module")
+def _uploaded_once(fixture_builds: Any, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A file cache holding the entry uros uploads from the built m7 fixture, uploaded once for
+    this module: every seed is that build restored at the same path (the same key, the same bytes)."""
+    store = tmp_path_factory.mktemp("uploaded") / "store"
+    _upload_from(fixture_builds.restore("m7"), store.as_uri())
+    return store
+
+
+@pytest.fixture
+def uploaded(_uploaded_once: Path, tmp_path: Path) -> Path:
+    """This test's own copy of :func:`_uploaded_once`'s cache (a folder; its URL is as_uri()): for a
+    test whose subject is not the upload, which only needs the seed's entry in a cache."""
+    return Path(shutil.copytree(_uploaded_once, tmp_path / "store"))
+
+
 def test_a_fresh_workspace_takes_the_library_from_a_file_cache(seed: Path, tmp_path: Path) -> None:
     store = tmp_path / "team cache"
     said = _upload_from(seed, store.as_uri())
@@ -78,9 +95,10 @@ def test_a_fresh_workspace_takes_the_library_from_a_file_cache(seed: Path, tmp_p
         f"from the cache  {store.as_uri()} (not built here)"
         in run_uros("info", str(ws / "build" / "cortex-m7")).stdout
     )
-    assert "up to date" in build_fixture(ws, "--cache", store.as_uri()).stderr
-    # taken from the cache, not built here: never uploaded back from this workspace
-    assert "uploaded" not in build_fixture(ws, "--cache", store.as_uri(), "--cache-upload").stderr
+    # up to date, and, taken from the cache, not built here: never uploaded back from this workspace
+    again = build_fixture(ws, "--cache", store.as_uri(), "--cache-upload").stderr
+    assert "up to date" in again
+    assert "uploaded" not in again
 
     # another meta: another key, a miss, a real build (and its own entry once uploaded)
     other = build_fixture(
@@ -254,11 +272,10 @@ def test_a_team_cache_on_nginx_webdav(seed: Path, tmp_path: Path, nginx: tuple[s
         assert secret not in logs + said + took.stderr
 
 
-def test_the_workspace_names_its_cache_and_the_command_line_wins(seed: Path, tmp_path: Path) -> None:
+def test_the_workspace_names_its_cache_and_the_command_line_wins(seed: Path, uploaded: Path) -> None:
     """uros.yaml's cache: is read without --cache; --cache none builds without it; --cache-upload
     without any cache is a one-line error naming the flag and the fix, and nothing is written."""
-    store = tmp_path / "store"
-    _upload_from(seed, store.as_uri())
+    store = uploaded
     library = _library(seed)
     # the seed itself with no output: a build asks the cache, and with --cache none builds here
     # from its own trees (no fresh checkout's cold build)
@@ -340,8 +357,7 @@ def test_an_upload_packs_only_what_uros_wrote_and_a_take_keeps_the_users_files(
     (out / "notes.txt").write_text("the uploader's notes\n")
     (out / "private" / "cred.txt").write_text("password=uploader\n")
     store = tmp_path / "store"
-    build_fixture(seed)  # up to date: the user's files beside the output are not part of it
-    said = _upload_from(seed, store.as_uri())
+    said = _upload_from(seed, store.as_uri())  # up to date: the user's files are not part of it
     key = _key(seed)
     assert f"uploaded entry {key[:16]}" in said, said
     with tarfile.open(store / f"{key}.tar.gz") as tar:
@@ -454,15 +470,12 @@ def _all_logs(*workspaces: Path) -> str:
 
 
 def test_credentials_never_follow_a_redirect_to_another_host_and_a_token_is_never_printed(
-    seed: Path, tmp_path: Path, servers: Callable[..., _Server]
+    seed: Path, tmp_path: Path, servers: Callable[..., _Server], uploaded: Path
 ) -> None:
     """urllib keeps Authorization on a redirect: the token and the netrc password went to whatever
     host the cache redirected to. A token with a trailing newline (as CI secrets often are) failed
     the build and printed the token on stderr and in the log."""
-    files = tmp_path / "served"
-    store = tmp_path / "store"
-    _upload_from(seed, store.as_uri())
-    shutil.copytree(store, files)
+    files = uploaded  # the seed's entry, served
     elsewhere = servers({"/": _serve(files)})  # another port: another origin
     cache_server = servers({"/uros/": _redirect(f"{elsewhere.url}/entries/"), "/same/": _redirect("/files/"),
                             "/files/": _serve(files)})  # fmt: skip
@@ -619,14 +632,13 @@ HOSTILE_HTTP = {
     ],
 )
 def test_a_hostile_http_cache_is_one_warning_and_a_local_build(
-    seed: Path, tmp_path: Path, servers: Callable[..., _Server], cases: tuple[str, ...]
+    seed: Path, uploaded: Path, servers: Callable[..., _Server], cases: tuple[str, ...]
 ) -> None:
     """A connection closed before the end of the body (an internal error), an endless body (read
     until memory ran out), a trickling server (no overall deadline), a redirect to a port that is
     not a number or a malformed IPv6 host (internal errors): each one warning and a build here.
     The cases that last (an endless body, a trickle) are serial, the others not."""
-    store = tmp_path / "store"
-    _upload_from(seed, store.as_uri())
+    store = uploaded
     key = _key(seed)
     manifest = (store / f"{key}.json").read_bytes()
     tarball = (store / f"{key}.tar.gz").read_bytes()
@@ -651,11 +663,10 @@ def test_a_hostile_http_cache_is_one_warning_and_a_local_build(
         assert case != "trickle" or time.monotonic() - started < 120
 
 
-def test_a_corrupt_entry_is_replaced_by_the_next_upload(seed: Path, tmp_path: Path) -> None:
+def test_a_corrupt_entry_is_replaced_by_the_next_upload(seed: Path, tmp_path: Path, uploaded: Path) -> None:
     """An entry that fails its checks (here one flipped byte) stayed for good: every upload said
     the cache already had it. Now an upload replaces it, and a teammate takes the new one."""
-    store = tmp_path / "store"
-    _upload_from(seed, store.as_uri())
+    store = uploaded
     key = _key(seed)
     tarball = store / f"{key}.tar.gz"
     flipped = bytearray(tarball.read_bytes())
