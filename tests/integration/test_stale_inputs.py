@@ -1,7 +1,8 @@
 """Never "up to date", never a green build, over objects that do not match their sources, flags or
 compiler (issue 16, items 1-5). Each test judges the library by its bytes (nm, strings), not by
 what uros says, and each failed on c34c85f. Real CLI, colcon, CMake and arm-none-eabi-gcc on the
-fixture workspace."""
+fixture workspace: fx_core alone (the "core" built fixture, UP_TO_CORE), whose files each test
+changes; the other packages added only their fixed cost to every build."""
 
 from __future__ import annotations
 
@@ -9,10 +10,11 @@ import os
 import re
 import shutil
 import subprocess
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
-from fixture_ws import make_fixture_workspace
+from fixture_ws import UP_TO_CORE, make_fixture_workspace
 from uros_helpers import build_fixture, defined_globals, need, run_uros
 
 pytestmark = [pytest.mark.integration, pytest.mark.colcon]
@@ -20,25 +22,30 @@ pytestmark = [pytest.mark.integration, pytest.mark.colcon]
 _CORE_V2 = '#include "fx_core/core.h"\nint fx_core_add(int a, int b) { return a + b; }\nint fx_core_v2(void) { return 2; }\n'
 
 
+def _build(ws: Path, *more: str, env: dict[str, str] | None = None) -> subprocess.CompletedProcess[str]:
+    """build_fixture of fx_core alone: the "core" built fixture's command."""
+    return build_fixture(ws, *UP_TO_CORE, *more, env=env)
+
+
 def _strings(lib: Path) -> str:
     return subprocess.run(["strings", "-a", str(lib)], capture_output=True, text=True, check=True).stdout
 
 
-def test_a_source_restored_with_its_old_mtime_is_rebuilt(m7_build: Path) -> None:
+def test_a_source_restored_with_its_old_mtime_is_rebuilt(built: Callable[[str], Path]) -> None:
     """`cp -p`, `rsync -a`, `tar x`, `git stash pop`: the content goes back, and so does the mtime,
     to before the objects were made."""
-    ws = m7_build
+    ws = built("core")
     core = ws / "mcu_ws/src/fx_core/src/core.c"
     original, old = core.read_text(), core.stat()
     lib = ws / "build/cortex-m7/libmicroros.a"
     core.write_text(_CORE_V2)
-    build_fixture(ws)
+    _build(ws)
     assert defined_globals(lib)["fx_core_v2"] == 1
     # the user restores the old file as `cp -p` would: old content, old mtime
     core.write_text(original)
     os.utime(core, ns=(old.st_atime_ns, old.st_mtime_ns))
     doctor = run_uros("doctor", "-w", str(ws), check=False)
-    build_fixture(ws)
+    _build(ws)
     assert "fx_core_v2" not in defined_globals(lib)
     assert "stale: inputs changed since the last build: sources" in doctor.stdout + doctor.stderr
     assert defined_globals(lib)["fx_core_add"] == 1
@@ -57,24 +64,26 @@ def _shim(folder: Path, extra: str) -> None:
     shim.chmod(0o755)
 
 
-def test_a_replaced_compiler_rebuilds_every_object(m7_build: Path, tmp_path: Path) -> None:
+def test_a_replaced_compiler_rebuilds_every_object(built: Callable[[str], Path], tmp_path: Path) -> None:
     need("strings")
-    ws = m7_build
+    ws = built("core")
     shims = tmp_path / "bin"
     env = {**os.environ, "PATH": f"{shims}{os.pathsep}{os.environ['PATH']}"}
     lib = ws / "build/cortex-m7/libmicroros.a"
     _shim(shims, "-frecord-gcc-switches -fno-tree-vectorize")
-    build_fixture(ws, env=env)
+    _build(ws, env=env)
     assert "-fno-tree-vectorize" in _strings(lib)
     _shim(shims, "-frecord-gcc-switches -fno-tree-loop-distribute-patterns")
-    proc = build_fixture(ws, env=env)
+    proc = _build(ws, env=env)
     text = _strings(lib)
     assert "-fno-tree-loop-distribute-patterns" in text and "-fno-tree-vectorize" not in text
     assert "the compiler changed" in proc.stderr
 
 
-def test_rebuild_recompiles_objects_the_build_tools_think_current(m7_build: Path, tmp_path: Path) -> None:
-    ws = m7_build
+def test_rebuild_recompiles_objects_the_build_tools_think_current(
+    built: Callable[[str], Path], tmp_path: Path
+) -> None:
+    ws = built("core")
     lib = ws / "build/cortex-m7/libmicroros.a"
     objects = list((ws / ".uros/targets/cortex-m7/build/fx_core").rglob("core.c.obj"))
     assert len(objects) == 1
@@ -91,7 +100,7 @@ def test_rebuild_recompiles_objects_the_build_tools_think_current(m7_build: Path
     os.utime(objects[0], ns=(made.st_atime_ns, made.st_mtime_ns))
     for archive in (ws / ".uros/targets/cortex-m7/build/fx_core").rglob("libfx_core.a"):
         archive.unlink()  # archived again from the objects that are there
-    proc = build_fixture(ws, "--rebuild")
+    proc = _build(ws, "--rebuild")
     assert "fx_tampered" not in defined_globals(lib)
     assert defined_globals(lib)["fx_core_add"] == 1
     assert "--rebuild: building every package afresh" in proc.stderr
@@ -114,6 +123,7 @@ def test_a_header_outside_the_workspace_restored_with_an_old_mtime(tmp_path: Pat
     profile = tmp_path / "board.yaml"
     profile.write_text(yaml.safe_dump(data))
     args = ["build", "--profile", str(profile), "--workspace", str(ws), "--meta", str(ws / "fixture.meta")]
+    args += UP_TO_CORE
     run_uros(*args)
     lib = ws / "build/board/libmicroros.a"
     assert "BOARD_CONFIG_ONE" in _strings(lib)
@@ -128,34 +138,34 @@ def test_a_header_outside_the_workspace_restored_with_an_old_mtime(tmp_path: Pat
 
 
 def test_a_users_file_beside_the_output_is_not_a_change_but_a_header_added_to_include_is(
-    m7_build: Path,
+    built: Callable[[str], Path],
 ) -> None:
     """A notes.txt (or a folder of the user's) beside an up-to-date libmicroros.a made the next
     build rebuild everything ("changed since the last build: the output folder"): only what uros
     wrote there (its `.uros-output` marker names it) is the output. A header dropped into include/
     is uros's tree changed, and still rebuilds it, to exactly this build's headers."""
-    ws = m7_build
+    ws = built("core")
     out = ws / "build/cortex-m7"
     (out / "notes.txt").write_text("mine\n")
     (out / "mine").mkdir()
     (out / "mine" / "board.h").write_text("/* mine */\n")
-    again = build_fixture(ws)
+    again = _build(ws)
     assert "up to date" in again.stderr and "the output folder" not in again.stderr, again.stderr
     assert (out / "notes.txt").read_text() == "mine\n" and (out / "mine" / "board.h").is_file()
     stray = out / "include" / "stray.h"
     stray.write_text("/* not from this build */\n")
-    rebuilt = build_fixture(ws)
+    rebuilt = _build(ws)
     assert "the output folder" in rebuilt.stderr and "up to date" not in rebuilt.stderr, rebuilt.stderr
     assert not stray.exists()
     assert (out / "notes.txt").read_text() == "mine\n"
 
 
-def test_a_set_option_dropped_from_the_command_line_leaves_the_library(m7_build: Path) -> None:
+def test_a_set_option_dropped_from_the_command_line_leaves_the_library(built: Callable[[str], Path]) -> None:
     """`--set fx_core.FX_MARK=7`, then the same build without it: colcon no longer passed
     -DFX_MARK=7, but fx_core's CMakeCache.txt kept FX_MARK, so the library was still built with it
     while build-info.json named no such option (issue 33 item 3's size helper found it with
     RMW_UXRCE_MAX_HISTORY). Judged by the library's bytes."""
-    ws = m7_build
+    ws = built("core")
     core = ws / "mcu_ws/src/fx_core"
     cmake = core / "CMakeLists.txt"
     cmake.write_text(
@@ -164,11 +174,11 @@ def test_a_set_option_dropped_from_the_command_line_leaves_the_library(m7_build:
     source = core / "src/core.c"
     source.write_text(source.read_text() + "\n#ifdef FX_MARK_VALUE\nint fx_marked = FX_MARK_VALUE;\n#endif\n")
     lib = ws / "build/cortex-m7/libmicroros.a"
-    build_fixture(ws, "--set", "fx_core.FX_MARK=7")
+    _build(ws, "--set", "fx_core.FX_MARK=7")
     assert "fx_marked" in defined_globals(lib)
-    dropped = build_fixture(ws)
+    dropped = _build(ws)
     assert "fx_marked" not in defined_globals(lib), dropped.stderr
     assert "configuring afresh (their colcon.meta options changed): fx_core" in dropped.stderr
     info = (ws / "build/cortex-m7/build-info.json").read_text()
     assert "FX_MARK" not in info
-    assert "up to date" in build_fixture(ws).stderr
+    assert "up to date" in _build(ws).stderr
