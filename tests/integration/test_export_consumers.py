@@ -9,10 +9,12 @@ import os
 import shlex
 import shutil
 import subprocess
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import pytest
+from fixture_ws import UP_TO_CORE, fixture_build_args
 from uros_helpers import need, run_uros, run_uros_here
 
 pytestmark = pytest.mark.integration
@@ -188,12 +190,12 @@ def test_exports_name_their_files_in_the_output_marker(exported: Path) -> None:
         assert name in marker
 
 
-def test_one_arduino_library_for_two_boards(m7_build: Path, tmp_path: Path) -> None:
+def test_one_arduino_library_for_two_boards(built: Callable[[str], Path], tmp_path: Path) -> None:
     """Issue 20, item 2: the archive of each target where Arduino's builder looks for it
     (src/{build.mcu}/{fpu}-{float-abi}), one include tree, library.properties precompiled=true."""
     need("arm-none-eabi-gcc", "cmake")
-    ws = m7_build
-    run_uros("build", "--toolchain", "cortex-m4f", "--workspace", str(ws), "--meta", str(ws / "fixture.meta"))
+    ws = built("core")  # fx_core for cortex-m7; the same for cortex-m4f (a cold first build) here
+    run_uros(*fixture_build_args(ws, *UP_TO_CORE, toolchain="cortex-m4f"))
     lib = tmp_path / "micro_ros_uros"
     m7, m4f = ws / "build" / "cortex-m7", ws / "build" / "cortex-m4f"
     run_uros("export", "arduino", "--from", str(m7), "--from", str(m4f), "--output", str(lib))
@@ -279,12 +281,12 @@ def test_the_zephyr_module_is_written_beside_the_library(m7_output: Path, tmp_pa
     assert {"zephyr", "Kconfig", "CMakeLists.txt"} <= set(owned)
 
 
-def test_exports_beside_the_library_survive_the_next_build(m7_build: Path) -> None:
+def test_exports_beside_the_library_survive_the_next_build(built: Callable[[str], Path]) -> None:
     """Issue 34, item 7: the README's flow exports beside the library (`--output build/cortex-m7`);
     the next `uros build` deleted microros.mk, .pc and .ini even when nothing changed. They are
     written again for the new library (the same bytes here), and the build after is up to date."""
-    ws = m7_build
-    build = ("build", "--toolchain", "cortex-m7", "-w", str(ws), "--meta", str(ws / "fixture.meta"))
+    ws = built("core")  # fx_core built for cortex-m7: the package this test edits
+    build = fixture_build_args(ws, *UP_TO_CORE)
     out = ws / "build" / "cortex-m7"
     (out / "notes.txt").write_text("mine\n")  # the user's own file beside them
     for kind in ("make", "pkg-config", "meson"):
