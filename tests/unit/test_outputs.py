@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from uros_build import files
-from uros_build.colcon.damage import archive_damage, configure_damage
+from uros_build.colcon.damage import archive_damage, configure_damage, ninja_deps_damage
 from uros_build.errors import (
     ConfigError,
     DiskFull,
@@ -368,6 +368,22 @@ def test_recover_removes_what_runs_that_are_gone_left_inside_an_output(tmp_path:
 )
 def test_configure_damage(name: str, data: bytes, why: str | None) -> None:
     found = configure_damage(name, len(data), data)
+    assert (found is None) if why is None else (found is not None and why in found)
+
+
+@pytest.mark.parametrize(
+    ("head", "why"),
+    [
+        (b"", "cut short in its header"),  # made, nothing written: what the full disk left
+        (b"# ninjadeps\n", "cut short in its header"),  # no version
+        (b"# ninja log v5\n\0\0\0\0", "cut short in its header"),  # not a dependency log
+        (b"# ninjadeps\n\x04\0\0\0", None),  # a header ninja reads (a record cut after it ninja recovers)
+    ],
+)
+def test_ninja_deps_damage(head: bytes, why: str | None) -> None:
+    """ninja deletes a dependency log whose header is cut and then fails `ninja -t recompact`
+    (CMake runs it after every configure): such a log is damage, found before the build."""
+    found = ninja_deps_damage(head)
     assert (found is None) if why is None else (found is not None and why in found)
 
 

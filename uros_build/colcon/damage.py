@@ -1,5 +1,6 @@
 """What a full disk leaves behind in colcon's trees, found by content: configure files cut short
-(a `<pkg>Config.cmake` ending mid-line) and archives whose member table does not reach their end.
+(a `<pkg>Config.cmake` ending mid-line), ninja's dependency log cut in its header, and archives
+whose member table does not reach their end.
 A build that ran out of disk marks its target; the next one drops what these find. Pure.
 """
 
@@ -22,6 +23,15 @@ CONFIGURE_FILES = (
     "CMakeFiles/Makefile2",
 )
 _TAIL = 4096
+# ninja's dependency log: its header (this signature and a 4-byte version), then records. One cut
+# inside its header (a full disk: the file made, its header not written) is deleted by ninja when it
+# loads it ("bad deps log signature or version; starting over"), and `ninja -t recompact`, which
+# CMake runs after each configure, then fails to replace the file it deleted ("failed recompaction:
+# No such file or directory"): every later configure of the package fails. A log cut after its
+# header ninja recovers itself. https://github.com/ninja-build/ninja/blob/master/src/deps_log.cc
+NINJA_DEPS = ".ninja_deps"
+_NINJA_DEPS_SIGNATURE = b"# ninjadeps\n"
+_NINJA_DEPS_HEADER = len(_NINJA_DEPS_SIGNATURE) + 4
 
 
 def configure_damage(name: str, size: int, tail: bytes) -> str | None:
@@ -36,6 +46,14 @@ def configure_damage(name: str, size: int, tail: bytes) -> str | None:
         return f"{name} is cut short"
     if name == "CMakeCache.txt" and b":INTERNAL=" not in tail:
         return f"{name} is cut short (no INTERNAL entries at its end)"
+    return None
+
+
+def ninja_deps_damage(head: bytes) -> str | None:
+    """Why ninja's dependency log, whose first bytes are ``head``, breaks the package's next
+    configure (its header cut short), or None (pure)."""
+    if len(head) < _NINJA_DEPS_HEADER or not head.startswith(_NINJA_DEPS_SIGNATURE):
+        return f"{NINJA_DEPS} is cut short in its header"
     return None
 
 
@@ -84,4 +102,14 @@ def damaged_configures(build_base: Path) -> list[tuple[Path, str]]:
             if why is not None:
                 found.append((folder, why))
                 break
+        else:
+            try:
+                with (folder / NINJA_DEPS).open("rb") as handle:
+                    why = ninja_deps_damage(handle.read(_NINJA_DEPS_HEADER))
+            except FileNotFoundError:
+                continue
+            except OSError as exc:
+                why = f"{NINJA_DEPS} cannot be read ({exc.strerror})"
+            if why is not None:
+                found.append((folder, why))
     return found
