@@ -9,6 +9,7 @@ from __future__ import annotations
 import os
 from collections.abc import Callable
 from pathlib import Path
+from typing import BinaryIO
 
 from uros_build.target import arfile
 
@@ -84,17 +85,32 @@ def damaged_archives(folders: list[Path]) -> list[tuple[Path, str]]:
     return found
 
 
+def _configure_file(name: str) -> Callable[[BinaryIO], str | None]:
+    def judge(handle: BinaryIO) -> str | None:
+        size = os.fstat(handle.fileno()).st_size
+        handle.seek(max(0, size - _TAIL))
+        return configure_damage(name, size, handle.read())
+
+    return judge
+
+
+def _ninja_deps(handle: BinaryIO) -> str | None:
+    return ninja_deps_damage(handle.read(_NINJA_DEPS_HEADER))
+
+
+# what each package build folder is checked for, in order: a folder's first damage is its reason
+_CHECKS = (*((name, _configure_file(name)) for name in CONFIGURE_FILES), (NINJA_DEPS, _ninja_deps))
+
+
 def damaged_configures(build_base: Path) -> list[tuple[Path, str]]:
-    """The package build folders under ``build_base`` whose configure files are damaged, with why."""
+    """The package build folders under ``build_base`` whose configure files (or ninja's dependency
+    log) are damaged, with why."""
     found = []
     for folder in sorted(p for p in build_base.iterdir() if p.is_dir()) if build_base.is_dir() else []:
-        for name in CONFIGURE_FILES:
-            path = folder / name
+        for name, judge in _CHECKS:
             try:
-                with path.open("rb") as handle:
-                    size = os.fstat(handle.fileno()).st_size
-                    handle.seek(max(0, size - _TAIL))
-                    why = configure_damage(name, size, handle.read())
+                with (folder / name).open("rb") as handle:
+                    why = judge(handle)
             except FileNotFoundError:
                 continue
             except OSError as exc:
@@ -102,14 +118,4 @@ def damaged_configures(build_base: Path) -> list[tuple[Path, str]]:
             if why is not None:
                 found.append((folder, why))
                 break
-        else:
-            try:
-                with (folder / NINJA_DEPS).open("rb") as handle:
-                    why = ninja_deps_damage(handle.read(_NINJA_DEPS_HEADER))
-            except FileNotFoundError:
-                continue
-            except OSError as exc:
-                why = f"{NINJA_DEPS} cannot be read ({exc.strerror})"
-            if why is not None:
-                found.append((folder, why))
     return found
