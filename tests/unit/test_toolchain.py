@@ -186,12 +186,13 @@ def test_a_compiler_seed_is_one_language_and_leaves_binutils_to_cmake() -> None:
 
 
 def test_a_kept_render_is_the_render_and_anything_off_renders_again(tmp_path: Path) -> None:
-    """An up-to-date build takes its toolchain texts from the target's toolchain-renders.json (no
+    """An up-to-date build takes its toolchain texts from the target's renders.json (no
     jinja2): the same request gives the text render_toolchain gives; another request, a changed
     key or a text that no longer matches its digest gives a fresh render."""
     import json
 
-    from uros_build.steps.target_kind import RENDERS, rendered_toolchain
+    from uros_build.steps.renders import RENDERS
+    from uros_build.steps.target_kind import rendered_toolchain
 
     m7 = find_profile("cortex-m7")
     req = ToolchainRequest(m7, micro_ros=True, command="uros build --toolchain cortex-m7")

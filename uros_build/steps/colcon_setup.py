@@ -24,6 +24,7 @@ from uros_build.shim import gencache, pyshim, shimfile
 from uros_build.sources import meta as meta_mod
 from uros_build.sources import packages as packages_mod
 from uros_build.steps.context import Context
+from uros_build.steps.renders import kept_render
 
 
 @dataclass(frozen=True)
@@ -246,19 +247,20 @@ def python_shim(plan: BuildPlan, runner: Runner, folder: Path) -> Path:
         )
     except ValueError:  # not what print_answers prints: every question goes to the interpreter
         answers, has_distutils = {}, False
-    text = shimfile.shim_text(
-        shimfile.Shim(
-            python,
-            plan.gen_cache_dir,  # $UROS_GEN_CACHE_DIR, else the XDG cache's uros/gen: every workspace's
-            folder,
-            plan.workspace.root,
-            code_dir,
-            f"uros {__version__} build",
-            gencache.module_versions(),
-            stdlib_distutils=has_distutils,
-            answers=answers,
-        )
+    found = shimfile.Shim(
+        python,
+        plan.gen_cache_dir,  # $UROS_GEN_CACHE_DIR, else the XDG cache's uros/gen: every workspace's
+        folder,
+        plan.workspace.root,
+        code_dir,
+        f"uros {__version__} build",
+        gencache.module_versions(),
+        stdlib_distutils=has_distutils,
+        answers=answers,
     )
+    # kept per folder (steps/renders.py): a build that only runs colcon again imports no jinja2
+    template = ("uros-python.sh.j2",)
+    text = kept_render(folder, "uros-python", repr(found), template, lambda: shimfile.shim_text(found))
     write_if_changed(shim, text)
     shim.chmod(0o755)
     return shim

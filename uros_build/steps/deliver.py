@@ -40,6 +40,7 @@ from uros_build.output.buildinfo import (
     read_build_info,
 )
 from uros_build.output.exports import cmake as cmake_export
+from uros_build.output.exports.base import write_files
 from uros_build.sources import clones
 from uros_build.sources.options import known_options
 from uros_build.sources.wsfiles import read_lock
@@ -47,6 +48,7 @@ from uros_build.steps.colcon_run import Compiled
 from uros_build.steps.colcon_setup import ColconSetup
 from uros_build.steps.context import Context
 from uros_build.steps.inputs import Inputs
+from uros_build.steps.renders import kept_render
 
 
 @dataclass(frozen=True)
@@ -214,6 +216,22 @@ def _firmware_toolchain(ctx: Context, staging: Path) -> None:
         (staging / "toolchain.cmake").write_text(text, encoding="utf-8")
 
 
+def _cmake_package(plan: BuildPlan, staging: Path, info: BuildInfo) -> None:
+    """The output's CMake package (what `uros export cmake` writes), its texts kept per target
+    (steps/renders.py): a build that only runs colcon over its trees imports no jinja2."""
+    import json
+
+    args = (info.target, info.flags.cpu, info.rtos)
+    text = kept_render(
+        plan.target_dir,
+        "cmake package",
+        repr(args),
+        tuple(f"{name}.j2" for name in cmake_export.CMAKE_FILES),
+        lambda: json.dumps(cmake_export.cmake_package_files(*args)),
+    )
+    write_files(staging, json.loads(text))
+
+
 def _build_info(
     ctx: Context, inputs: Inputs, setup: ColconSetup, compiled: Compiled, lib: _Library
 ) -> BuildInfo:
@@ -304,7 +322,7 @@ def assemble(ctx: Context, inputs: Inputs, setup: ColconSetup, compiled: Compile
         lib = _library(ctx, staging, setup, compiled.packages, inputs.previous)
         _firmware_toolchain(ctx, staging)
         info = _build_info(ctx, inputs, setup, compiled, lib)
-        cmake_export.write_cmake_package(staging, info)
+        _cmake_package(plan, staging, info)
     except OSError as exc:
         remove_tree(staging)
         # a file named (a copy's destination, the path a call or write names) is main's to report;

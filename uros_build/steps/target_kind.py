@@ -22,6 +22,7 @@ from uros_build.config.targets import ProfileTarget, ToolchainFileTarget
 from uros_build.files import write_if_changed
 from uros_build.output.buildinfo import Compiler, Flags, IdfInfo, IpStackInfo, RtosInfo
 from uros_build.proc import Runner
+from uros_build.steps.renders import kept_render
 from uros_build.target import abi, compilers
 from uros_build.target.profiles import TargetProfile
 from uros_build.target.toolchain import (
@@ -52,54 +53,10 @@ class Described:
     ip_stack: IpStackInfo | None = None
 
 
-RENDERS = "toolchain-renders.json"
-
-
-def _render_key(req: ToolchainRequest) -> str | None:
-    """Everything :func:`render_toolchain`'s text depends on, by content: the request (frozen
-    dataclasses, every field in its repr), the template, uros's code (the filters, the context it
-    builds) and jinja2's version (its ``__init__.py``, which holds it). None: a request whose repr
-    names an object by its address, which no later run could match."""
-    import importlib.util
-
-    from uros_build import resources
-
-    request = repr(req)
-    spec = importlib.util.find_spec("jinja2")
-    if " object at 0x" in request or spec is None or spec.origin is None:
-        return None
-    template = (resources.templates_dir() / "toolchain.cmake.j2").read_bytes()
-    return fp.digest(request, template, fp.uros_code_digest(), Path(spec.origin).read_bytes())
-
-
-def rendered_toolchain(target_dir: Path, name: str, req: ToolchainRequest) -> str:
-    """``render_toolchain(req)``, or the text it gave the last build of the target for the same
-    key (:func:`_render_key`; the text's digest checked): an up-to-date build renders both of its
-    toolchain texts without importing jinja2 or compiling the template (~0.07 s of CPU, a fifth of
-    its start). Kept in the target's ``toolchain-renders.json``, one entry per ``name``."""
-    import json
-
-    key = _render_key(req)
-    store = target_dir / RENDERS
-    try:
-        kept = json.loads(store.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        kept = None
-    kept = kept if isinstance(kept, dict) else {}
-    entry = kept.get(name)
-    if (
-        key is not None
-        and isinstance(entry, dict)
-        and entry.get("key") == key
-        and isinstance(entry.get("text"), str)
-        and fp.digest(entry["text"]) == entry.get("digest")
-    ):
-        return str(entry["text"])
-    text = render_toolchain(req)
-    if key is not None:
-        kept[name] = {"digest": fp.digest(text), "key": key, "text": text}
-        write_if_changed(store, json.dumps(kept, indent=1, sort_keys=True) + "\n")
-    return text
+def rendered_toolchain(folder: Path, name: str, req: ToolchainRequest) -> str:
+    """``render_toolchain(req)``, kept in ``folder`` (steps/renders.py): an up-to-date build renders
+    its toolchain texts without jinja2."""
+    return kept_render(folder, name, repr(req), ("toolchain.cmake.j2",), lambda: render_toolchain(req))
 
 
 class TargetKind(Protocol):
@@ -252,9 +209,8 @@ class Profile:
 
     def firmware_toolchain(self) -> str | None:
         profile = self.profile
-        return render_toolchain(
-            ToolchainRequest(profile, micro_ros=False, command=f"uros toolchain render {profile.name}")
-        )
+        req = ToolchainRequest(profile, micro_ros=False, command=f"uros toolchain render {profile.name}")
+        return rendered_toolchain(self.plan.target_dir, "firmware", req)
 
     def described(self) -> Described:
         profile, facts = self.profile, self.facts
