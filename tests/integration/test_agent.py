@@ -21,7 +21,7 @@ import time
 from pathlib import Path
 
 import pytest
-from uros_helpers import run_uros
+from uros_helpers import run_uros, run_uros_here
 
 pytestmark = pytest.mark.integration
 
@@ -46,11 +46,17 @@ def _env(**extra: str) -> dict[str, str]:
     return env
 
 
+def _here_env(**extra: str) -> dict[str, str | None]:
+    """:func:`_env` for :func:`run_uros_here` (the refusals made before any process starts, in
+    process): the variables to set, UROS_AGENT unset."""
+    return {"UROS_AGENT": None, **extra}
+
+
 def test_a_serial_device_that_does_not_exist_is_one_line(tmp_path: Path) -> None:
-    proc = run_uros("agent", "run", "serial", "--dev", str(tmp_path / "ttyACM9"), check=False)
+    proc = run_uros_here("agent", "run", "serial", "--dev", str(tmp_path / "ttyACM9"), check=False)
     assert proc.returncode == 2
     assert f"--dev {tmp_path / 'ttyACM9'}: no such device" in _one_error(proc)
-    proc = run_uros("agent", "run", "multiserial", "--devs", f"/dev/null {tmp_path / 'x'}", check=False)
+    proc = run_uros_here("agent", "run", "multiserial", "--devs", f"/dev/null {tmp_path / 'x'}", check=False)
     assert proc.returncode == 2 and f"--devs {tmp_path / 'x'}: no such device" in _one_error(proc)
 
 
@@ -58,22 +64,28 @@ def test_a_udp_port_in_use_is_one_line() -> None:
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as held:
         held.bind(("0.0.0.0", 0))
         port = held.getsockname()[1]
-        proc = run_uros("agent", "run", "udp4", "--port", str(port), check=False)
+        proc = run_uros_here("agent", "run", "udp4", "--port", str(port), check=False)
     assert proc.returncode == 2
     assert f"--port {port}: UDP port in use" in _one_error(proc)
 
 
 def test_running_with_no_agent_built_names_the_build(tmp_path: Path) -> None:
-    proc = run_uros(
-        "agent", "run", "serial", "--dev", "/dev/null", env=_env(UROS_ROS2_VENV=str(tmp_path)), check=False
+    proc = run_uros_here(
+        "agent",
+        "run",
+        "serial",
+        "--dev",
+        "/dev/null",
+        env=_here_env(UROS_ROS2_VENV=str(tmp_path)),
+        check=False,
     )
     assert proc.returncode == 3
     assert "no agent built yet" in _one_error(proc) and "uros agent build" in proc.stderr
 
 
 def test_a_distro_with_no_agent_pinned_is_refused_before_anything_runs(tmp_path: Path) -> None:
-    proc = run_uros(
-        "agent", "build", "--distro", "rolling", env=_env(UROS_ROS2_VENV=str(tmp_path)), check=False
+    proc = run_uros_here(
+        "agent", "build", "--distro", "rolling", env=_here_env(UROS_ROS2_VENV=str(tmp_path)), check=False
     )
     assert proc.returncode == 2 and "no agent is pinned" in _one_error(proc)
     assert not (tmp_path / "agent").exists()
@@ -170,7 +182,7 @@ _GRAPH = pytest.mark.skipif(
 
 
 def test_the_graph_stage_is_the_built_in_probe_s_own_peer() -> None:
-    proc = run_uros("probe", "--graph", "--peer", "peer.py", check=False)
+    proc = run_uros_here("probe", "--graph", "--peer", "peer.py", check=False)
     assert proc.returncode == 2
     assert "--graph with --peer: the graph stage is the built-in probe's" in _one_error(proc)
 
@@ -201,7 +213,7 @@ def test_the_board_is_in_the_ros_graph_with_micro_ros_agent_and_not_with_the_pla
 
 
 def test_a_link_plan_that_is_no_plan_is_one_line() -> None:
-    proc = run_uros("probe", "--link", "loss=110%", check=False)
+    proc = run_uros_here("probe", "--link", "loss=110%", check=False)
     assert proc.returncode == 2 and "--link: loss=110%: a rate is 0-100% or 0-1" in _one_error(proc)
 
 

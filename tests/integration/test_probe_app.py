@@ -17,7 +17,7 @@ import subprocess
 from pathlib import Path
 
 import pytest
-from uros_helpers import REPO, run_uros
+from uros_helpers import REPO, run_uros, run_uros_here
 
 pytestmark = pytest.mark.integration
 
@@ -47,23 +47,25 @@ def _app(folder: Path, text: str) -> Path:
 
 
 # -- before anything is built (CI) ------------------------------------------------------------------
+# In process (run_uros_here: no process may start) against the built fixture's snapshot itself, read
+# in place: a refusal made before anything runs writes nothing beside the output.
 
 
-def test_an_app_folder_that_is_not_there_or_has_no_appmain(m7_build: Path, tmp_path: Path) -> None:
-    out = m7_build / "build" / "cortex-m7"
-    proc = run_uros("probe", str(out), "--app", str(tmp_path / "nowhere"), check=False)
+def test_an_app_folder_that_is_not_there_or_has_no_appmain(m7_snapshot: Path, tmp_path: Path) -> None:
+    out = m7_snapshot / "build" / "cortex-m7"
+    proc = run_uros_here("probe", str(out), "--app", str(tmp_path / "nowhere"), check=False)
     assert proc.returncode == 2
     assert f"--app {tmp_path / 'nowhere'}: no such folder" in _one_error(proc)
     app = _app(tmp_path / "plain", "int main(void) { return 0; }\n")
-    proc = run_uros("probe", str(out), "--app", str(app), check=False)
+    proc = run_uros_here("probe", str(out), "--app", str(app), check=False)
     assert proc.returncode == 2
     assert "no C file defines void appMain(void *arg) (app.c)" in _one_error(proc)
 
 
 def test_an_app_using_a_package_the_library_lacks_fails_before_building(
-    m7_build: Path, tmp_path: Path
+    m7_snapshot: Path, tmp_path: Path
 ) -> None:
-    out = m7_build / "build" / "cortex-m7"
+    out = m7_snapshot / "build" / "cortex-m7"
     have = json.loads((out / "build-info.json").read_text())["packages"]
     assert "geometry_msgs" not in have
     app = _app(
@@ -71,32 +73,32 @@ def test_an_app_using_a_package_the_library_lacks_fails_before_building(
         "#include <rclc/rclc.h>\n#include <geometry_msgs/msg/twist.h>\n"
         "void appMain(void *arg) { (void)arg; }\n",
     )
-    env = {k: v for k, v in os.environ.items() if k != "UROS_AGENT"}  # checked before any tool
-    proc = run_uros("probe", str(out), "--app", str(app), env=env, check=False)
+    env: dict[str, str | None] = {"UROS_AGENT": None}  # checked before any tool
+    proc = run_uros_here("probe", str(out), "--app", str(app), env=env, check=False)
     assert proc.returncode == 2, proc.stderr
     line = _one_error(proc)
     assert f"--app {app}: the library {out.resolve()} lacks geometry_msgs (app.c:2)" in line
-    assert f"uros build -w {m7_build.resolve()} --packages geometry_msgs" in proc.stderr
+    assert f"uros build -w {m7_snapshot.resolve()} --packages geometry_msgs" in proc.stderr
     assert "uros add-package" in proc.stderr
-    assert not list((m7_build / ".uros").glob("probe/app-*")), "nothing may be built"
+    assert not list((m7_snapshot / ".uros").glob("probe/app-*")), "nothing may be built"
 
 
-def test_duration_and_defines_only_with_an_app(m7_build: Path) -> None:
-    out = m7_build / "build" / "cortex-m7"
-    proc = run_uros("probe", str(out), "--duration", "3", check=False)
+def test_duration_and_defines_only_with_an_app(m7_snapshot: Path) -> None:
+    out = m7_snapshot / "build" / "cortex-m7"
+    proc = run_uros_here("probe", str(out), "--duration", "3", check=False)
     assert proc.returncode == 2 and "--duration: only with --app DIR" in _one_error(proc)
-    proc = run_uros("probe", str(out), "--app", str(SEED_000), "--duration", "0", check=False)
+    proc = run_uros_here("probe", str(out), "--app", str(SEED_000), "--duration", "0", check=False)
     assert proc.returncode == 2 and "--duration 0: must be a number of seconds more than 0" in _one_error(
         proc
     )
 
 
-def test_an_app_folder_that_is_a_symlink_loop_is_one_line(m7_build: Path, tmp_path: Path) -> None:
+def test_an_app_folder_that_is_a_symlink_loop_is_one_line(m7_snapshot: Path, tmp_path: Path) -> None:
     """Issue 43: a link loop as --app was an internal error (Path.resolve's RuntimeError)."""
-    out = m7_build / "build" / "cortex-m7"
+    out = m7_snapshot / "build" / "cortex-m7"
     (tmp_path / "a").symlink_to(tmp_path / "b")
     (tmp_path / "b").symlink_to(tmp_path / "a")
-    proc = run_uros("probe", str(out), "--app", str(tmp_path / "a"), check=False)
+    proc = run_uros_here("probe", str(out), "--app", str(tmp_path / "a"), check=False)
     assert proc.returncode == 2, proc.stderr
     assert f"--app {tmp_path / 'a'}: cannot be followed" in _one_error(proc)
 
@@ -110,27 +112,27 @@ def test_an_app_folder_that_is_a_symlink_loop_is_one_line(m7_build: Path, tmp_pa
     ],
 )
 def test_the_runners_macros_and_line_breaks_are_refused_up_front(
-    m7_build: Path, tmp_path: Path, define: str, said: str
+    m7_snapshot: Path, tmp_path: Path, define: str, said: str
 ) -> None:
     """Issue 43: `-D UROS_APP_DURATION_MS=1` made any app "run for the whole --duration"; a line break
     in a value failed deep in make. Both are one line now, before any process starts."""
-    out = m7_build / "build" / "cortex-m7"
+    out = m7_snapshot / "build" / "cortex-m7"
     app = _app(tmp_path / "app", "void appMain(void *arg) { (void)arg; }\n")
-    env = {k: v for k, v in os.environ.items() if k != "UROS_AGENT"}  # refused before any tool is looked for
-    proc = run_uros("probe", str(out), "--app", str(app), "-D", define, env=env, check=False)
+    env: dict[str, str | None] = {"UROS_AGENT": None}  # refused before any tool is looked for
+    proc = run_uros_here("probe", str(out), "--app", str(app), "-D", define, env=env, check=False)
     assert proc.returncode == 2, proc.stderr
     assert said in _one_error(proc)
 
 
 @pytest.mark.parametrize("name", ["a:b.c", "a$<1:gen>.c", "a\nb.c", "a b.h"])
 def test_file_names_the_build_files_cannot_carry_are_refused_up_front(
-    m7_build: Path, tmp_path: Path, name: str
+    m7_snapshot: Path, tmp_path: Path, name: str
 ) -> None:
-    out = m7_build / "build" / "cortex-m7"
+    out = m7_snapshot / "build" / "cortex-m7"
     app = _app(tmp_path / "app", "void appMain(void *arg) { (void)arg; }\n")
     (app / name).write_text("int x;\n")
-    env = {k: v for k, v in os.environ.items() if k != "UROS_AGENT"}
-    proc = run_uros("probe", str(out), "--app", str(app), env=env, check=False)
+    env: dict[str, str | None] = {"UROS_AGENT": None}
+    proc = run_uros_here("probe", str(out), "--app", str(app), env=env, check=False)
     assert proc.returncode == 2, proc.stderr
     assert f"the file name {name!r} cannot be written into the build files" in _one_error(proc)
 
