@@ -5,10 +5,11 @@ before. Real uros CLI, real colcon, CMake and arm-none-eabi-gcc."""
 from __future__ import annotations
 
 import textwrap
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
-from fixture_ws import UP_TO_CORE, make_fixture_workspace
+from fixture_ws import UP_TO_CORE
 from uros_helpers import build_fixture
 
 from uros_build.colcon.command import PYTHON_EXTENSIONS
@@ -38,13 +39,16 @@ def test_the_fixture_build_runs_colcon_without_its_python_extensions(m7_build: P
     assert set(PYTHON_EXTENSIONS) <= set(_colcon_blocklist(m7_build))
 
 
-def test_a_setup_py_without_a_package_xml_is_still_a_package_colcon_builds(tmp_path: Path) -> None:
+def test_a_setup_py_without_a_package_xml_is_still_a_package_colcon_builds(
+    built: Callable[[str], Path],
+) -> None:
     """A folder holding a setup.py and no package.xml is a Python package to colcon, which uros does
     not list: its colcon keeps its Python extensions and builds it (this one refuses, as a
     package that must not be built), where without them colcon would no longer see it and the
-    build would pass without it. A cold build: the first build of this workspace is the subject."""
-    make_fixture_workspace(tmp_path)
-    loose = tmp_path / "mcu_ws" / "src" / "fx_loose_py"
+    build would pass without it. The built fixture (restored) with the folder added: the build
+    after it must see it as well as a first build would."""
+    ws = built("m7")
+    loose = ws / "mcu_ws" / "src" / "fx_loose_py"
     loose.mkdir()
     (loose / "setup.py").write_text(
         textwrap.dedent(
@@ -60,21 +64,23 @@ def test_a_setup_py_without_a_package_xml_is_still_a_package_colcon_builds(tmp_p
         ),
         encoding="utf-8",
     )
-    proc = build_fixture(tmp_path, check=False)
+    proc = build_fixture(ws, check=False)
     assert proc.returncode == 4, proc.stderr
     assert "error: colcon build failed in package fx_loose_py: fx_loose_py must not be built" in proc.stderr
-    assert not set(PYTHON_EXTENSIONS) & set(_colcon_blocklist(tmp_path))
+    assert not set(PYTHON_EXTENSIONS) & set(_colcon_blocklist(ws))
 
 
-def test_a_python_package_a_compiled_one_needs_is_built_with_its_data_files(tmp_path: Path) -> None:
+def test_a_python_package_a_compiled_one_needs_is_built_with_its_data_files(
+    built: Callable[[str], Path],
+) -> None:
     """An ament_python package a compiled package depends on is built by the target's colcon, with
     what its setup.py installs beside the code (data_files), and its colcon keeps the Python
     extensions: colcon-ros's augmentation of ament_python packages gives colcon's Python build task
     the setup() arguments it reads (data_files again on a rebuild: `install_data --force`;
-    --symlink-install's links). A cold build of fx_core and its new dependency: the first build of
-    this workspace is the subject."""
-    make_fixture_workspace(tmp_path)
-    src = tmp_path / "mcu_ws" / "src"
+    --symlink-install's links). The fx_core build restored (built("core")), then fx_core given the
+    new dependency: the Python package's first build, and fx_core's again."""
+    ws = built("core")
+    src = ws / "mcu_ws" / "src"
     core_xml = src / "fx_core" / "package.xml"
     core_xml.write_text(
         core_xml.read_text(encoding="utf-8").replace("<export>", "<depend>fx_tool_py</depend>\n  <export>"),
@@ -103,9 +109,9 @@ def test_a_python_package_a_compiled_one_needs_is_built_with_its_data_files(tmp_
         ),
         encoding="utf-8",
     )
-    proc = build_fixture(tmp_path, *UP_TO_CORE)
+    proc = build_fixture(ws, *UP_TO_CORE)
     assert "[2/2] built fx_core" in proc.stderr
-    install = tmp_path / ".uros" / "targets" / "cortex-m7" / "install"
+    install = ws / ".uros" / "targets" / "cortex-m7" / "install"
     assert (install / "share" / "fx_tool_py" / "package.xml").is_file()
     assert (install / "share" / "ament_index" / "resource_index" / "packages" / "fx_tool_py").is_file()
-    assert not set(PYTHON_EXTENSIONS) & set(_colcon_blocklist(tmp_path))
+    assert not set(PYTHON_EXTENSIONS) & set(_colcon_blocklist(ws))
