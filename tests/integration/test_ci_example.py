@@ -23,9 +23,16 @@ EXAMPLE = REPO / "examples" / "ci" / "github-actions.yml"
 
 
 def _check_jsonschema(workflow: Path) -> subprocess.CompletedProcess[str]:
-    """check-jsonschema (a test requirement of '.[test]') with its vendored schemastore schema."""
-    argv = [sys.executable, "-m", "check_jsonschema", "--builtin-schema", "vendor.github-workflows"]
-    return subprocess.run([*argv, str(workflow)], capture_output=True, text=True)
+    """check-jsonschema (a test requirement of '.[test]') with its vendored schemastore schema: its
+    own click command, run in this process (click's CliRunner), its exit code and its output."""
+    from check_jsonschema import main
+    from click.testing import CliRunner
+
+    args = ["--builtin-schema", "vendor.github-workflows", str(workflow)]
+    done = CliRunner().invoke(main, args)
+    if done.exception is not None and not isinstance(done.exception, SystemExit):
+        raise done.exception
+    return subprocess.CompletedProcess(["check-jsonschema", *args], done.exit_code, done.stdout, done.stderr)
 
 
 def test_the_ci_example_is_a_valid_github_workflow(tmp_path: Path) -> None:

@@ -20,7 +20,7 @@ from pathlib import Path
 
 import pytest
 from fake_idf import make_idf_build, xrce_client_stand_in
-from uros_helpers import REPO, need, run_uros
+from uros_helpers import REPO, need, run_uros, run_uros_here
 
 pytestmark = [pytest.mark.integration, pytest.mark.colcon]
 
@@ -145,13 +145,16 @@ def test_micro_ros_compiles_against_the_idf_project_and_sdkconfig_changes_rebuil
 
 
 def test_idf_build_for_another_chip_is_refused_before_anything_runs(tmp_path: Path) -> None:
+    """In process (run_uros_here): refused before any process starts."""
     ws = _workspace(tmp_path / "ws")
     build = make_idf_build(tmp_path / "idf", target="esp32")
-    proc = run_uros("build", "--toolchain", "esp32s3", "-w", str(ws), "--idf-build", str(build), check=False)
+    proc = run_uros_here(
+        "build", "--toolchain", "esp32s3", "-w", str(ws), "--idf-build", str(build), check=False
+    )
     assert proc.returncode == 2
     assert "the project builds for IDF_TARGET esp32, uros builds for esp32s3" in proc.stderr
     assert not (ws / ".uros").exists()
-    proc = run_uros(
+    proc = run_uros_here(
         "build", "--toolchain", "esp32s3", "-w", str(ws), "--idf-build", str(tmp_path), check=False
     )
     assert proc.returncode == 2 and "not an ESP-IDF build folder" in proc.stderr
