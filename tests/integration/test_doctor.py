@@ -47,9 +47,9 @@ def test_doctor_fails_when_a_build_would(m7_build: Path, tmp_path: Path) -> None
     assert "a build would fail" in proc.stderr
 
 
-def test_doctor_sees_a_stale_output_and_a_moved_checkout(m7_build: Path, tmp_path: Path) -> None:
+def test_doctor_sees_a_stale_output_and_a_moved_checkout(m7_snapshot: Path, tmp_path: Path) -> None:
     ws = tmp_path / "ws"
-    shutil.copytree(m7_build, ws, symlinks=True)
+    shutil.copytree(m7_snapshot, ws, symlinks=True)  # the built fixture moved (copied from its snapshot)
     time.sleep(0.05)
     (ws / "mcu_ws" / "src" / "fx_core" / "src" / "core.c").write_text(
         "int fx_core_add(int a, int b) { return b + a; }\n"
