@@ -2,12 +2,10 @@
 
 Importing the CLI (click, rich, jinja2, every command) takes a noticeable fraction of a second; a
 Ctrl-C in that window raised KeyboardInterrupt before `cli.main` could catch anything and printed
-a traceback (issue 16). So this module imports nothing heavy until it stands guard.
+a traceback (issue 16). So this module imports nothing heavy until it stands guard, and runs as
+little as it can before: no import at all at its top (a `from __future__` import there is a real
+import, and a Ctrl-C landing in it under load was a traceback naming this file).
 """
-
-from __future__ import annotations
-
-import sys
 
 
 def run() -> None:
@@ -25,6 +23,8 @@ def run() -> None:
 
 
 def _interrupted() -> None:
+    import sys
+
     sys.stderr.write("error: interrupted\n")
     sys.exit(130)
 
