@@ -6,10 +6,11 @@ import json
 import shutil
 import subprocess
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
-from fixture_ws import add_plain_package, make_fixture_workspace
+from fixture_ws import UP_TO_CORE, add_plain_package, make_fixture_workspace
 from uros_helpers import env_without, run_uros
 
 from uros_build.sources.wsfiles import Lock, LockedRepo
@@ -59,17 +60,22 @@ def test_doctor_sees_a_stale_output_and_a_moved_checkout(m7_snapshot: Path, tmp_
     assert _lines(proc.stdout)["target"] == "skip"  # no target named: the toolchain checks are skipped
 
 
-def test_doctor_sees_an_extra_package_that_changed_in_its_own_folder(m7_build: Path, tmp_path: Path) -> None:
+def test_doctor_sees_an_extra_package_that_changed_in_its_own_folder(
+    built: Callable[[str], Path], tmp_path: Path
+) -> None:
     """Issue 34, item 7: an extra package (uros.yaml's extra_packages, in its own folder outside
     mcu_ws) is copied into mcu_ws/extra_packages by each build; doctor judged the copy and said
     "up to date" after the package changed. It judges the sources as the next build will see them,
-    and touches neither the copy nor anything else."""
-    ws = m7_build
+    and touches neither the copy nor anything else. The fx_core build (restored), built again with
+    the extra package: the package count is not the subject."""
+    ws = built("core")
     extra = add_plain_package(
         tmp_path / "mine" / "fx_extra", "fx_extra", "int fx_extra(void) { return 1; }\n"
     )
     (ws / "uros.yaml").write_text(f"distro: humble\nextra_packages:\n- {extra}\n")
-    run_uros("build", "--toolchain", "cortex-m7", "-w", str(ws), "--meta", str(ws / "fixture.meta"))
+    run_uros(
+        "build", "--toolchain", "cortex-m7", "-w", str(ws), "--meta", str(ws / "fixture.meta"), *UP_TO_CORE
+    )
     assert _lines(run_uros("doctor", "-w", str(ws)).stdout)["target cortex-m7"] == "ok"
 
     (extra / "fx_extra.c").write_text("int fx_extra(void) { return 2; }\n")
