@@ -21,6 +21,7 @@ from fixture_ws import fixture_build_args, make_fixture_workspace
 from uros_helpers import (
     default_sigint,
     env_without,
+    fake_upstream,
     git_out,
     run_uros,
     run_uros_here,
@@ -151,6 +152,11 @@ def test_the_usual_words_for_off_turn_a_switch_off(
     assert f"{setting} = off  (${variable})" in proc.stderr
 
 
+@pytest.fixture(scope="module")
+def upstream(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return fake_upstream(tmp_path_factory.mktemp("upstream"), ("humble",))
+
+
 def test_a_lock_naming_a_repository_the_distro_lacks_is_refused(tmp_path: Path) -> None:
     """A lock with a repository humble does not have: that entry was skipped without a word."""
     humble = distros.load_distro("humble")
@@ -178,14 +184,12 @@ def test_a_lock_naming_a_repository_the_distro_lacks_is_refused(tmp_path: Path) 
     assert not (tmp_path / "fw").exists()
 
 
-def test_locked_force_on_a_changed_clone_hints_a_fix_that_works(
-    created: Path, upstream_to_read: Path
-) -> None:
+def test_locked_force_on_a_changed_clone_hints_a_fix_that_works(upstream: Path, tmp_path: Path) -> None:
     """`--locked --force` on a workspace whose clone has the user's edit hinted "--force re-clones
-    it", to a command that had --force. The workspace: conftest's `created`, the same
-    create-firmware made once per worker (a copy of this test's own)."""
-    fw = created
-    base = ["create-firmware", "--workspace", str(fw), "--no-dev-build", *upstream_mirror(upstream_to_read)]
+    it", to a command that had --force."""
+    fw = tmp_path / "fw"
+    base = ["create-firmware", "--workspace", str(fw), "--no-dev-build", *upstream_mirror(upstream)]
+    run_uros(*base)
     (fw / "mcu_ws/uros/rclc/README").write_text("my edit\n")
     proc = run_uros(*base, "--locked", "--force", check=False)
     assert proc.returncode == 2, proc.stderr
