@@ -3,6 +3,7 @@ from __future__ import annotations
 from dataclasses import replace
 from pathlib import Path
 
+import pytest
 from golden import check_golden
 
 from uros_build.target.espidf import IdfProject
@@ -208,3 +209,29 @@ def test_a_kept_render_is_the_render_and_anything_off_renders_again(tmp_path: Pa
     assert sorted(kept) == ["portable", "toolchain.cmake"]  # one entry each, the other kept
     (tmp_path / RENDERS).write_text("not json", encoding="utf-8")
     assert rendered_toolchain(tmp_path, "portable", req) == render_toolchain(req)
+
+
+def test_a_changed_template_renders_again(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The kept text's key holds the templates' bytes: a template edited (a uros upgrade, a
+    development checkout) is rendered again, never taken from renders.json."""
+    from uros_build import resources
+    from uros_build.steps.renders import kept_render
+
+    templates = tmp_path / "templates"
+    templates.mkdir()
+    (templates / "t.j2").write_text("one\n", encoding="utf-8")
+    monkeypatch.setattr(resources, "templates_dir", lambda: templates)
+    calls: list[str] = []
+
+    def render() -> str:
+        calls.append((templates / "t.j2").read_text(encoding="utf-8"))
+        return calls[-1]
+
+    folder = tmp_path / "target"
+    folder.mkdir()
+    assert kept_render(folder, "t", "same inputs", ("t.j2",), render) == "one\n"
+    assert kept_render(folder, "t", "same inputs", ("t.j2",), render) == "one\n"
+    assert len(calls) == 1  # the second came from renders.json
+    (templates / "t.j2").write_text("two\n", encoding="utf-8")
+    assert kept_render(folder, "t", "same inputs", ("t.j2",), render) == "two\n"
+    assert len(calls) == 2
